@@ -1,0 +1,1 @@
+"""QR codes: issuing, sizing, placement and verification."""

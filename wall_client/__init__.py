@@ -1,0 +1,1 @@
+"""Wall geometry and the kiosk launcher for render nodes."""

@@ -1,0 +1,1 @@
+"""tagwall web application: app factory, settings, wall state, routes."""
