@@ -1,16 +1,52 @@
+# Two commands on a fresh machine: `make run` (the demo) and `make test` (everything).
+# Both bootstrap what they need: system packages, the virtualenv, the database.
+
+PYTHON ?= python3
 VENV := .venv
-PY := $(VENV)/bin/python
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+SYSTEM_STAMP := var/.system-packages
+SYSTEM_PACKAGES := chromium libzbar0
 
-.PHONY: run test bench
+.PHONY: run test lint bench system clean
 
-$(VENV)/.installed: pyproject.toml
-	python3 -m venv $(VENV)
-	$(PY) -m pip install -q -e '.[dev]'
+run: $(STAMP)
+	$(BIN)/tagwall serve
+
+test: $(STAMP) $(SYSTEM_STAMP) lint
+	$(BIN)/pytest -q
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/mypy
+
+bench: $(STAMP)
+	$(BIN)/python -m benchmarks
+
+$(STAMP): pyproject.toml $(SYSTEM_STAMP)
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
 	touch $@
 
-run: $(VENV)/.installed
-	$(VENV)/bin/tagwall --help
+# Debian packages: the browser for tests and kiosks, and zbar for decoding QR codes.
+system $(SYSTEM_STAMP):
+	@missing=""; \
+	for pkg in $(SYSTEM_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$pkg 2>/dev/null | grep -q "install ok installed" \
+	    || missing="$$missing $$pkg"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	    echo "installing Debian packages:$$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	  else \
+	    echo "tagwall needs these Debian packages:$$missing"; \
+	    echo "install them with: sudo apt-get install$$missing"; \
+	    exit 1; \
+	  fi; \
+	fi
+	@mkdir -p var && touch $(SYSTEM_STAMP)
 
-test: $(VENV)/.installed
-	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q
+clean:
+	rm -rf $(VENV) var .pytest_cache .mypy_cache .ruff_cache

@@ -1,14 +1,102 @@
-"""Application factory."""
+"""Application factory: settings in, a ready ASGI app out; nothing happens at import."""
 
-from fastapi import FastAPI
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+from pathlib import Path
+
+from fastapi import FastAPI, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import HTMLResponse, JSONResponse, Response
+from fastapi.staticfiles import StaticFiles
+from fastapi.templating import Jinja2Templates
+from starlette.exceptions import HTTPException as StarletteHTTPException
+
+from wall_client.layout import load_walls
+
+from webapp.bus import MemoryBus
+from webapp.db import Database
+from webapp.hub import WallHub
+from webapp.routes import health, pages, walls, ws
+from webapp.security_headers import SecurityHeadersMiddleware
+from webapp.services import Services
+from webapp.settings import PROJECT_ROOT, Settings
+
+log = logging.getLogger(__name__)
+TEMPLATES_DIR = Path(__file__).parent / "templates"
+STATIC_DIR = PROJECT_ROOT / "static"
 
 
-def create_app() -> FastAPI:
-    """Build the tagwall ASGI app."""
-    app = FastAPI(title="tagwall")
+def create_app(settings: Settings | None = None) -> FastAPI:
+    """Build the tagwall app for ``settings`` (from the environment when omitted)."""
+    settings = settings or Settings()
+    db = Database(settings.resolved_database_url)
+    hub = WallHub(
+        db,
+        MemoryBus(settings.tile_queue_size),
+        apply_lead_ms=settings.apply_lead_ms,
+        swap_timeout_ms=settings.swap_timeout_ms,
+        keep_events=settings.event_history,
+    )
+    services = Services(
+        settings=settings, db=db, hub=hub, walls=load_walls(settings.wall_configs)
+    )
 
-    @app.get("/healthz")
-    def healthz() -> dict[str, str]:
-        return {"status": "ok"}
+    @asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        yield
+        await hub.close()
+        db.dispose()
 
+    app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
+    app.state.services = services
+    app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
+    app.add_middleware(SecurityHeadersMiddleware)
+    app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    for router in (health.router, pages.router, walls.router, ws.router):
+        app.include_router(router)
+    _add_error_pages(app)
     return app
+
+
+def _wants_json(request: Request) -> bool:
+    return request.url.path.startswith("/api/") or request.url.path == "/healthz"
+
+
+def _add_error_pages(app: FastAPI) -> None:
+    """Errors people cause get a clear page (or JSON for the API), never a traceback."""
+
+    def error_page(request: Request, status: int, detail: str) -> Response:
+        if _wants_json(request):
+            return JSONResponse({"detail": detail}, status)
+        templates: Jinja2Templates = request.app.state.templates
+        return templates.TemplateResponse(
+            request, "error.html", {"status": status, "detail": detail}, status_code=status
+        )
+
+    @app.exception_handler(StarletteHTTPException)
+    async def http_error(request: Request, error: StarletteHTTPException) -> Response:
+        response = error_page(request, error.status_code, str(error.detail))
+        response.headers.update(error.headers or {})
+        return response
+
+    @app.exception_handler(RequestValidationError)
+    async def validation_error(request: Request, error: RequestValidationError) -> Response:
+        if _wants_json(request):
+            return JSONResponse({"detail": jsonable_errors(error)}, 422)
+        return error_page(request, 400, "The request was malformed.")
+
+    @app.exception_handler(Exception)
+    async def server_error(request: Request, error: Exception) -> Response:
+        log.exception("unhandled error on %s", request.url.path, exc_info=error)
+        return error_page(request, 500, "Something went wrong on the server; it has been logged.")
+
+
+def jsonable_errors(error: RequestValidationError) -> list[dict[str, object]]:
+    """Validation errors without the raw input (which may be huge or binary)."""
+    return [
+        {"loc": list(e.get("loc", ())), "msg": e.get("msg", ""), "type": e.get("type", "")}
+        for e in error.errors()
+    ]

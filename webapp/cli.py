@@ -1,8 +1,187 @@
-"""The `tagwall` command line."""
+"""The ``tagwall`` command line (documented in docs/cli.md)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Any
 
 import click
+from pydantic import ValidationError
+
+from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
+from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
+
+from webapp.settings import Settings
+from webapp.urls import dashboard_url, overview_url, tile_url
+
+EXIT_USAGE = 2
+
+
+def load_settings(**overrides: Any) -> Settings:
+    """Settings from the environment, with command-line overrides; exit 2 when invalid."""
+    given = {key: value for key, value in overrides.items() if value is not None}
+    try:
+        return Settings(**given)
+    except ValidationError as error:
+        for problem in error.errors():
+            field = ".".join(str(part) for part in problem["loc"]) or "settings"
+            click.echo(f"error: {field}: {problem['msg']}", err=True)
+        sys.exit(EXIT_USAGE)
+
+
+def load_configured_walls(settings: Settings) -> dict[str, Wall]:
+    try:
+        return load_walls(settings.wall_configs)
+    except WallConfigError as error:
+        click.echo(str(error), err=True)
+        sys.exit(EXIT_USAGE)
+
+
+def pick_wall(walls: dict[str, Wall], wall_id: str) -> Wall:
+    if wall_id not in walls:
+        known = ", ".join(sorted(walls)) or "none"
+        click.echo(f"error: no wall {wall_id!r} (configured: {known})", err=True)
+        sys.exit(EXIT_USAGE)
+    return walls[wall_id]
 
 
 @click.group()
 def main() -> None:
     """tagwall: one interactive screen from a wall of monitors."""
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+
+
+@main.command()
+@click.option("--host", help="Interface to listen on (TAGWALL_HOST).")
+@click.option("--port", type=int, help="Port to listen on (TAGWALL_PORT).")
+def serve(host: str | None, port: int | None) -> None:
+    """Upgrade the database, print the wall's URLs and serve."""
+    import uvicorn
+
+    from webapp.app import create_app
+    from webapp.migrate import upgrade
+
+    settings = load_settings(host=host, port=port)
+    walls = load_configured_walls(settings)
+    upgrade(settings.resolved_database_url)
+    print_urls(settings, walls)
+    app = create_app(settings)
+    uvicorn.run(
+        app,
+        host=settings.host,
+        port=settings.port,
+        ws_max_size=settings.max_frame_bytes,
+        log_level="info",
+    )
+
+
+def print_urls(settings: Settings, walls: dict[str, Wall]) -> None:
+    click.echo(
+        f"tagwall on {settings.server_url}"
+        f"  (codes send phones to {settings.resolved_public_base_url})"
+    )
+    click.echo(f"  dashboard: {dashboard_url(settings)}")
+    for wall in walls.values():
+        if wall.id != settings.default_wall and len(walls) > 1:
+            continue
+        click.echo(f"  overview:  {overview_url(settings, wall.id)}")
+        for display in wall.displays:
+            click.echo(f"  tile {display.id}: {tile_url(settings, wall.id, display.id)}")
+    others = sorted(set(walls) - {settings.default_wall})
+    if others and settings.default_wall in walls:
+        click.echo(f"  other walls: {', '.join(others)} (tagwall tiles --wall NAME)")
+
+
+@main.command()
+def urls() -> None:
+    """Print the dashboard, overview and tile URLs of the configured walls."""
+    settings = load_settings()
+    print_urls(settings, load_configured_walls(settings))
+
+
+@main.command()
+@click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
+def tiles(wall_id: str | None) -> None:
+    """Print one tile URL per line, token included (for kiosk browsers)."""
+    settings = load_settings()
+    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    for display in wall.displays:
+        click.echo(tile_url(settings, wall.id, display.id))
+
+
+@main.command()
+@click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
+@click.option("--node", required=True, help="Render node whose displays to drive.")
+@click.option("--browser", default=None, help="Browser executable (default: chromium on PATH).")
+@click.option("--profiles", type=click.Path(path_type=Path), default=None,
+              help="Folder for per-display browser profiles (default: VAR_DIR/kiosk).")
+@click.option("--dry-run", is_flag=True, help="Print the commands instead of running them.")
+def kiosk(
+    wall_id: str | None, node: str, browser: str | None, profiles: Path | None, dry_run: bool
+) -> None:
+    """Launch one kiosk browser per display of a render node; restart any that crash."""
+    settings = load_settings()
+    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    displays = wall.nodes().get(node)
+    if not displays:
+        known = ", ".join(wall.nodes())
+        click.echo(f"error: wall {wall.id!r} has no node {node!r} (nodes: {known})", err=True)
+        sys.exit(EXIT_USAGE)
+    try:
+        executable = browser or find_browser()
+    except KioskError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_USAGE)
+    tile_urls = {d.id: tile_url(settings, wall.id, d.id) for d in displays}
+    commands = plan(
+        displays, tile_urls, browser=executable,
+        profile_root=profiles or settings.var_dir / "kiosk" / wall.id,
+    )
+    if dry_run:
+        for line in format_plan(commands):
+            click.echo(line)
+        return
+    KioskSupervisor(commands).run()
+
+
+@main.group()
+def config() -> None:
+    """Wall configuration files."""
+
+
+@config.command("check")
+@click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
+def config_check(files: tuple[Path, ...]) -> None:
+    """Validate wall config FILES; exit status 2 when any is invalid."""
+    failed = False
+    for path in files:
+        try:
+            wall = load_wall(path)
+        except WallConfigError as error:
+            click.echo(str(error), err=True)
+            failed = True
+            continue
+        click.echo(
+            f"{path}: ok: wall {wall.id!r}, {len(wall.displays)} displays, "
+            f"{wall.width:.0f} x {wall.height:.0f} mm, bezel mode {wall.bezel_mode}"
+        )
+    if failed:
+        sys.exit(EXIT_USAGE)
+
+
+@main.group()
+def db() -> None:
+    """The database."""
+
+
+@db.command("upgrade")
+@click.option("--revision", default="head", show_default=True)
+def db_upgrade(revision: str) -> None:
+    """Apply migrations up to REVISION (serve does this by itself)."""
+    from webapp.migrate import upgrade
+
+    settings = load_settings()
+    upgrade(settings.resolved_database_url, revision)
+    click.echo(f"database at {revision}")

@@ -1,0 +1,35 @@
+"""Alembic environment: the URL comes from tagwall's settings; batch mode for SQLite."""
+
+from alembic import context
+
+from webapp.db import Base, make_engine
+from webapp.models import WallEventRecord  # noqa: F401  (registers the tables)
+from webapp.settings import Settings
+
+config = context.config
+url = config.get_main_option("sqlalchemy.url") or Settings().resolved_database_url
+
+
+def run_migrations_offline() -> None:
+    context.configure(
+        url=url, target_metadata=Base.metadata, literal_binds=True, render_as_batch=True
+    )
+    with context.begin_transaction():
+        context.run_migrations()
+
+
+def run_migrations_online() -> None:
+    engine = make_engine(url)
+    with engine.connect() as connection:
+        context.configure(
+            connection=connection, target_metadata=Base.metadata, render_as_batch=True
+        )
+        with context.begin_transaction():
+            context.run_migrations()
+    engine.dispose()
+
+
+if context.is_offline_mode():
+    run_migrations_offline()
+else:
+    run_migrations_online()

@@ -1,0 +1,73 @@
+// Setup dashboard: tile status and test-pattern controls, through the walls API.
+const token = document.body.dataset.token;
+const select = document.getElementById("wall");
+let state = null;
+
+async function api(path, options = {}) {
+  const response = await fetch(path, {
+    ...options,
+    headers: {"Authorization": `Bearer ${token}`, "Content-Type": "application/json"},
+  });
+  if (!response.ok) throw new Error(`${path}: ${response.status}`);
+  return response.json();
+}
+
+function change(patch) {
+  return api(`/api/walls/${select.value}/state`, {method: "POST", body: JSON.stringify(patch)})
+    .then(refresh);
+}
+
+function cell(text, className) {
+  const td = document.createElement("td");
+  td.textContent = text;
+  if (className) td.className = className;
+  return td;
+}
+
+async function refresh() {
+  const status = await api(`/api/walls/${select.value}/status`);
+  state = status.state;
+  document.getElementById("version").textContent = status.version;
+  document.getElementById("app").textContent = state.app;
+  document.getElementById("mode").textContent = state.mode;
+  document.getElementById("overview-link").href = `/wall/${select.value}/overview`;
+  for (const box of document.querySelectorAll("[data-layer]")) {
+    box.checked = state.layers[box.dataset.layer] ?? true;
+  }
+  const rows = status.tiles.map((tile) => {
+    const tr = document.createElement("tr");
+    const seen = tile.last_seen ? new Date(tile.last_seen).toLocaleTimeString() : "never";
+    tr.append(
+      cell(tile.tile_id),
+      cell(tile.connected ? "yes" : "no", tile.connected ? "up" : "down"),
+      cell(tile.version ?? "–"),
+      cell(seen),
+      cell(tile.address ?? ""),
+    );
+    return tr;
+  });
+  document.getElementById("tiles").replaceChildren(...rows);
+}
+
+for (const box of document.querySelectorAll("[data-layer]")) {
+  box.addEventListener("change", () => change({layers: {[box.dataset.layer]: box.checked}}));
+}
+for (const button of document.querySelectorAll("[data-pan]")) {
+  button.addEventListener("click", () => {
+    const [dx, dy] = button.dataset.pan.split(",").map(Number);
+    const view = state.view;
+    const step = 1 / view.zoom;
+    change({view: {...view, center: [view.center[0] + dx * step, view.center[1] + dy * step]}});
+  });
+}
+for (const button of document.querySelectorAll("[data-zoom]")) {
+  button.addEventListener("click", () => {
+    change({view: {...state.view, zoom: state.view.zoom * Number(button.dataset.zoom)}});
+  });
+}
+document.getElementById("reset-view").addEventListener("click", () => {
+  change({view: {center: [0.5, 0.5], zoom: 1, yaw: 0, pitch: 0}});
+});
+select.addEventListener("change", refresh);
+refresh();
+setInterval(refresh, 2000);

@@ -1,0 +1,178 @@
+// A tile's (or viewer's) live link to the wall: state in version order, applied at the
+// server-scheduled instant, with NTP-style clock sync and reconnects that never reload.
+
+const BACKOFF_BASE_MS = 500;
+const BACKOFF_MAX_MS = 15000;
+const GAP_WAIT_MS = 1000;
+const CLOCK_SAMPLES = 8;
+const CLOCK_BEST = 3;
+const SPIN_MS = 4;
+
+export class WallSocket {
+  /**
+   * @param {string} url websocket URL
+   * @param {object} hooks onState(state, version), onPrepare(changes) -> Promise,
+   *   onOnline(bool, reason), reports: whether to send ready/applied (tiles only)
+   */
+  constructor(url, hooks) {
+    this.url = url;
+    this.hooks = hooks;
+    this.state = null;
+    this.version = null;      // last applied version
+    this.queued = null;       // last version accepted into the apply chain
+    this.generation = 0;      // bumps on resync: stale chain steps do nothing
+    this.chain = Promise.resolve();
+    this.swaps = new Map();   // version -> resolve function of a prepared change
+    this.samples = [];        // clock samples {offset, rtt}
+    this.offset = 0;          // server clock minus local clock, ms
+    this.attempt = 0;
+    this.gapTimer = null;
+    this.pingTimer = null;
+    this.connect();
+  }
+
+  serverNow() {
+    return Date.now() + this.offset;
+  }
+
+  connect() {
+    const ws = new WebSocket(this.url);
+    this.ws = ws;
+    ws.onopen = () => {
+      this.send({type: "hello", last_version: this.version});
+      this.ping();
+    };
+    ws.onmessage = (frame) => this.receive(JSON.parse(frame.data));
+    ws.onclose = (close) => {
+      clearTimeout(this.pingTimer);
+      this.hooks.onOnline?.(false, close.reason || `closed (${close.code})`);
+      this.resync();
+      const ceiling = Math.min(BACKOFF_MAX_MS, BACKOFF_BASE_MS * 2 ** this.attempt);
+      this.attempt += 1;
+      setTimeout(() => this.connect(), ceiling * (0.5 + Math.random() / 2));
+    };
+  }
+
+  send(message) {
+    if (this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(message));
+  }
+
+  ping() {
+    this.send({type: "ping", t0: Date.now()});
+    const interval = this.samples.length < CLOCK_SAMPLES ? 250 : 5000;
+    this.pingTimer = setTimeout(() => this.ping(), interval);
+  }
+
+  // Keep the lowest-round-trip samples: their offset error is bounded by rtt / 2.
+  recordClock({t0, t1, t2}) {
+    const t3 = Date.now();
+    const rtt = (t3 - t0) - (t2 - t1);
+    const offset = ((t1 - t0) + (t2 - t3)) / 2;
+    this.samples.push({offset, rtt});
+    if (this.samples.length > CLOCK_SAMPLES) this.samples.shift();
+    const best = [...this.samples].sort((a, b) => a.rtt - b.rtt).slice(0, CLOCK_BEST);
+    const offsets = best.map((s) => s.offset).sort((a, b) => a - b);
+    this.offset = offsets[Math.floor(offsets.length / 2)];
+  }
+
+  receive(message) {
+    switch (message.type) {
+      case "pong":
+        this.recordClock(message);
+        this.attempt = 0;
+        this.hooks.onOnline?.(true, "");
+        break;
+      case "snapshot":
+        this.resync();
+        this.attempt = 0;
+        this.hooks.onOnline?.(true, "");
+        this.queued = message.version;
+        this.apply(message.state, message.version, this.generation);
+        break;
+      case "event":
+        if (this.accept(message.version)) {
+          this.enqueue(message.version, message.changes, Promise.resolve(message.apply_at));
+        }
+        break;
+      case "prepare":
+        if (this.accept(message.version)) {
+          const swapped = new Promise((resolve) => this.swaps.set(message.version, resolve));
+          const ready = Promise.resolve(this.hooks.onPrepare?.(message.changes));
+          ready.then(() => {
+            if (this.hooks.reports) this.send({type: "ready", version: message.version});
+          });
+          this.enqueue(message.version, message.changes, ready.then(() => swapped));
+        }
+        break;
+      case "swap":
+        this.swaps.get(message.version)?.(message.apply_at);
+        this.swaps.delete(message.version);
+        break;
+    }
+  }
+
+  // Versions must arrive one by one; a gap means something was missed: ask again.
+  accept(version) {
+    if (this.queued === null || version <= this.queued) return false;
+    if (version === this.queued + 1) return true;
+    if (!this.gapTimer) {
+      this.gapTimer = setTimeout(() => {
+        this.gapTimer = null;
+        this.resync();
+        this.send({type: "hello", last_version: this.version});
+      }, GAP_WAIT_MS);
+    }
+    return false;
+  }
+
+  enqueue(version, changes, applyAt) {
+    this.queued = version;
+    const generation = this.generation;
+    this.chain = this.chain
+      .then(() => applyAt)
+      .then((at) => this.waitUntil(at))
+      .then(() => {
+        if (generation !== this.generation) return;
+        this.apply({...this.state, ...changes}, version, generation);
+      });
+  }
+
+  // Sleep until server time `at`, then spin the last few ms for precision.
+  waitUntil(at) {
+    return new Promise((resolve) => {
+      const delay = at - this.serverNow();
+      const spin = () => {
+        while (this.serverNow() < at && at - this.serverNow() <= SPIN_MS) { /* spin */ }
+        if (this.serverNow() >= at) resolve();
+        else setTimeout(spin, Math.max(0, at - this.serverNow() - SPIN_MS));
+      };
+      if (delay <= 0) resolve();
+      else setTimeout(spin, Math.max(0, delay - SPIN_MS));
+    });
+  }
+
+  apply(state, version, generation) {
+    if (generation !== this.generation) return;
+    this.state = state;
+    this.version = version;
+    this.hooks.onState(state, version);
+    if (this.hooks.reports) {
+      this.send({type: "applied", version, server_time: this.serverNow()});
+    }
+  }
+
+  // Drop everything scheduled: the next snapshot or replay is the truth.
+  resync() {
+    this.generation += 1;
+    this.chain = Promise.resolve();
+    this.swaps.clear();
+    this.queued = this.version;
+    clearTimeout(this.gapTimer);
+    this.gapTimer = null;
+  }
+}
+
+export function socketUrl(path) {
+  const scheme = location.protocol === "https:" ? "wss:" : "ws:";
+  return `${scheme}//${location.host}${path}`;
+}

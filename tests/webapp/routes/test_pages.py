@@ -1,0 +1,91 @@
+from fastapi.testclient import TestClient
+
+from webapp.security_headers import HEADERS
+
+
+def test_healthz_ok(client: TestClient) -> None:
+    response = client.get("/healthz")
+    assert response.status_code == 200 and response.json() == {"status": "ok"}
+
+
+def test_healthz_503_when_database_unreachable(client: TestClient) -> None:
+    services = client.app.state.services  # type: ignore[attr-defined]
+    services.db.ping = lambda: False
+    response = client.get("/healthz")
+    assert response.status_code == 503 and response.json()["status"] == "unavailable"
+
+
+def test_healthz_503_with_a_dead_database(client: TestClient) -> None:
+    from webapp.db import Database
+
+    services = client.app.state.services  # type: ignore[attr-defined]
+    services.db = Database("postgresql+psycopg://nobody@127.0.0.1:1/none")
+    assert client.get("/healthz").status_code == 503
+
+
+def test_start_page_lists_walls(client: TestClient) -> None:
+    page = client.get("/").text
+    assert "/wall/demo/overview" in page and "/wall/hiperwall/overview" in page
+
+
+def test_tile_page_needs_the_wall_token(client: TestClient) -> None:
+    token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
+    page = client.get(f"/wall/demo/tile/r1c1?token={token}")
+    assert page.status_code == 200
+    assert 'data-tile="r1c1"' in page.text and "tile.js" in page.text
+    for url in ("/wall/demo/tile/r1c1", "/wall/demo/tile/r1c1?token=wrong"):
+        refused = client.get(url)
+        assert refused.status_code == 403
+        assert "text/html" in refused.headers["content-type"]
+        assert "tagwall tiles" in refused.text
+
+
+def test_unknown_wall_or_tile_is_a_friendly_404(client: TestClient) -> None:
+    token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
+    for url in ("/wall/nowhere/overview", f"/wall/demo/tile/r7c7?token={token}", "/nope"):
+        response = client.get(url)
+        assert response.status_code == 404
+        assert "Back to the start page" in response.text
+        assert "Traceback" not in response.text
+
+
+def test_overview_page_carries_the_layout(client: TestClient) -> None:
+    page = client.get("/wall/kl-3x3/overview")
+    assert page.status_code == 200
+    assert "overview.js" in page.text and "data-wall-info" in page.text
+
+
+def test_dashboard_needs_the_operator_token(client: TestClient) -> None:
+    assert client.get("/dashboard").status_code == 403
+    token = client.app.state.services.operator_token  # type: ignore[attr-defined]
+    page = client.get(f"/dashboard?token={token}")
+    assert page.status_code == 200 and "dashboard.js" in page.text
+
+
+def test_security_headers_on_every_page(client: TestClient) -> None:
+    for url in ("/", "/wall/demo/overview", "/nope", "/healthz", "/static/js/tile.js"):
+        response = client.get(url)
+        for name, value in HEADERS.items():
+            assert response.headers[name] == value, (url, name)
+    assert "'unsafe-inline'" not in HEADERS["content-security-policy"]
+
+
+def test_pages_have_no_inline_script(client: TestClient) -> None:
+    token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
+    for url in ("/", "/wall/demo/overview", f"/wall/demo/tile/r1c1?token={token}"):
+        text_ = client.get(url).text
+        assert "<script>" not in text_ and "onclick=" not in text_
+
+
+def test_server_errors_are_pages_not_tracebacks(client: TestClient) -> None:
+    services = client.app.state.services  # type: ignore[attr-defined]
+
+    def explode(*_: object) -> None:
+        raise RuntimeError("secret internals")
+
+    services.hub.tile_statuses = explode
+    client_no_raise = TestClient(client.app, raise_server_exceptions=False)
+    token = services.operator_token
+    response = client_no_raise.get("/api/walls/demo/status", headers={"Authorization": f"Bearer {token}"})
+    assert response.status_code == 500
+    assert "secret internals" not in response.text

@@ -1,0 +1,64 @@
+from fastapi.testclient import TestClient
+
+
+def operator(client: TestClient) -> dict[str, str]:
+    return {"Authorization": f"Bearer {client.app.state.services.operator_token}"}  # type: ignore[attr-defined]
+
+
+def test_lists_configured_walls(client: TestClient) -> None:
+    walls = {w["id"]: w for w in client.get("/api/walls").json()}
+    assert {"demo", "kl-3x3", "hiperwall", "irregular"} <= walls.keys()
+    assert len(walls["demo"]["displays"]) == 6
+    assert len(walls["hiperwall"]["displays"]) == 50
+
+
+def test_wall_layout_includes_roles_and_viewports(client: TestClient) -> None:
+    wall = client.get("/api/walls/demo").json()
+    roles = {d["id"]: d["roles"] for d in wall["displays"]}
+    assert "registration" in roles["r2c1"]
+    assert "public" in roles["r1c2"]
+    first = wall["displays"][0]
+    assert len(first["scene_rect"]) == 4 and len(first["to_wall"]) == 6
+
+
+def test_unknown_wall_is_404_json(client: TestClient) -> None:
+    response = client.get("/api/walls/nowhere")
+    assert response.status_code == 404
+    assert "nowhere" in response.json()["detail"]
+
+
+def test_status_and_changes_need_the_operator_token(client: TestClient) -> None:
+    assert client.get("/api/walls/demo/status").status_code == 401
+    bad = {"Authorization": "Bearer wrong"}
+    assert client.get("/api/walls/demo/status", headers=bad).status_code == 401
+    assert client.post("/api/walls/demo/state", json={"mode": "x"}).status_code == 401
+    assert client.post("/api/walls/demo/state", json={"mode": "x"}, headers=bad).status_code == 401
+    tile = {"Authorization": "Bearer " + client.app.state.services.tile_token("demo")}  # type: ignore[attr-defined]
+    assert client.post("/api/walls/demo/state", json={"mode": "x"}, headers=tile).status_code == 401
+
+
+def test_state_change_round_trip(client: TestClient) -> None:
+    response = client.post(
+        "/api/walls/demo/state", json={"layers": {"grid": False}}, headers=operator(client)
+    )
+    assert response.json() == {"wall": "demo", "version": 1, "changed": ["layers"]}
+    again = client.post(
+        "/api/walls/demo/state", json={"layers": {"grid": False}}, headers=operator(client)
+    )
+    assert again.json() == {"wall": "demo", "version": 1, "changed": []}
+    status = client.get("/api/walls/demo/status", headers=operator(client)).json()
+    assert status["version"] == 1 and status["state"]["layers"] == {"grid": False}
+
+
+def test_malformed_change_is_rejected_and_stores_nothing(client: TestClient) -> None:
+    for body in ({"view": {"zoom": -1}}, {"unknown": 1}, {"layers": "all"}):
+        response = client.post("/api/walls/demo/state", json=body, headers=operator(client))
+        assert response.status_code == 422
+        assert response.json()["detail"][0]["msg"]
+    not_json = client.post(
+        "/api/walls/demo/state", content=b"{oops", headers={**operator(client),
+                                                            "content-type": "application/json"}
+    )
+    assert not_json.status_code == 422
+    status = client.get("/api/walls/demo/status", headers=operator(client)).json()
+    assert status["version"] == 0

@@ -1,0 +1,106 @@
+"""The command line, driven through click's runner like a person at a shell."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from webapp.cli import main
+from webapp.db import Database
+from webapp.settings import CONTENT_DIR
+from webapp.wall_state import read_state
+from tests.conftest import TEST_SECRET
+
+
+@pytest.fixture
+def env(tmp_path: Path, database_url: str) -> dict[str, str]:
+    return {
+        "TAGWALL_VAR_DIR": str(tmp_path / "var"),
+        "TAGWALL_DATABASE_URL": database_url,
+        "TAGWALL_SECRET_KEY": TEST_SECRET,
+        "TAGWALL_HOST": "127.0.0.1",
+        "TAGWALL_PORT": "8111",
+        "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
+    }
+
+
+def run(env: dict[str, str], *args: str) -> tuple[int, str, str]:
+    result = CliRunner().invoke(main, list(args), env=env)
+    return result.exit_code, result.stdout, result.stderr
+
+
+def test_tiles_prints_one_url_per_display(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "tiles", "--wall", "demo")
+    lines = out.splitlines()
+    assert code == 0 and len(lines) == 6
+    assert lines[0].startswith("http://127.0.0.1:8111/wall/demo/tile/r1c1?token=")
+    assert len({line.split("token=")[1] for line in lines}) == 1
+
+
+def test_tiles_unknown_wall_exits_2(env: dict[str, str]) -> None:
+    code, _, err = run(env, "tiles", "--wall", "atlantis")
+    assert code == 2 and "atlantis" in err and "demo" in err
+
+
+def test_urls_prints_dashboard_overview_and_tiles(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "urls")
+    assert code == 0
+    assert "dashboard: http://127.0.0.1:8111/dashboard?token=" in out
+    assert "overview:  http://127.0.0.1:8111/wall/demo/overview" in out
+    assert out.count("/tile/") == 6
+
+
+def test_config_check_accepts_shipped_walls(env: dict[str, str]) -> None:
+    files = sorted(str(p) for p in (CONTENT_DIR / "walls").glob("*.toml"))
+    code, out, _ = run(env, "config", "check", *files)
+    assert code == 0 and out.count(": ok:") == len(files)
+
+
+def test_config_check_rejects_bad_file_with_exit_2(env: dict[str, str], tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[grid]\ncolumns = 0\nrows = 2\nresolution = [1920, 1080]\nactive_mm = [1, 1]\n")
+    code, _, err = run(env, "config", "check", str(bad))
+    assert code == 2 and "bad.toml" in err and "grid.columns" in err
+
+
+def test_config_check_missing_file_exits_2(env: dict[str, str], tmp_path: Path) -> None:
+    code, _, err = run(env, "config", "check", str(tmp_path / "absent.toml"))
+    assert code == 2 and "absent.toml" in err
+
+
+def test_broken_wall_configs_stop_commands_with_a_message(
+    env: dict[str, str], tmp_path: Path
+) -> None:
+    bad = tmp_path / "broken.toml"
+    bad.write_text("this is = = not toml")
+    code, _, err = run({**env, "TAGWALL_WALL_CONFIGS": str(bad)}, "tiles")
+    assert code == 2 and "broken.toml" in err
+
+
+def test_invalid_setting_exits_2(env: dict[str, str]) -> None:
+    code, _, err = run({**env, "TAGWALL_PORT": "seventy"}, "tiles")
+    assert code == 2 and "port" in err
+
+
+def test_db_upgrade_creates_tables(env: dict[str, str], database_url: str) -> None:
+    code, out, _ = run(env, "db", "upgrade")
+    assert code == 0 and "head" in out
+    assert read_state(Database(database_url), "demo")[0] == 0
+
+
+def test_kiosk_dry_run_prints_one_browser_per_display(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "kiosk", "--wall", "kl-3x3", "--node", "node1", "--dry-run",
+                       "--browser", "/usr/bin/chromium")
+    lines = out.splitlines()
+    assert code == 0 and len(lines) == 2  # two displays per node on the 3x3 wall
+    assert all(line.startswith("/usr/bin/chromium") for line in lines)
+    assert "--window-position=2560,0" in lines[1]
+    assert "/wall/kl-3x3/tile/r1c1?token=" in lines[0]
+
+
+def test_kiosk_unknown_node_exits_2(env: dict[str, str]) -> None:
+    code, _, err = run(env, "kiosk", "--wall", "demo", "--node", "node99", "--dry-run",
+                       "--browser", "chromium")
+    assert code == 2 and "node99" in err

@@ -1,0 +1,63 @@
+import stat
+from pathlib import Path
+
+import pytest
+from pydantic import ValidationError
+
+from webapp.settings import Settings, lan_address
+
+
+def test_defaults_are_embedded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    settings = Settings()
+    assert settings.resolved_database_url == "sqlite:///var/tagwall.db"
+    assert settings.host == "127.0.0.1" and settings.port == 8000
+    assert settings.bus == "memory"
+
+
+def test_environment_prefix(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("TAGWALL_PORT", "9123")
+    monkeypatch.setenv("TAGWALL_HOST", "0.0.0.0")
+    monkeypatch.setenv("TAGWALL_WALL_CONFIGS", "a.toml:walls")
+    settings = Settings()
+    assert settings.port == 9123
+    assert settings.wall_configs == [Path("a.toml"), Path("walls")]
+    assert settings.server_url.endswith(":9123")
+    assert "0.0.0.0" not in settings.server_url
+
+
+def test_secret_is_generated_once_and_private(tmp_path: Path) -> None:
+    first = Settings(var_dir=tmp_path).resolved_secret_key
+    second = Settings(var_dir=tmp_path).resolved_secret_key
+    assert first == second and len(first) >= 32
+    mode = (tmp_path / "secret_key").stat().st_mode
+    assert stat.S_IMODE(mode) == 0o600
+
+
+@pytest.mark.parametrize("secret", ["changeme", "secret", "tagwall", "short"])
+def test_known_or_weak_secret_refused_outside_dev(secret: str) -> None:
+    with pytest.raises(ValidationError, match="TAGWALL_SECRET_KEY"):
+        Settings(env="production", secret_key=secret)
+
+
+def test_known_secret_allowed_in_dev() -> None:
+    assert Settings(env="dev", secret_key="changeme").resolved_secret_key == "changeme"
+
+
+def test_public_base_url_defaults_to_lan_address() -> None:
+    settings = Settings(port=8123)
+    assert settings.resolved_public_base_url == f"http://{lan_address()}:8123"
+    explicit = Settings(public_base_url="http://wall.example.org/")
+    assert explicit.resolved_public_base_url == "http://wall.example.org"
+
+
+def test_lan_address_is_ipv4() -> None:
+    parts = lan_address().split(".")
+    assert len(parts) == 4 and all(0 <= int(p) <= 255 for p in parts)
+
+
+def test_invalid_values_are_rejected() -> None:
+    with pytest.raises(ValidationError):
+        Settings(port=0)
+    with pytest.raises(ValidationError):
+        Settings(bus="carrier-pigeon")  # type: ignore[arg-type]

@@ -1,0 +1,62 @@
+"""HTML pages: the start page, tiles, the wall overview and the setup dashboard."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Request
+from fastapi.responses import HTMLResponse
+
+from webapp.deps import OperatorPageDep, ServicesDep, TileDep, TileTokenDep, WallDep
+from webapp.protocol import ViewportInfo
+from webapp.schemas import WallInfo
+
+router = APIRouter(include_in_schema=False)
+
+
+def render(request: Request, template: str, **context: object) -> HTMLResponse:
+    response: HTMLResponse = request.app.state.templates.TemplateResponse(
+        request, template, context
+    )
+    return response
+
+
+@router.get("/", response_class=HTMLResponse)
+def index(request: Request, services: ServicesDep) -> HTMLResponse:
+    return render(request, "index.html", walls=list(services.walls.values()))
+
+
+@router.get("/wall/{wall_id}/tile/{tile_id}", dependencies=[TileTokenDep])
+def tile_page(
+    request: Request, wall: WallDep, tile: TileDep, services: ServicesDep
+) -> HTMLResponse:
+    viewport = ViewportInfo.of(wall.viewport(tile.id))
+    return render(
+        request,
+        "tile.html",
+        wall=wall,
+        tile=tile,
+        token=services.tile_token(wall.id),
+        viewport_json=viewport.model_dump_json(),
+        wall_json=WallInfo.of(wall).model_dump_json(),
+    )
+
+
+@router.get("/wall/{wall_id}/overview")
+def overview_page(request: Request, wall: WallDep) -> HTMLResponse:
+    return render(
+        request, "overview.html", wall=wall, wall_json=WallInfo.of(wall).model_dump_json()
+    )
+
+
+@router.get("/dashboard")
+def dashboard_page(
+    request: Request, services: ServicesDep, token: OperatorPageDep
+) -> HTMLResponse:
+    walls = list(services.walls.values())
+    return render(
+        request,
+        "dashboard.html",
+        walls=walls,
+        token=token,
+        walls_json="[" + ",".join(WallInfo.of(w).model_dump_json() for w in walls) + "]",
+        tile_urls={w.id: {d.id: services.tile_url(w.id, d.id) for d in w.displays} for w in walls},
+    )

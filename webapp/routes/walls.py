@@ -1,0 +1,44 @@
+"""The walls API: layouts for everyone, status and state changes for the operator."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+from fastapi.concurrency import run_in_threadpool
+
+from webapp.hub import TileStatus
+from webapp.deps import OperatorDep, ServicesDep, WallDep
+from webapp.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
+from webapp.wall_state import StatePatch, read_state
+
+router = APIRouter(prefix="/api/walls", tags=["walls"])
+
+
+@router.get("")
+def list_walls(services: ServicesDep) -> list[WallInfo]:
+    return [WallInfo.of(wall) for wall in services.walls.values()]
+
+
+@router.get("/{wall_id}")
+def get_wall(wall: WallDep) -> WallInfo:
+    return WallInfo.of(wall)
+
+
+@router.get("/{wall_id}/status", dependencies=[OperatorDep])
+async def wall_status(wall: WallDep, services: ServicesDep) -> WallStatus:
+    version, state = await run_in_threadpool(read_state, services.db, wall.id)
+    statuses = services.hub.tile_statuses(wall.id)
+    tiles = [TileStatusInfo.of(statuses.get(d.id) or TileStatus(d.id)) for d in wall.displays]
+    return WallStatus(
+        wall=wall.id, version=version, state=state.model_dump(mode="json"), tiles=tiles
+    )
+
+
+@router.post("/{wall_id}/state", dependencies=[OperatorDep])
+async def change_wall_state(
+    wall: WallDep, patch: StatePatch, services: ServicesDep
+) -> ChangeResult:
+    change = await services.hub.change_state(wall.id, patch.apply_to)
+    if change is None:
+        version, _ = await run_in_threadpool(read_state, services.db, wall.id)
+        return ChangeResult(wall=wall.id, version=version, changed=[])
+    return ChangeResult(wall=wall.id, version=change.version, changed=sorted(change.changes))

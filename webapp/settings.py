@@ -1,0 +1,116 @@
+"""Settings from the environment (``TAGWALL_*``), with embedded defaults for the demo."""
+
+from __future__ import annotations
+
+import os
+import secrets
+import socket
+from functools import cached_property
+from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field, field_validator, model_validator
+from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+PROJECT_ROOT = Path(__file__).resolve().parent.parent
+CONTENT_DIR = PROJECT_ROOT / "content"
+
+# Secrets that appear in docs and examples; running with one of them outside dev
+# would let anyone forge tile tokens and sessions.
+KNOWN_DEFAULT_SECRETS = frozenset(
+    {"", "changeme", "change-me", "secret", "tagwall", "dev", "development", "insecure", "test"}
+)
+MIN_SECRET_LENGTH = 16
+
+
+class Settings(BaseSettings):
+    """Everything tagwall reads from its environment.
+
+    Each field maps to ``TAGWALL_<NAME>``; see the README's configuration reference.
+    """
+
+    model_config = SettingsConfigDict(env_prefix="TAGWALL_", extra="ignore")
+
+    env: Literal["dev", "production"] = "dev"
+    host: str = "127.0.0.1"
+    port: int = Field(default=8000, ge=1, le=65535)
+    var_dir: Path = Path("var")
+    database_url: str = ""
+    public_base_url: str = ""
+    secret_key: str = ""
+    wall_configs: Annotated[list[Path], NoDecode] = Field(
+        default_factory=lambda: [CONTENT_DIR / "walls"]
+    )
+    default_wall: str = "demo"
+    bus: Literal["memory"] = "memory"
+    apply_lead_ms: int = Field(default=250, ge=0, le=10_000)
+    swap_timeout_ms: int = Field(default=3_000, ge=100, le=60_000)
+    tile_queue_size: int = Field(default=256, ge=8, le=100_000)
+    event_history: int = Field(default=1_000, ge=10)
+    max_frame_bytes: int = Field(default=4_096, ge=256)
+
+    @field_validator("wall_configs", mode="before")
+    @classmethod
+    def _split_paths(cls, value: object) -> object:
+        """Accept ``a.toml:walls/`` like PATH, as well as a list."""
+        if isinstance(value, str):
+            return [part for part in value.split(os.pathsep) if part]
+        return value
+
+    @model_validator(mode="after")
+    def _refuse_known_secrets(self) -> Settings:
+        if self.env != "dev" and self.secret_key:
+            if self.secret_key.lower() in KNOWN_DEFAULT_SECRETS:
+                raise ValueError("TAGWALL_SECRET_KEY is a well-known default; set a random one")
+            if len(self.secret_key) < MIN_SECRET_LENGTH:
+                raise ValueError(
+                    f"TAGWALL_SECRET_KEY must be at least {MIN_SECRET_LENGTH} characters"
+                )
+        return self
+
+    @property
+    def resolved_database_url(self) -> str:
+        """The database URL, defaulting to SQLite under ``var_dir``."""
+        return self.database_url or f"sqlite:///{self.var_dir / 'tagwall.db'}"
+
+    @cached_property
+    def server_url(self) -> str:
+        """This server as a browser on the wall's network reaches it (tile URLs)."""
+        host = lan_address() if self.host in ("0.0.0.0", "::", "") else self.host
+        host = f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self.port}"
+
+    @cached_property
+    def resolved_public_base_url(self) -> str:
+        """Where phones reach this server: configured, else this machine's LAN address."""
+        if self.public_base_url:
+            return self.public_base_url.rstrip("/")
+        host = self.host if self.host not in ("0.0.0.0", "::", "127.0.0.1", "localhost") else ""
+        return f"http://{host or lan_address()}:{self.port}"
+
+    @cached_property
+    def resolved_secret_key(self) -> str:
+        """The signing secret: configured, else generated once into ``var_dir``."""
+        if self.secret_key:
+            return self.secret_key
+        path = self.var_dir / "secret_key"
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.touch(mode=0o600)
+            path.write_text(secrets.token_urlsafe(32))
+        return path.read_text().strip()
+
+
+def lan_address() -> str:
+    """This machine's address on the local network, or loopback when it has none.
+
+    Connecting a UDP socket sends no packet; it only asks the kernel which source
+    address it would route from.
+    """
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.connect(("192.0.2.1", 9))  # TEST-NET-1: never routed, never contacted
+            address = str(probe.getsockname()[0])
+        except OSError:
+            return "127.0.0.1"
+    return address if not address.startswith("0.") else "127.0.0.1"
