@@ -14,21 +14,44 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 
+class SubscriberTooSlow(Exception):
+    """The subscriber fell a whole queue behind; its connection must resynchronise."""
+
+
 class Subscription:
     """One connection's bounded inbox for one wall."""
 
     def __init__(self, maxsize: int) -> None:
-        self.queue: asyncio.Queue[str] = asyncio.Queue(maxsize)
-        self.overflowed = asyncio.Event()
+        self.maxsize = maxsize
+        # Unbounded underneath so the overflow marker always fits; ``offer`` bounds it.
+        self._queue: asyncio.Queue[str | None] = asyncio.Queue()
+        self.overflowed = False
 
     def offer(self, message: str) -> None:
         """Queue ``message``, or mark the subscriber as too slow to keep."""
-        if self.overflowed.is_set():
+        if self.overflowed:
             return
-        try:
-            self.queue.put_nowait(message)
-        except asyncio.QueueFull:
-            self.overflowed.set()
+        if self._queue.qsize() >= self.maxsize:
+            self.overflowed = True
+            self._queue.put_nowait(None)
+        else:
+            self._queue.put_nowait(message)
+
+    async def next(self) -> str:
+        """The next message; raises ``SubscriberTooSlow`` once the queue overflowed."""
+        message = await self._queue.get()
+        if message is None:
+            raise SubscriberTooSlow
+        return message
+
+    def drain(self) -> list[str]:
+        """Take every message queued so far without waiting (tests and shutdown)."""
+        messages = []
+        while not self._queue.empty():
+            message = self._queue.get_nowait()
+            if message is not None:
+                messages.append(message)
+        return messages
 
 
 class EventBus(ABC):

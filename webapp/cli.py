@@ -12,7 +12,6 @@ from pydantic import ValidationError
 
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
-
 from webapp.settings import Settings
 from webapp.urls import dashboard_url, overview_url, tile_url
 

@@ -8,7 +8,6 @@ from fastapi import Depends, HTTPException, Query, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-
 from webapp.security import token_matches
 from webapp.services import Services
 

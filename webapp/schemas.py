@@ -7,7 +7,6 @@ from typing import Any
 from pydantic import BaseModel
 
 from wall_client.layout import Wall
-
 from webapp.hub import TileStatus
 
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from wall_client.layout import Wall
-
 from webapp.db import Database
 from webapp.hub import WallHub
 from webapp.security import operator_token, tile_token

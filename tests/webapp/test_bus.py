@@ -1,24 +1,40 @@
-from webapp.bus import MemoryBus
+import pytest
+
+from webapp.bus import MemoryBus, SubscriberTooSlow
 
 
 async def test_publish_reaches_every_subscriber_of_that_wall_only() -> None:
     bus = MemoryBus(queue_size=8)
-    async with bus.subscribe("a") as first, bus.subscribe("a") as second, bus.subscribe("b") as other:
+    async with (
+        bus.subscribe("a") as first,
+        bus.subscribe("a") as second,
+        bus.subscribe("b") as other,
+    ):
         await bus.publish("a", "hello")
-        assert first.queue.get_nowait() == "hello"
-        assert second.queue.get_nowait() == "hello"
-        assert other.queue.empty()
+        assert await first.next() == "hello"
+        assert await second.next() == "hello"
+        assert other.drain() == []
 
 
-async def test_slow_subscriber_is_marked_not_blocking() -> None:
+async def test_messages_arrive_in_publication_order() -> None:
+    bus = MemoryBus(queue_size=8)
+    async with bus.subscribe("a") as subscription:
+        for index in range(5):
+            await bus.publish("a", str(index))
+        assert [await subscription.next() for _ in range(5)] == ["0", "1", "2", "3", "4"]
+
+
+async def test_slow_subscriber_is_dropped_without_blocking_others() -> None:
     bus = MemoryBus(queue_size=2)
     async with bus.subscribe("a") as slow, bus.subscribe("a") as fast:
-        for index in range(3):
+        for index in range(4):
             await bus.publish("a", str(index))
-            fast.queue.get_nowait()
-        assert slow.overflowed.is_set()
-        assert slow.queue.qsize() == 2
-        assert not fast.overflowed.is_set()
+            assert await fast.next() == str(index)
+        assert slow.overflowed and not fast.overflowed
+        assert await slow.next() == "0"
+        assert await slow.next() == "1"
+        with pytest.raises(SubscriberTooSlow):
+            await slow.next()
 
 
 async def test_leaving_unsubscribes() -> None:
@@ -26,4 +42,4 @@ async def test_leaving_unsubscribes() -> None:
     async with bus.subscribe("a") as subscription:
         pass
     await bus.publish("a", "after")
-    assert subscription.queue.empty()
+    assert subscription.drain() == []

@@ -7,11 +7,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from tests.conftest import TEST_SECRET
 from webapp.cli import main
 from webapp.db import Database
 from webapp.settings import CONTENT_DIR
 from webapp.wall_state import read_state
-from tests.conftest import TEST_SECRET
 
 
 @pytest.fixture

@@ -27,7 +27,7 @@ async def test_light_change_is_published_with_apply_time(hub: WallHub) -> None:
     async with hub.bus.subscribe("demo") as inbox:
         before = now_ms()
         change = await hub.change_state("demo", mode("quiz").apply_to)
-        message = json.loads(inbox.queue.get_nowait())
+        message = json.loads(await inbox.next())
     assert change is not None
     assert message["type"] == "event" and message["version"] == 1
     assert message["changes"] == {"mode": "quiz"}
@@ -38,7 +38,7 @@ async def test_unchanged_state_publishes_nothing(hub: WallHub) -> None:
     await hub.change_state("demo", mode("quiz").apply_to)
     async with hub.bus.subscribe("demo") as inbox:
         assert await hub.change_state("demo", mode("quiz").apply_to) is None
-        assert inbox.queue.empty()
+        assert inbox.drain() == []
 
 
 async def test_heavy_change_swaps_once_every_connected_tile_is_ready(hub: WallHub) -> None:
@@ -46,14 +46,14 @@ async def test_heavy_change_swaps_once_every_connected_tile_is_ready(hub: WallHu
     hub.tile_connected("demo", "r1c2", None)
     async with hub.bus.subscribe("demo") as inbox:
         await hub.change_state("demo", StatePatch(view=View(zoom=2)).apply_to)
-        prepare = json.loads(await inbox.queue.get())
+        prepare = json.loads(await inbox.next())
         assert prepare["type"] == "prepare" and prepare["version"] == 1
         hub.tile_ready("demo", "r1c1", 1)
         await asyncio.sleep(0.05)
-        assert inbox.queue.empty()  # still waiting for r1c2
+        assert inbox.drain() == []  # still waiting for r1c2
         started = now_ms()
         hub.tile_ready("demo", "r1c2", 1)
-        swap = json.loads(await asyncio.wait_for(inbox.queue.get(), 1))
+        swap = json.loads(await asyncio.wait_for(inbox.next(), 1))
     assert swap["type"] == "swap" and swap["version"] == 1
     assert swap["apply_at"] >= started + 100
     assert now_ms() - started < 250  # did not wait for the timeout
@@ -64,8 +64,8 @@ async def test_heavy_change_swaps_after_timeout_without_a_silent_tile(hub: WallH
     async with hub.bus.subscribe("demo") as inbox:
         started = now_ms()
         await hub.change_state("demo", StatePatch(app="atlas").apply_to)
-        assert json.loads(await inbox.queue.get())["type"] == "prepare"
-        swap = json.loads(await asyncio.wait_for(inbox.queue.get(), 2))
+        assert json.loads(await inbox.next())["type"] == "prepare"
+        swap = json.loads(await asyncio.wait_for(inbox.next(), 2))
     assert swap["type"] == "swap"
     assert now_ms() - started >= 300
 
@@ -74,16 +74,16 @@ async def test_disconnecting_tile_releases_the_barrier(hub: WallHub) -> None:
     hub.tile_connected("demo", "r1c1", None)
     async with hub.bus.subscribe("demo") as inbox:
         await hub.change_state("demo", StatePatch(app="atlas").apply_to)
-        await inbox.queue.get()
+        await inbox.next()
         hub.tile_disconnected("demo", "r1c1")
-        swap = json.loads(await asyncio.wait_for(inbox.queue.get(), 0.2))
+        swap = json.loads(await asyncio.wait_for(inbox.next(), 0.2))
     assert swap["type"] == "swap"
 
 
 async def test_concurrent_changes_are_published_in_version_order(hub: WallHub) -> None:
     async with hub.bus.subscribe("demo") as inbox:
         await asyncio.gather(*(hub.change_state("demo", mode(f"m{i}").apply_to) for i in range(15)))
-        versions = [json.loads(inbox.queue.get_nowait())["version"] for _ in range(15)]
+        versions = [json.loads(await inbox.next())["version"] for _ in range(15)]
     assert versions == list(range(1, 16))
 
 

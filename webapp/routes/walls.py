@@ -5,8 +5,8 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from webapp.hub import TileStatus
 from webapp.deps import OperatorDep, ServicesDep, WallDep
+from webapp.hub import TileStatus
 from webapp.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
 from webapp.wall_state import StatePatch, read_state
 

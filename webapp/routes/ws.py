@@ -18,8 +18,7 @@ from pydantic import ValidationError
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from wall_client.layout import Wall
-
-from webapp.bus import Subscription
+from webapp.bus import SubscriberTooSlow, Subscription
 from webapp.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
@@ -176,18 +175,11 @@ class Connection:
                 )
 
     async def write_loop(self, subscription: Subscription) -> None:
-        overflow = asyncio.create_task(subscription.overflowed.wait())
         try:
             while True:
-                get = asyncio.create_task(subscription.queue.get())
-                done, _ = await asyncio.wait({get, overflow}, return_when=asyncio.FIRST_COMPLETED)
-                if get in done:
-                    await self.send(get.result())
-                else:
-                    get.cancel()
-                    raise CloseConnection(CLOSE_TRY_AGAIN, "too slow: reconnect for a snapshot")
-        finally:
-            overflow.cancel()
+                await self.send(await subscription.next())
+        except SubscriberTooSlow:
+            raise CloseConnection(CLOSE_TRY_AGAIN, "too slow: reconnect for a snapshot") from None
 
     async def receive(self) -> Hello | Ping | Ready | Applied:
         """The next frame as a message; anything malformed closes this socket."""

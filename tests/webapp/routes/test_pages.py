@@ -86,6 +86,7 @@ def test_server_errors_are_pages_not_tracebacks(client: TestClient) -> None:
     services.hub.tile_statuses = explode
     client_no_raise = TestClient(client.app, raise_server_exceptions=False)
     token = services.operator_token
-    response = client_no_raise.get("/api/walls/demo/status", headers={"Authorization": f"Bearer {token}"})
+    headers = {"Authorization": f"Bearer {token}"}
+    response = client_no_raise.get("/api/walls/demo/status", headers=headers)
     assert response.status_code == 500
     assert "secret internals" not in response.text

@@ -8,9 +8,9 @@ import pytest
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
+from tests.conftest import TEST_SECRET
 from webapp.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
 from webapp.security import tile_token
-from tests.conftest import TEST_SECRET
 
 TOKEN = tile_token(TEST_SECRET, "demo")
 TILE = f"/ws/wall/demo/tile/r1c1?token={TOKEN}"

@@ -1,0 +1,83 @@
+"""Browser fixtures: a real server process and Debian's Chromium driven by Playwright.
+
+The server runs as a subprocess (``tagwall serve``) so a test can stop and restart
+it the way an operator would; its database comes from the shared ``database_url``
+fixture (SQLite, or a fresh PostgreSQL database when one is configured).
+"""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from playwright.sync_api import Browser, Page, sync_playwright
+
+from tests.conftest import TEST_SECRET
+from webapp.settings import CONTENT_DIR
+from webapp.testing import ServerProcess
+
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--disable-background-networking",
+    "--disable-background-timer-throttling",
+    "--disable-backgrounding-occluded-windows",
+    "--disable-renderer-backgrounding",
+]
+
+
+@pytest.fixture
+def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+    process = ServerProcess(
+        var_dir=tmp_path / "var",
+        database_url=database_url,
+        secret=TEST_SECRET,
+        extra_env={
+            "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
+            "TAGWALL_APPLY_LEAD_MS": "400",
+        },
+    )
+    process.start()
+    yield process
+    process.stop()
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[Browser]:
+    executable = shutil.which("chromium")
+    if executable is None:
+        pytest.fail("Debian chromium is not installed: run `make test` (it installs it as root)")
+    with sync_playwright() as playwright:
+        launched = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
+        yield launched
+        launched.close()
+
+
+def open_tiles(
+    browser: Browser,
+    server: ServerProcess,
+    wall: str,
+    tiles: list[str],
+    skews_ms: list[int] | None = None,
+) -> list[Page]:
+    """One page per tile, each in its own context (its own clock when skewed)."""
+    pages = []
+    for index, tile in enumerate(tiles):
+        context = browser.new_context(viewport={"width": 480, "height": 270})
+        if skews_ms:
+            context.add_init_script(
+                f"(() => {{ const now = Date.now.bind(Date); const skew = {skews_ms[index]};"
+                " Date.now = () => now() + skew; })();"
+            )
+        page = context.new_page()
+        page.goto(server.tile_url(wall, tile))
+        pages.append(page)
+    return pages
+
+
+def version_of(page: Page) -> int | None:
+    value = page.evaluate("document.body.dataset.version")
+    return None if value is None else int(value)

@@ -1,0 +1,82 @@
+"""The reference docs cover everything a user can meet: a test fails when one does not."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from pathlib import Path
+
+import click
+import pytest
+
+from webapp import protocol
+from webapp.cli import main
+from webapp.settings import PROJECT_ROOT, Settings
+
+DOCS = PROJECT_ROOT / "docs"
+
+
+def section(markdown: str, heading: str) -> str:
+    """The text under ``heading`` up to the next heading of the same or higher level."""
+    match = re.search(rf"^(#+) {re.escape(heading)}\s*$", markdown, re.MULTILINE)
+    assert match, f"no heading {heading!r}"
+    level = len(match.group(1))
+    rest = markdown[match.end():]
+    end = re.search(rf"^#{{1,{level}}} ", rest, re.MULTILINE)
+    return rest[: end.start()] if end else rest
+
+
+def message_types() -> Iterator[type[protocol.Message]]:
+    for model in vars(protocol).values():
+        if (
+            isinstance(model, type)
+            and issubclass(model, protocol.Message)
+            and "type" in model.model_fields
+        ):
+            yield model
+
+
+@pytest.mark.parametrize("model", list(message_types()), ids=lambda model: model.__name__)
+def test_every_message_type_and_field_is_documented(model: type[protocol.Message]) -> None:
+    text = (DOCS / "protocol.md").read_text()
+    name = model.model_fields["type"].default
+    body = section(text, f"`{name}`")
+    for field in set(model.model_fields) - {"type"}:
+        assert f"`{field}`" in body, f"{name}.{field} is not documented in docs/protocol.md"
+
+
+def test_message_types_are_found() -> None:
+    names = {model.model_fields["type"].default for model in message_types()}
+    assert {"hello", "ping", "ready", "applied", "snapshot", "event", "prepare", "swap"} <= names
+
+
+def commands(group: click.Group, prefix: str = "tagwall") -> Iterator[tuple[str, click.Command]]:
+    for name, command in group.commands.items():
+        path = f"{prefix} {name}"
+        yield path, command
+        if isinstance(command, click.Group):
+            yield from commands(command, path)
+
+
+@pytest.mark.parametrize("path,command", list(commands(main)), ids=lambda value: str(value))
+def test_every_command_and_option_is_documented(path: str, command: click.Command) -> None:
+    text = (DOCS / "cli.md").read_text()
+    assert f"`{path}" in text, f"{path} is not documented in docs/cli.md"
+    if isinstance(command, click.Group):
+        return
+    body = section(text, f"`{path}`")
+    for parameter in command.params:
+        if isinstance(parameter, click.Option):
+            assert parameter.opts[0] in body, f"{path} {parameter.opts[0]} is undocumented"
+
+
+@pytest.mark.parametrize("name", sorted(Settings.model_fields))
+def test_every_setting_is_documented(name: str) -> None:
+    text = (DOCS / "configuration.md").read_text()
+    assert f"`TAGWALL_{name.upper()}`" in text
+
+
+def test_readme_links_to_every_reference_doc() -> None:
+    readme = (PROJECT_ROOT / "README.md").read_text()
+    for doc in sorted(Path(DOCS).glob("*.md")):
+        assert f"docs/{doc.name}" in readme, f"README does not link docs/{doc.name}"

@@ -1,0 +1,124 @@
+"""A real ``tagwall serve`` process for browser tests and benchmarks.
+
+Both need what an operator has: a server they can start, stop and start again on
+the same port and database, and the operator API to change a wall.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import httpx
+
+from webapp.security import operator_token, tile_token
+
+
+def free_port() -> int:
+    """A TCP port nobody listens on right now."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def wait_until(condition: Callable[[], object], timeout: float = 20.0, what: str = "it") -> None:
+    """Poll ``condition`` until it is true: a loaded machine is slow, not wrong."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return
+        time.sleep(0.05)
+    raise TimeoutError(f"timed out after {timeout:.0f} s waiting for {what}")
+
+
+@dataclass
+class ServerProcess:
+    """``tagwall serve`` on 127.0.0.1 with its own var dir, database and secret."""
+
+    var_dir: Path
+    database_url: str
+    secret: str
+    port: int = field(default_factory=free_port)
+    extra_env: dict[str, str] = field(default_factory=dict)
+    process: subprocess.Popen[bytes] | None = None
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    @property
+    def log(self) -> Path:
+        return self.var_dir / "server.log"
+
+    @property
+    def pid(self) -> int:
+        assert self.process is not None, "the server is not running"
+        return self.process.pid
+
+    def env(self) -> dict[str, str]:
+        return {
+            **os.environ,
+            "TAGWALL_VAR_DIR": str(self.var_dir),
+            "TAGWALL_DATABASE_URL": self.database_url,
+            "TAGWALL_SECRET_KEY": self.secret,
+            "TAGWALL_HOST": "127.0.0.1",
+            "TAGWALL_PORT": str(self.port),
+            "TAGWALL_PUBLIC_BASE_URL": self.url,
+            **self.extra_env,
+        }
+
+    def start(self) -> None:
+        self.var_dir.mkdir(parents=True, exist_ok=True)
+        tagwall = Path(sys.executable).with_name("tagwall")
+        with self.log.open("ab") as log:
+            self.process = subprocess.Popen(
+                [str(tagwall), "serve"], env=self.env(), stdout=log, stderr=subprocess.STDOUT
+            )
+        wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
+
+    def healthy(self) -> bool:
+        assert self.process is not None
+        if self.process.poll() is not None:
+            raise RuntimeError(f"the server exited:\n{self.log.read_text()[-3000:]}")
+        try:
+            return httpx.get(f"{self.url}/healthz", timeout=1).status_code == 200
+        except httpx.HTTPError:
+            return False
+
+    def stop(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            try:
+                self.process.wait(10)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self.process = None
+
+    def tile_url(self, wall: str, tile: str, *, scheme: str = "http") -> str:
+        path = "ws" if scheme == "ws" else "wall"
+        base = self.url.replace("http", scheme, 1)
+        return f"{base}/{path}/{wall}/tile/{tile}?token={tile_token(self.secret, wall)}"
+
+    def operator(self) -> dict[str, str]:
+        return {"Authorization": f"Bearer {operator_token(self.secret)}"}
+
+    def change(self, wall: str, patch: dict[str, Any], client: httpx.Client | None = None) -> int:
+        """Change a wall's state as the operator does; returns the new version."""
+        post = client.post if client is not None else httpx.post
+        response = post(f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator())
+        response.raise_for_status()
+        return int(response.json()["version"])
+
+    def status(self, wall: str) -> dict[str, Any]:
+        response = httpx.get(f"{self.url}/api/walls/{wall}/status", headers=self.operator())
+        response.raise_for_status()
+        result: dict[str, Any] = response.json()
+        return result
