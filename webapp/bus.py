@@ -11,7 +11,7 @@ from __future__ import annotations
 import asyncio
 from abc import ABC, abstractmethod
 from collections.abc import AsyncIterator
-from contextlib import asynccontextmanager
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 
 
 class SubscriberTooSlow(Exception):
@@ -65,7 +65,7 @@ class EventBus(ABC):
         """Deliver ``message`` to every current subscriber of ``wall_id``."""
 
     @abstractmethod
-    def subscribe(self, wall_id: str) -> AsyncIterator[Subscription]:
+    def subscribe(self, wall_id: str) -> AbstractAsyncContextManager[Subscription]:
         """Context manager: a subscription that receives until the block exits."""
 
     async def close(self) -> None:  # noqa: B027 - optional hook, nothing to release in memory

@@ -119,13 +119,19 @@ def read_state(db: Database, wall_id: str) -> tuple[int, WallState]:
 
 
 def events_since(db: Database, wall_id: str, version: int) -> list[Change] | None:
-    """The changes after ``version`` in order, or None when history no longer reaches back."""
+    """The changes after ``version`` in order, or None when a snapshot is needed instead.
+
+    A snapshot is needed when the history no longer reaches back that far, and when
+    the client claims a version from the future (the database was reset or swapped).
+    """
     with db.session() as session:
         current = session.scalar(
             select(WallStateRecord.version).where(WallStateRecord.wall_id == wall_id)
         )
         current = current or 0
-        if version >= current:
+        if version > current:
+            return None
+        if version == current:
             return []
         rows = session.scalars(
             select(WallEventRecord)

@@ -34,6 +34,9 @@ async function refresh() {
   for (const box of document.querySelectorAll("[data-layer]")) {
     box.checked = state.layers[box.dataset.layer] ?? true;
   }
+  // Apply times relative to the earliest tile at the wall's version: how in step they are.
+  const current = status.tiles.filter((t) => t.version === status.version && t.applied_at);
+  const first = Math.min(...current.map((t) => t.applied_at));
   const rows = status.tiles.map((tile) => {
     const tr = document.createElement("tr");
     const seen = tile.last_seen ? new Date(tile.last_seen).toLocaleTimeString() : "never";
@@ -41,6 +44,7 @@ async function refresh() {
       cell(tile.tile_id),
       cell(tile.connected ? "yes" : "no", tile.connected ? "up" : "down"),
       cell(tile.version ?? "–"),
+      cell(current.includes(tile) ? `+${(tile.applied_at - first).toFixed(1)} ms` : "–"),
       cell(seen),
       cell(tile.address ?? ""),
     );

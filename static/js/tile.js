@@ -1,39 +1,37 @@
 // A kiosk tile: draws its viewport of the wall scene from the state the server sends.
+import {Frames} from "./frames.js";
 import {WallSocket, socketUrl} from "./wallsocket.js";
 import {drawPattern} from "./scene.js";
 
 const body = document.body;
 const viewport = JSON.parse(body.dataset.viewport);
 const wall = JSON.parse(body.dataset.wallInfo);
-const canvas = document.getElementById("scene");
+const frames = new Frames(document.getElementById("scene"));
 const marker = document.getElementById("offline");
 let current = null;
 
-function draw() {
-  if (!current) return;
-  const ratio = window.devicePixelRatio || 1;
-  const width = window.innerWidth;
-  const height = window.innerHeight;
-  if (canvas.width !== Math.round(width * ratio)) canvas.width = Math.round(width * ratio);
-  if (canvas.height !== Math.round(height * ratio)) canvas.height = Math.round(height * ratio);
-  const ctx = canvas.getContext("2d");
-  // The server's matrix maps scene mm to the display's native pixels; fit those to the window.
-  const sx = (width * ratio) / viewport.pixels[0];
-  const sy = (height * ratio) / viewport.pixels[1];
-  const [a, b, c, d, e, f] = viewport.to_pixels;
-  ctx.setTransform(a * sx, b * sy, c * sx, d * sy, e * sx, f * sy);
-  const pxPerMm = Math.hypot(a * sx, b * sy);
-  drawPattern(ctx, wall, current.state, pxPerMm);
-  body.dataset.version = String(current.version);
+// The server's matrix maps scene mm to the display's native pixels; fit those to the canvas.
+function drawer(state) {
+  return (ctx, width, height) => {
+    const sx = width / viewport.pixels[0];
+    const sy = height / viewport.pixels[1];
+    const [a, b, c, d, e, f] = viewport.to_pixels;
+    ctx.setTransform(a * sx, b * sy, c * sx, d * sy, e * sx, f * sy);
+    drawPattern(ctx, wall, state, Math.hypot(a * sx, b * sy));
+  };
 }
 
 new WallSocket(
   socketUrl(`/ws/wall/${body.dataset.wall}/tile/${body.dataset.tile}?token=${body.dataset.token}`),
   {
     reports: true,
-    onState(state, version) {
-      current = {state, version};
-      draw();
+    render(state, version) {
+      const show = frames.prepare(drawer(state));
+      return () => {
+        show();
+        current = state;
+        body.dataset.version = String(version);
+      };
     },
     onPrepare() {
       return Promise.resolve();  // the test pattern has nothing to load
@@ -45,4 +43,4 @@ new WallSocket(
     },
   },
 );
-window.addEventListener("resize", draw);
+window.addEventListener("resize", () => current && frames.redraw(drawer(current)));

@@ -6,13 +6,14 @@ const BACKOFF_MAX_MS = 15000;
 const GAP_WAIT_MS = 1000;
 const CLOCK_SAMPLES = 8;
 const CLOCK_BEST = 3;
-const SPIN_MS = 4;
 
 export class WallSocket {
   /**
    * @param {string} url websocket URL
-   * @param {object} hooks onState(state, version), onPrepare(changes) -> Promise,
-   *   onOnline(bool, reason), reports: whether to send ready/applied (tiles only)
+   * @param {object} hooks render(state, version) -> show(): draw the frame off screen
+   *   now and return the function that shows it at the scheduled instant;
+   *   onPrepare(changes) -> Promise: load what a heavy change needs;
+   *   onOnline(bool, reason); reports: whether to send ready/applied (tiles only)
    */
   constructor(url, hooks) {
     this.url = url;
@@ -25,14 +26,21 @@ export class WallSocket {
     this.swaps = new Map();   // version -> resolve function of a prepared change
     this.samples = [];        // clock samples {offset, rtt}
     this.offset = 0;          // server clock minus local clock, ms
+    this.clockBase = Date.now() - performance.now();
     this.attempt = 0;
     this.gapTimer = null;
     this.pingTimer = null;
     this.connect();
   }
 
+  // The local clock: the wall-clock reading at page start plus the monotonic,
+  // sub-millisecond performance clock (Date.now() alone ticks in whole ms).
+  localNow() {
+    return this.clockBase + performance.now();
+  }
+
   serverNow() {
-    return Date.now() + this.offset;
+    return this.localNow() + this.offset;
   }
 
   connect() {
@@ -58,14 +66,14 @@ export class WallSocket {
   }
 
   ping() {
-    this.send({type: "ping", t0: Date.now()});
+    this.send({type: "ping", t0: this.localNow()});
     const interval = this.samples.length < CLOCK_SAMPLES ? 250 : 5000;
     this.pingTimer = setTimeout(() => this.ping(), interval);
   }
 
   // Keep the lowest-round-trip samples: their offset error is bounded by rtt / 2.
   recordClock({t0, t1, t2}) {
-    const t3 = Date.now();
+    const t3 = this.localNow();
     const rtt = (t3 - t0) - (t2 - t1);
     const offset = ((t1 - t0) + (t2 - t3)) / 2;
     this.samples.push({offset, rtt});
@@ -125,40 +133,47 @@ export class WallSocket {
     return false;
   }
 
+  // Changes apply one after another: wait for the instant (or the swap), draw the
+  // frame off screen, wait for the instant itself, show it.
   enqueue(version, changes, applyAt) {
     this.queued = version;
     const generation = this.generation;
     this.chain = this.chain
       .then(() => applyAt)
-      .then((at) => this.waitUntil(at))
-      .then(() => {
-        if (generation !== this.generation) return;
-        this.apply({...this.state, ...changes}, version, generation);
+      .then((at) => {
+        if (generation !== this.generation) return undefined;
+        const state = {...this.state, ...changes};
+        const show = this.hooks.render(state, version);
+        return this.waitUntil(at).then(() => this.apply(state, version, generation, show));
       });
   }
 
-  // Sleep until server time `at`, then spin the last few ms for precision.
+  // Sleep until server time `at`, then spin the last fraction of a millisecond: timers
+  // take whole milliseconds, and re-arming a sub-millisecond timer again and again
+  // would trip the browser's 4 ms clamp on nested timers.
   waitUntil(at) {
     return new Promise((resolve) => {
-      const delay = at - this.serverNow();
-      const spin = () => {
-        while (this.serverNow() < at && at - this.serverNow() <= SPIN_MS) { /* spin */ }
-        if (this.serverNow() >= at) resolve();
-        else setTimeout(spin, Math.max(0, at - this.serverNow() - SPIN_MS));
+      const wake = () => {
+        const left = at - this.serverNow();
+        if (left >= 1) {
+          setTimeout(wake, Math.floor(left));
+          return;
+        }
+        while (this.serverNow() < at) { /* spin */ }
+        resolve();
       };
-      if (delay <= 0) resolve();
-      else setTimeout(spin, Math.max(0, delay - SPIN_MS));
+      wake();
     });
   }
 
-  apply(state, version, generation) {
+  // Report the instant the frame was shown, in server time.
+  apply(state, version, generation, show = this.hooks.render(state, version)) {
     if (generation !== this.generation) return;
+    const appliedAt = this.serverNow();
+    show();
     this.state = state;
     this.version = version;
-    this.hooks.onState(state, version);
-    if (this.hooks.reports) {
-      this.send({type: "applied", version, server_time: this.serverNow()});
-    }
+    if (this.hooks.reports) this.send({type: "applied", version, server_time: appliedAt});
   }
 
   // Drop everything scheduled: the next snapshot or replay is the truth.

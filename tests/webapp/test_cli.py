@@ -95,7 +95,8 @@ def test_kiosk_dry_run_prints_one_browser_per_display(env: dict[str, str]) -> No
                        "--browser", "/usr/bin/chromium")
     lines = out.splitlines()
     assert code == 0 and len(lines) == 2  # two displays per node on the 3x3 wall
-    assert all(line.startswith("/usr/bin/chromium") for line in lines)
+    assert lines[0].startswith("r1c1: /usr/bin/chromium --kiosk")
+    assert lines[1].startswith("r1c2: /usr/bin/chromium --kiosk")
     assert "--window-position=2560,0" in lines[1]
     assert "/wall/kl-3x3/tile/r1c1?token=" in lines[0]
 

@@ -204,5 +204,5 @@ def test_slow_tile_is_dropped_and_resyncs(client: TestClient) -> None:
                 ws.receive_json()
     assert closed.value.code == CLOSE_TRY_AGAIN
     with client.websocket_connect(TILE) as ws:
-        ws.send_json({"type": "hello", "last_version": 0})
-        assert ws.receive_json()["type"] in ("snapshot", "event")
+        ws.send_json({"type": "hello"})
+        assert ws.receive_json()["type"] == "snapshot"

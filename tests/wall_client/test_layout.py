@@ -1,0 +1,699 @@
+"""Wall geometry: config parsing, validation, viewports and their matrices."""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from wall_client.layout import (
+    BEZEL_SIDES,
+    DISPLAY_KEYS,
+    GRID_KEYS,
+    IDENTITY,
+    ROLES,
+    TOP_KEYS,
+    WALL_KEYS,
+    Affine,
+    Rect,
+    Wall,
+    WallConfigError,
+    apply_affine,
+    compose_affine,
+    invert_affine,
+    load_wall,
+    load_walls,
+    parse_wall,
+)
+
+ROOT = Path(__file__).resolve().parents[2]
+WALLS_DIR = ROOT / "content" / "walls"
+DOC = ROOT / "docs" / "wall-config.md"
+TOL = 1e-6
+
+
+def close(p: tuple[float, float], q: tuple[float, float], tol: float = TOL) -> bool:
+    return math.isclose(p[0], q[0], abs_tol=tol) and math.isclose(p[1], q[1], abs_tol=tol)
+
+
+def grid_config(**grid: Any) -> dict[str, Any]:
+    base: dict[str, Any] = {
+        "columns": 3,
+        "rows": 2,
+        "resolution": [1920, 1080],
+        "active_mm": [1209.6, 680.4],
+        "bezel_mm": 3.5,
+    }
+    base.update(grid)
+    return {"id": "test", "grid": base}
+
+
+def explicit_config(*displays: dict[str, Any], **top: Any) -> dict[str, Any]:
+    return {"id": "test", "display": list(displays), **top}
+
+
+def panel(display_id: str, x: float, y: float, **extra: Any) -> dict[str, Any]:
+    """A 16:9 panel 160 x 90 mm at (x, y)."""
+    return {
+        "id": display_id,
+        "x_mm": x,
+        "y_mm": y,
+        "width_mm": 160,
+        "height_mm": 90,
+        "resolution": [1920, 1080],
+        **extra,
+    }
+
+
+def write(tmp_path: Path, text: str, name: str = "wall.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def errors_of(data: dict[str, Any]) -> list[str]:
+    with pytest.raises(WallConfigError) as caught:
+        parse_wall(data, "walls/x.toml")
+    return caught.value.errors
+
+
+# --- grids ---------------------------------------------------------------------------
+
+
+def test_demo_grid_ids_positions_and_wall_size() -> None:
+    wall = load_wall(WALLS_DIR / "demo.toml")
+    ids = [d.id for d in wall.displays]
+    assert ids == ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
+    pitch_x, pitch_y = 3.5 + 1209.6 + 3.5, 3.5 + 680.4 + 3.5
+    for display in wall.displays:
+        row, col = (int(n) - 1 for n in re.findall(r"\d+", display.id))
+        assert display.rect.x == pytest.approx(col * pitch_x + 3.5)
+        assert display.rect.y == pytest.approx(row * pitch_y + 3.5)
+        assert (display.rect.width, display.rect.height) == (1209.6, 680.4)
+        assert display.resolution == (1920, 1080) and display.rotation == 0
+    assert wall.width == pytest.approx(3 * pitch_x)
+    assert wall.height == pytest.approx(2 * pitch_y)
+    assert wall.nodes() == {"node1": wall.displays}
+    assert [d.index for d in wall.displays] == [0, 1, 2, 3, 4, 5]
+    assert [d.desktop_origin for d in wall.displays] == [(i * 1920, 0) for i in range(6)]
+    assert wall.screens == {"public": ("r1c2",), "menu": ("r1c3",), "registration": ("r2c1",)}
+    assert wall.scan_distance_m == 2.0 and wall.bezel_mode == "overlay"
+
+
+def test_bezel_per_side() -> None:
+    bezel = {"left": 27, "right": 20, "top": 26, "bottom": 10}
+    wall = parse_wall(grid_config(columns=2, rows=2, bezel_mm=bezel, active_mm=[640, 360]))
+    pitch_x, pitch_y = 27 + 640 + 20, 26 + 360 + 10
+    assert wall.display("r1c1").rect == Rect(27, 26, 640, 360)
+    assert wall.display("r2c2").rect == Rect(pitch_x + 27, pitch_y + 26, 640, 360)
+    assert (wall.width, wall.height) == (2 * pitch_x, 2 * pitch_y)
+
+
+def test_gap_between_panels() -> None:
+    wall = parse_wall(
+        grid_config(columns=3, rows=2, bezel_mm=5, gap_mm=[10, 4], active_mm=[160, 90])
+    )
+    pitch_x, pitch_y = 5 + 160 + 5 + 10, 5 + 90 + 5 + 4
+    assert wall.display("r1c2").rect.x == pytest.approx(pitch_x + 5)
+    assert wall.display("r2c1").rect.y == pytest.approx(pitch_y + 5)
+    assert wall.width == pytest.approx(3 * pitch_x - 10)
+    assert wall.height == pytest.approx(2 * pitch_y - 4)
+    same = parse_wall(grid_config(bezel_mm=5, gap_mm=3, active_mm=[160, 90]))
+    assert same.display("r2c2").rect.x - same.display("r2c1").rect.right == pytest.approx(13)
+    assert same.display("r2c2").rect.y - same.display("r1c2").rect.bottom == pytest.approx(13)
+
+
+def test_grid_nodes_and_prefix() -> None:
+    wall = parse_wall(grid_config(displays_per_node=4, node_prefix="pc"))
+    nodes = wall.nodes()
+    assert list(nodes) == ["pc1", "pc2"]
+    assert [d.id for d in nodes["pc1"]] == ["r1c1", "r1c2", "r1c3", "r2c1"]
+    assert [(d.id, d.index) for d in nodes["pc2"]] == [("r2c2", 0), ("r2c3", 1)]
+
+
+# --- bezel modes ---------------------------------------------------------------------
+
+
+@st.composite
+def grid_walls(draw: st.DrawFn) -> dict[str, Any]:
+    w, h = draw(st.sampled_from([(1920, 1080), (2560, 1600), (1080, 1920), (1280, 1024)]))
+    active_w = draw(st.floats(50, 1500))
+    side = st.floats(0, 60)
+    return {
+        "id": "prop",
+        "bezel_mode": "offset",
+        "grid": {
+            "columns": draw(st.integers(1, 7)),
+            "rows": draw(st.integers(1, 6)),
+            "resolution": [w, h],
+            "active_mm": [active_w, active_w * h / w],
+            "bezel_mm": {s: draw(side) for s in BEZEL_SIDES},
+            "gap_mm": [draw(st.floats(0, 30)), draw(st.floats(0, 30))],
+            "rotation": draw(st.sampled_from([0, 180])),
+        },
+    }
+
+
+@settings(max_examples=150, deadline=None)
+@given(grid_walls())
+def test_offset_scene_rects_tile_the_scene_exactly(config: dict[str, Any]) -> None:
+    wall = parse_wall(config)
+    columns, rows = config["grid"]["columns"], config["grid"]["rows"]
+    scene = {d.id: wall.viewport(d.id).scene_rect for d in wall.displays}
+    tol = 1e-9 * max(wall.width, wall.height)
+    for r, c in itertools.product(range(1, rows + 1), range(1, columns + 1)):
+        s = scene[f"r{r}c{c}"]
+        if c == 1:
+            assert s.x == 0
+        if c == columns:
+            assert math.isclose(s.right, wall.width, abs_tol=tol)
+        else:
+            assert math.isclose(s.right, scene[f"r{r}c{c + 1}"].x, abs_tol=tol)
+        if r == 1:
+            assert s.y == 0
+        if r == rows:
+            assert math.isclose(s.bottom, wall.height, abs_tol=tol)
+        else:
+            assert math.isclose(s.bottom, scene[f"r{r + 1}c{c}"].y, abs_tol=tol)
+    # No overlap beyond rounding, and together they cover the whole scene.
+    rects = list(scene.values())
+    for a, b in itertools.combinations(rects, 2):
+        overlap_w = min(a.right, b.right) - max(a.x, b.x)
+        overlap_h = min(a.bottom, b.bottom) - max(a.y, b.y)
+        assert overlap_w <= tol or overlap_h <= tol
+    area = sum(s.width * s.height for s in rects)
+    assert math.isclose(area, wall.width * wall.height, rel_tol=1e-9)
+
+
+@settings(max_examples=50, deadline=None)
+@given(grid_walls())
+def test_offset_to_wall_maps_scene_rect_onto_the_display(config: dict[str, Any]) -> None:
+    wall = parse_wall(config)
+    for display in wall.displays:
+        view = wall.viewport(display.id)
+        s, r = view.scene_rect, display.rect
+        assert close(apply_affine(view.to_wall, s.x, s.y), (r.x, r.y), 1e-6)
+        assert close(apply_affine(view.to_wall, s.right, s.bottom), (r.right, r.bottom), 1e-6)
+
+
+def test_offset_squeezes_bezels_and_margins() -> None:
+    config = grid_config(columns=2, rows=1, bezel_mm=10, active_mm=[160, 90])
+    config["bezel_mode"] = "offset"
+    wall = parse_wall(config)
+    # Wall 360 mm wide, 320 covered: each display's scene width is 360 / 2.
+    assert wall.viewport("r1c1").scene_rect == Rect(0, 0, 180, 110)
+    assert wall.viewport("r1c2").scene_rect.x == pytest.approx(180)
+    assert wall.viewport("r1c2").scene_rect.width == pytest.approx(180)
+
+
+def collinear(points: list[tuple[float, float]]) -> bool:
+    (x0, y0), (x1, y1) = points[0], points[-1]
+    return all(
+        math.isclose((x1 - x0) * (y - y0), (y1 - y0) * (x - x0), abs_tol=1e-6)
+        for x, y in points
+    )
+
+
+def scene_under(wall: Wall, point: tuple[float, float]) -> tuple[float, float]:
+    """The scene point a display shows at a physical wall point."""
+    for display in wall.displays:
+        if display.rect.contains(point):
+            return apply_affine(invert_affine(wall.viewport(display.id).to_wall), *point)
+    raise AssertionError(f"no display at {point}")
+
+
+def test_overlay_keeps_lines_straight_across_bezels() -> None:
+    wall = load_wall(WALLS_DIR / "demo.toml")
+    for display in wall.displays:
+        view = wall.viewport(display.id)
+        assert view.scene_rect == display.rect and view.to_wall == IDENTITY
+    # A physical straight line from r1c1 down-right into r2c3 crosses two bezels.
+    start, end = wall.display("r1c1").rect.center, wall.display("r2c3").rect.center
+    wall_points = [
+        (start[0] + t * (end[0] - start[0]), start[1] + t * (end[1] - start[1]))
+        for t in (i / 40 for i in range(41))
+    ]
+    on_glass = [p for p in wall_points if any(d.rect.contains(p) for d in wall.displays)]
+    scene_points = [scene_under(wall, p) for p in on_glass]
+    assert all(close(p, q) for p, q in zip(scene_points, on_glass, strict=True))
+    assert collinear(scene_points)
+    # Offset mode shows the same line kinked: the bezels are squeezed out.
+    offset = parse_wall({**grid_config(), "bezel_mode": "offset"})
+    assert not collinear([scene_under(offset, p) for p in on_glass])
+
+
+# --- pixels and rotation -------------------------------------------------------------
+
+
+def rotated_wall(rotation: int, bezel_mode: str = "overlay") -> Wall:
+    w_mm, h_mm = (90, 160) if rotation in (90, 270) else (160, 90)
+    return parse_wall(
+        explicit_config(
+            {**panel("a", 20, 30, rotation=rotation), "width_mm": w_mm, "height_mm": h_mm},
+            panel("b", 300, 30),
+            bezel_mode=bezel_mode,
+        )
+    )
+
+
+# Window corner under the display's wall-side corner (top-left, top-right,
+# bottom-right, bottom-left), per rotation; W x H is the native framebuffer.
+CORNERS = {
+    0: [(0, 0), (1, 0), (1, 1), (0, 1)],
+    90: [(0, 1), (0, 0), (1, 0), (1, 1)],
+    180: [(1, 1), (0, 1), (0, 0), (1, 0)],
+    270: [(1, 0), (1, 1), (0, 1), (0, 0)],
+}
+
+
+@pytest.mark.parametrize("bezel_mode", ["overlay", "offset"])
+@pytest.mark.parametrize("rotation", [0, 90, 180, 270])
+def test_to_pixels_maps_scene_rect_corners_to_window_corners(
+    rotation: int, bezel_mode: str
+) -> None:
+    wall = rotated_wall(rotation, bezel_mode)
+    view = wall.viewport("a")
+    assert view.pixels == (1920, 1080)  # the OS does not rotate: always native
+    s = view.scene_rect
+    wall_corners = [(s.x, s.y), (s.right, s.y), (s.right, s.bottom), (s.x, s.bottom)]
+    for corner, (fx, fy) in zip(wall_corners, CORNERS[rotation], strict=True):
+        assert close(apply_affine(view.to_pixels, *corner), (fx * 1920, fy * 1080))
+
+
+@pytest.mark.parametrize("rotation", [0, 90, 180, 270])
+def test_rotation_puts_framebuffer_corners_where_the_turned_panel_has_them(
+    rotation: int,
+) -> None:
+    """Derived physically, independently of the table above.
+
+    Name the framebuffer's corners clockwise: top-left, top-right, bottom-right,
+    bottom-left. Turning the panel clockwise by k quarter turns moves the corner at
+    clockwise position j to wall position (j + k) mod 4; so the wall's top-left corner
+    of the display shows framebuffer corner (-k) mod 4, and so on round.
+    """
+    framebuffer = [(0, 0), (1920, 0), (1920, 1080), (0, 1080)]
+    k = rotation // 90
+    view = rotated_wall(rotation).viewport("a")
+    s = view.scene_rect
+    wall_corners = [(s.x, s.y), (s.right, s.y), (s.right, s.bottom), (s.x, s.bottom)]
+    for position, corner in enumerate(wall_corners):
+        expected = framebuffer[(position - k) % 4]
+        assert close(apply_affine(view.to_pixels, *corner), expected)
+    # Upright content: the scene's "up" (towards smaller y) points to the framebuffer
+    # edge that faces up on the wall.
+    up_edge = {0: "top", 90: "left", 180: "bottom", 270: "right"}[rotation]
+    x, y = apply_affine(view.to_pixels, s.center[0], s.y)
+    side = {(960, 0): "top", (0, 540): "left", (960, 1080): "bottom", (1920, 540): "right"}
+    assert side[(round(x), round(y))] == up_edge
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.sampled_from([0, 90, 180, 270]),
+    st.sampled_from(["overlay", "offset"]),
+    st.floats(0, 1),
+    st.floats(0, 1),
+)
+def test_to_pixels_inverse_round_trips(rotation: int, mode: str, u: float, v: float) -> None:
+    view = rotated_wall(rotation, mode).viewport("a")
+    s = view.scene_rect
+    point = (s.x + u * s.width, s.y + v * s.height)
+    px = apply_affine(view.to_pixels, *point)
+    assert -TOL <= px[0] <= 1920 + TOL and -TOL <= px[1] <= 1080 + TOL
+    assert close(apply_affine(invert_affine(view.to_pixels), *px), point)
+
+
+coefficient = st.floats(-1e3, 1e3, allow_nan=False)
+
+
+@settings(max_examples=300)
+@given(st.tuples(*[coefficient] * 6), st.floats(-1e4, 1e4), st.floats(-1e4, 1e4))
+def test_apply_and_invert_affine_round_trip(m: Affine, x: float, y: float) -> None:
+    a, b, c, d, _, _ = m
+    size = max(1.0, abs(a), abs(b), abs(c), abs(d))
+    assume(abs(a * d - b * c) > 1e-3 * size**2)  # well conditioned
+    inverse = invert_affine(m)
+    back = apply_affine(inverse, *apply_affine(m, x, y))
+    scale = 1 + abs(x) + abs(y) + max(abs(k) for k in m)
+    assert close(back, (x, y), 1e-6 * scale)
+    identity = compose_affine(inverse, m)
+    assert all(math.isclose(p, q, abs_tol=1e-6) for p, q in zip(identity, IDENTITY, strict=True))
+
+
+def test_invert_affine_refuses_singular_maps() -> None:
+    with pytest.raises(ValueError, match="not invertible"):
+        invert_affine((1, 2, 2, 4, 0, 0))
+
+
+def test_mm_per_px_accounts_for_rotation() -> None:
+    wall = rotated_wall(90)
+    assert wall.display("a").mm_per_px == pytest.approx(90 / 1080)
+    assert wall.display("b").mm_per_px == pytest.approx(160 / 1920)
+    assert wall.display("a").mounted_resolution == (1080, 1920)
+
+
+# --- explicit form -------------------------------------------------------------------
+
+
+def test_explicit_displays_default_nodes_indices_and_desktop_origins() -> None:
+    wall = parse_wall(
+        explicit_config(
+            {**panel("p", 0, 0, rotation=270, node="left"), "width_mm": 90, "height_mm": 160},
+            panel("a", 100, 0, node="left"),
+            panel("b", 270, 0, node="right"),
+            panel("c", 100, 100, node="left", desktop_origin=[0, 1080]),
+            panel("d", 270, 100, resolution=[3840, 2160]),
+            panel("e", 440, 0),
+        )
+    )
+    d = {display.id: display for display in wall.displays}
+    assert [(d[i].node, d[i].index) for i in "pabcde"] == [
+        ("left", 0),
+        ("left", 1),
+        ("right", 0),
+        ("left", 2),
+        ("node1", 0),
+        ("node1", 1),
+    ]
+    # Side by side at native width (the OS does not rotate the portrait panel).
+    assert d["p"].desktop_origin == (0, 0)
+    assert d["a"].desktop_origin == (1920, 0)
+    assert d["b"].desktop_origin == (0, 0)
+    assert d["c"].desktop_origin == (0, 1080)  # explicit
+    assert d["e"].desktop_origin == (3840, 0)
+    assert [x.id for x in wall.nodes()["left"]] == ["p", "a", "c"]
+    assert list(wall.nodes()) == ["left", "right", "node1"]
+    assert (wall.width, wall.height) == (600, 190)
+
+
+def test_explicit_index_orders_nodes_and_origins() -> None:
+    wall = parse_wall(
+        explicit_config(panel("a", 0, 0, index=1), panel("b", 200, 0, resolution=[1280, 720],
+                                                            width_mm=160, index=0))
+    )
+    assert [x.id for x in wall.nodes()["node1"]] == ["b", "a"]
+    assert wall.display("a").desktop_origin == (1280, 0)
+    assert wall.display("b").desktop_origin == (0, 0)
+
+
+def test_registration_defaults_to_the_lower_left_display() -> None:
+    wall = parse_wall(
+        explicit_config(
+            panel("high", 0, 0),
+            panel("low-right", 400, 100),
+            panel("low-left", 200, 100),
+            screens={"public": "high"},
+        )
+    )
+    assert wall.screens == {"public": ("high",), "menu": (), "registration": ("low-left",)}
+    assert [x.id for x in wall.screen("registration")] == ["low-left"]
+    assert wall.screen("menu") == ()
+    assert parse_wall(grid_config()).screens["registration"] == ("r2c1",)
+    none = parse_wall({**grid_config(), "screens": {"registration": []}})
+    assert none.screens["registration"] == ()
+    with pytest.raises(KeyError, match="lobby"):
+        wall.screen("lobby")
+
+
+def test_screens_accept_lists() -> None:
+    wall = parse_wall({**grid_config(), "screens": {"public": ["r1c1", "r1c2"]}})
+    assert [x.id for x in wall.screen("public")] == ["r1c1", "r1c2"]
+
+
+def test_wall_size_can_leave_margins() -> None:
+    wall = parse_wall({**grid_config(), "wall": {"width_mm": 4000, "height_mm": 1500}})
+    assert (wall.width, wall.height) == (4000, 1500)
+    wall = parse_wall({**grid_config(), "wall": {"height_mm": 1500}})
+    assert wall.width == pytest.approx(3 * 1216.6)
+
+
+def test_display_lookup_errors_name_the_wall() -> None:
+    wall = parse_wall(grid_config())
+    with pytest.raises(KeyError, match=r"wall 'test' has no display 'r9c9'"):
+        wall.display("r9c9")
+    with pytest.raises(KeyError, match="r9c9"):
+        wall.viewport("r9c9")
+    assert list(wall.viewports()) == [d.id for d in wall.displays]
+    assert wall.viewports()["r1c1"] is wall.viewport("r1c1")  # computed once
+
+
+def test_rect_geometry() -> None:
+    a = Rect(0, 0, 10, 10)
+    assert (a.right, a.bottom, a.center) == (10, 10, (5, 5))
+    assert a.intersects(Rect(5, 5, 10, 10))
+    assert not a.intersects(Rect(10, 0, 5, 5))  # touching edges
+    assert not a.intersects(Rect(0, 10, 5, 5))
+    assert not a.intersects(Rect(5, 5, 0, 3))  # no area
+    assert a.contains(Rect(0, 0, 10, 10)) and a.contains(Rect(2, 2, 3, 3))
+    assert not a.contains(Rect(8, 8, 3, 3))
+    assert a.contains((10, 0)) and not a.contains((10.1, 0))
+
+
+# --- shipped walls -------------------------------------------------------------------
+
+
+def test_every_shipped_wall_loads() -> None:
+    walls = load_walls([WALLS_DIR])
+    assert set(walls) == {"demo", "kl-3x3", "hiperwall", "irregular"}
+    assert len(walls["kl-3x3"].displays) == 9
+    hiperwall = walls["hiperwall"]
+    assert len(hiperwall.displays) == 50
+    megapixels = sum(d.resolution[0] * d.resolution[1] for d in hiperwall.displays) / 1e6
+    assert megapixels == pytest.approx(204.8)
+    assert hiperwall.display("r1c1").rect == Rect(33, 30, 641.3, 400.8)
+    for wall in walls.values():
+        assert wall.source is not None and wall.source.parent == WALLS_DIR
+        assert wall.screens["registration"], wall.id
+        for display in wall.displays:
+            assert Rect(0, 0, wall.width, wall.height).contains(display.rect)
+
+
+def test_irregular_wall_has_a_portrait_panel() -> None:
+    wall = load_wall(WALLS_DIR / "irregular.toml")
+    portrait = [d for d in wall.displays if d.rotation in (90, 270)]
+    assert len(portrait) == 1 and portrait[0].rect.height > portrait[0].rect.width
+    assert wall.screens["registration"] == (portrait[0].id,)
+    assert len(wall.screens["public"]) == 1
+    assert wall.display(wall.screens["public"][0]).rotation == 0
+    pitches = {round(d.mm_per_px, 3) for d in wall.displays}
+    assert pitches == {0.63, 0.49}
+
+
+# --- validation ----------------------------------------------------------------------
+
+
+def test_overlapping_displays() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0), panel("b", 100, 50)))
+    assert any(
+        e.startswith("walls/x.toml: display[1]: display 'b' overlaps display 'a'") for e in errors
+    )
+    parse_wall(explicit_config(panel("a", 0, 0), panel("b", 160, 0)))  # touching is fine
+
+
+def test_non_positive_sizes() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0), panel("b", 200, 0, width_mm=0)))
+    assert "walls/x.toml: display[1].width_mm: must be positive" in errors
+    errors = errors_of(grid_config(columns=0, active_mm=[-1, 90]))
+    assert "walls/x.toml: grid.columns: must be positive" in errors
+    assert "walls/x.toml: grid.active_mm[0]: must be positive" in errors
+    errors = errors_of(grid_config(bezel_mm=-1))
+    assert "walls/x.toml: grid.bezel_mm: must not be negative" in errors
+
+
+def test_unknown_role() -> None:
+    errors = errors_of({**grid_config(), "screens": {"lobby": "r1c1"}})
+    assert any(e.startswith("walls/x.toml: screens.lobby: unknown role") for e in errors)
+
+
+def test_duplicate_display_ids() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0), panel("a", 200, 0)))
+    assert "walls/x.toml: display[1].id: duplicate display id 'a' (also display[0])" in errors
+
+
+def test_screen_naming_an_unknown_display() -> None:
+    errors = errors_of({**grid_config(), "screens": {"public": "r9c9", "menu": ["r1c1", 3]}})
+    assert "walls/x.toml: screens.public: unknown display 'r9c9'" in errors
+    assert "walls/x.toml: screens.menu: must be a display id or a list of display ids" in errors
+
+
+def test_display_outside_the_wall() -> None:
+    errors = errors_of(
+        explicit_config(panel("a", 0, 0), panel("b", 200, 0), wall={"width_mm": 300})
+    )
+    assert any(e.startswith("walls/x.toml: display[1]: display outside the wall") for e in errors)
+    errors = errors_of(explicit_config(panel("a", -5, 0)))
+    assert any(e.startswith("walls/x.toml: display[0]: display outside the wall") for e in errors)
+    errors = errors_of({**grid_config(), "wall": {"width_mm": 3000}})
+    assert any(
+        e.startswith("walls/x.toml: wall.width_mm: display outside the wall: r1c3") for e in errors
+    )
+
+
+def test_bad_rotation() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0, rotation=45)))
+    assert "walls/x.toml: display[0].rotation: must be one of 0, 90, 180, 270 (got 45)" in errors
+    errors = errors_of(grid_config(rotation="90"))
+    assert any(e.startswith("walls/x.toml: grid.rotation: must be one of") for e in errors)
+
+
+def test_both_or_neither_form() -> None:
+    both = {**grid_config(), "display": [panel("a", 0, 0)]}
+    assert any(e.startswith("walls/x.toml: grid: ") and "not both" in e for e in errors_of(both))
+    assert any(e.startswith("walls/x.toml: grid: missing") for e in errors_of({"id": "x"}))
+
+
+def test_unknown_keys_anywhere() -> None:
+    config = grid_config(colums=3, bezel_mm={"left": 1, "right": 1, "top": 1, "bottom": 1,
+                                             "middle": 2})
+    config.update(colour="red", wall={"depth_mm": 3})
+    errors = errors_of(config)
+    for field in ("colour", "grid.colums", "grid.bezel_mm.middle", "wall.depth_mm"):
+        assert any(e.startswith(f"walls/x.toml: {field}: unknown key") for e in errors), field
+    errors = errors_of(explicit_config(panel("a", 0, 0, rotate=90)))
+    assert any(e.startswith("walls/x.toml: display[0].rotate: unknown key") for e in errors)
+
+
+def test_aspect_mismatch() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0, height_mm=120)))
+    assert any(
+        e.startswith("walls/x.toml: display[0].resolution: ") and "pixels would not be square" in e
+        for e in errors
+    )
+    # Turned 90 degrees but sizes not swapped.
+    errors = errors_of(explicit_config(panel("a", 0, 0, rotation=90)))
+    assert any("display[0].resolution" in e and "not be square" in e for e in errors)
+    errors = errors_of(grid_config(active_mm=[1000, 1000]))
+    assert any(e.startswith("walls/x.toml: grid.active_mm: ") for e in errors)
+    parse_wall(explicit_config(panel("a", 0, 0, height_mm=92)))  # within 3%
+
+
+def test_bad_wall_id_and_missing_fields_are_all_reported() -> None:
+    config = explicit_config({"id": "a b", "x_mm": 0, "resolution": [1920.5, 1080]})
+    config["id"] = "Bad Id"
+    errors = errors_of(config)
+    assert any(e.startswith("walls/x.toml: id: 'Bad Id' must use only") for e in errors)
+    for field in ("display[0].id", "display[0].y_mm", "display[0].width_mm",
+                  "display[0].height_mm", "display[0].resolution"):
+        assert any(e.startswith(f"walls/x.toml: {field}: ") for e in errors), field
+
+
+def test_duplicate_node_index() -> None:
+    errors = errors_of(explicit_config(panel("a", 0, 0, index=0), panel("b", 200, 0, index=0)))
+    assert any(e.startswith("walls/x.toml: display[1].index: index 0 on node") for e in errors)
+
+
+def test_parse_without_source_says_string() -> None:
+    with pytest.raises(WallConfigError) as caught:
+        parse_wall({"id": "x", "grid": {}})
+    assert all(e.startswith("<string>: ") for e in caught.value.errors)
+    assert str(caught.value) == "\n".join(caught.value.errors)
+    assert isinstance(caught.value, ValueError)
+
+
+def test_toml_syntax_error(tmp_path: Path) -> None:
+    path = write(tmp_path, "this is = = not toml")
+    with pytest.raises(WallConfigError) as caught:
+        load_wall(path)
+    assert caught.value.errors[0].startswith(f"{path}: TOML syntax error")
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(WallConfigError, match=re.escape(f"{tmp_path / 'absent.toml'}: ")):
+        load_wall(tmp_path / "absent.toml")
+    with pytest.raises(WallConfigError, match=r"absent\.toml"):
+        load_walls([tmp_path / "absent.toml"])
+
+
+def test_load_wall_reports_file_and_field(tmp_path: Path) -> None:
+    path = write(
+        tmp_path,
+        'id = "x"\n[[display]]\nid = "a"\nx_mm = 0\ny_mm = 0\nwidth_mm = -1\n'
+        "height_mm = 90\nresolution = [1920, 1080]\n",
+    )
+    with pytest.raises(WallConfigError) as caught:
+        load_wall(path)
+    assert f"{path}: display[0].width_mm: must be positive" in caught.value.errors
+
+
+DEMO_TEXT = """
+id = "{wall_id}"
+[grid]
+columns = 2
+rows = 1
+resolution = [1920, 1080]
+active_mm = [160, 90]
+bezel_mm = 0
+"""
+
+
+def test_duplicate_wall_ids_across_files(tmp_path: Path) -> None:
+    first = write(tmp_path, DEMO_TEXT.format(wall_id="same"), "a.toml")
+    second = write(tmp_path, DEMO_TEXT.format(wall_id="same"), "b.toml")
+    with pytest.raises(WallConfigError) as caught:
+        load_walls([tmp_path])
+    (message,) = caught.value.errors
+    assert message.startswith(f"{second}: id: duplicate wall id 'same'")
+    assert str(first) in message
+
+
+def test_load_walls_mixes_files_and_folders_and_reports_every_file(tmp_path: Path) -> None:
+    folder = tmp_path / "walls"
+    folder.mkdir()
+    write(folder, DEMO_TEXT.format(wall_id="one"), "1.toml")
+    write(folder, "not a wall", "notes.txt")
+    single = write(tmp_path, DEMO_TEXT.format(wall_id="two"), "two.toml")
+    assert list(load_walls([folder, single])) == ["one", "two"]
+    bad = write(folder, "id = 3", "2.toml")
+    broken = write(tmp_path, "= =", "broken.toml")
+    with pytest.raises(WallConfigError) as caught:
+        load_walls([folder, broken])
+    assert any(e.startswith(f"{bad}: id: ") for e in caught.value.errors)
+    assert any(e.startswith(f"{broken}: TOML syntax error") for e in caught.value.errors)
+
+
+# --- documentation -------------------------------------------------------------------
+
+
+def accepted_keys() -> list[str]:
+    return [
+        *TOP_KEYS,
+        *(f"wall.{k}" for k in WALL_KEYS),
+        *(f"screens.{k}" for k in ROLES),
+        *(f"grid.{k}" for k in GRID_KEYS),
+        *(f"grid.bezel_mm.{k}" for k in BEZEL_SIDES),
+        *(f"display.{k}" for k in DISPLAY_KEYS),
+    ]
+
+
+@pytest.mark.parametrize("key", accepted_keys())
+def test_every_accepted_key_is_documented(key: str) -> None:
+    assert f"`{key}`" in DOC.read_text()
+
+
+def test_documented_keys_are_accepted() -> None:
+    """The other direction: the docs' key tables list nothing the parser refuses."""
+    rows = re.findall(r"^\| `([a-z_.]+)` \|", DOC.read_text(), flags=re.MULTILINE)
+    assert rows and set(rows) == set(accepted_keys())
+
+
+def test_accepted_keys_really_are_accepted() -> None:
+    config = copy.deepcopy(grid_config())
+    config["grid"].update(
+        bezel_mm=dict.fromkeys(BEZEL_SIDES, 1), gap_mm=0, displays_per_node=2,
+        node_prefix="n", rotation=0,
+    )
+    config.update(name="n", bezel_mode="offset", scan_distance_m=1, wall={"width_mm": 4000,
+                  "height_mm": 2000}, screens=dict.fromkeys(ROLES, "r1c1"))
+    assert set(config) | set(config["grid"]) | set(config["wall"]) <= (
+        set(TOP_KEYS) | set(GRID_KEYS) | set(WALL_KEYS)
+    )
+    parse_wall(config)
+    parse_wall(explicit_config(panel("a", 0, 0, rotation=0, node="n", index=0,
+                                     desktop_origin=[0, 0])))
