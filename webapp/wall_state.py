@@ -186,7 +186,9 @@ def _try_commit(
     update_state: Callable[[WallState], WallState],
     keep_events: int,
 ) -> Change | None:
-    record = session.get(WallStateRecord, wall_id)
+    # Row lock where the database has one (PostgreSQL): concurrent writers queue up
+    # instead of racing; the version check below still guards every backend.
+    record = session.get(WallStateRecord, wall_id, with_for_update=True)
     version = record.version if record else 0
     old = WallState.model_validate(record.state) if record else WallState()
     new = update_state(old)
