@@ -50,6 +50,7 @@ def pick_wall(walls: dict[str, Wall], wall_id: str) -> Wall:
 def main() -> None:
     """tagwall: one interactive screen from a wall of monitors."""
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    logging.getLogger("alembic.runtime.plugins").setLevel(logging.WARNING)  # startup noise
 
 
 @main.command()

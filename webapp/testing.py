@@ -103,7 +103,7 @@ class ServerProcess:
         self.process = None
 
     def tile_url(self, wall: str, tile: str, *, scheme: str = "http") -> str:
-        path = "ws" if scheme == "ws" else "wall"
+        path = "ws/wall" if scheme == "ws" else "wall"
         base = self.url.replace("http", scheme, 1)
         return f"{base}/{path}/{wall}/tile/{tile}?token={tile_token(self.secret, wall)}"
 
