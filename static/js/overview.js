@@ -1,13 +1,8 @@
 // The whole wall in one window, at scale, bezels drawn: what each tile shows, live.
-import {Frames} from "./frames.js";
-import {WallSocket, socketUrl} from "./wallsocket.js";
+import {showLive} from "./live.js";
 import {drawPattern} from "./scene.js";
 
-const body = document.body;
-const wall = JSON.parse(body.dataset.wallInfo);
-const frames = new Frames(document.getElementById("scene"));
-const marker = document.getElementById("offline");
-let current = null;
+const wall = JSON.parse(document.body.dataset.wallInfo);
 
 function drawer(state) {
   return (ctx, width, height) => {
@@ -30,19 +25,4 @@ function drawer(state) {
   };
 }
 
-new WallSocket(socketUrl(`/ws/wall/${wall.id}/view`), {
-  reports: false,
-  render(state, version) {
-    const show = frames.prepare(drawer(state));
-    return () => {
-      show();
-      current = state;
-      body.dataset.version = String(version);
-    };
-  },
-  onOnline(online, reason) {
-    marker.hidden = online;
-    marker.title = reason;
-  },
-});
-window.addEventListener("resize", () => current && frames.redraw(drawer(current)));
+showLive(`/ws/wall/${wall.id}/view`, drawer);

@@ -1,0 +1,36 @@
+// A page that shows the wall scene live (a tile or the overview): each new state is
+// drawn off screen as it arrives and shown at the instant the server scheduled.
+import {Frames} from "./frames.js";
+import {WallSocket, socketUrl} from "./wallsocket.js";
+
+/**
+ * @param {string} path websocket path
+ * @param {function} drawer state -> (ctx, width, height) => void
+ * @param {boolean} reports whether this page reports ready/applied (tiles only)
+ */
+export function showLive(path, drawer, {reports = false} = {}) {
+  const body = document.body;
+  const frames = new Frames(document.getElementById("scene"));
+  const marker = document.getElementById("offline");
+  let current = null;
+  new WallSocket(socketUrl(path), {
+    reports,
+    render(state, version) {
+      const show = frames.prepare(drawer(state));
+      return () => {
+        show();
+        current = state;
+        body.dataset.version = String(version);
+      };
+    },
+    onPrepare() {
+      return Promise.resolve();  // the test pattern has nothing to load
+    },
+    onOnline(online, reason) {
+      marker.hidden = online;
+      marker.title = reason;
+      body.dataset.online = String(online);
+    },
+  });
+  window.addEventListener("resize", () => current && frames.redraw(drawer(current)));
+}
