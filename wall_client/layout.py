@@ -118,6 +118,11 @@ class Rect:
     height: float
 
     @property
+    def xywh(self) -> tuple[float, float, float, float]:
+        """The rectangle as ``(x, y, width, height)``, as messages and canvases take it."""
+        return (self.x, self.y, self.width, self.height)
+
+    @property
     def right(self) -> float:
         return self.x + self.width
 

@@ -45,7 +45,7 @@ class Subscription:
         return message
 
     def drain(self) -> list[str]:
-        """Take every message queued so far without waiting (tests and shutdown)."""
+        """Take every message queued so far without waiting (to inspect an inbox)."""
         messages = []
         while not self._queue.empty():
             message = self._queue.get_nowait()

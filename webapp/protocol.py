@@ -67,10 +67,9 @@ class ViewportInfo(Message):
 
     @classmethod
     def of(cls, viewport: Viewport) -> ViewportInfo:
-        rect = viewport.scene_rect
         return cls(
             display_id=viewport.display_id,
-            scene_rect=(rect.x, rect.y, rect.width, rect.height),
+            scene_rect=viewport.scene_rect.xywh,
             pixels=viewport.pixels,
             to_pixels=viewport.to_pixels,
             to_wall=viewport.to_wall,

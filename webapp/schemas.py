@@ -41,17 +41,16 @@ class WallInfo(BaseModel):
         displays = []
         for display in wall.displays:
             viewport = wall.viewport(display.id)
-            r, s = display.rect, viewport.scene_rect
             displays.append(
                 DisplayInfo(
                     id=display.id,
-                    rect=(r.x, r.y, r.width, r.height),
+                    rect=display.rect.xywh,
                     resolution=display.resolution,
                     rotation=display.rotation,
                     node=display.node,
                     index=display.index,
                     roles=roles[display.id],
-                    scene_rect=(s.x, s.y, s.width, s.height),
+                    scene_rect=viewport.scene_rect.xywh,
                     to_wall=viewport.to_wall,
                 )
             )

@@ -18,7 +18,8 @@ from typing import Any
 
 import httpx
 
-from webapp.security import operator_token, tile_token
+from webapp.security import operator_token
+from webapp.urls import tile_path
 
 
 def free_port() -> int:
@@ -103,9 +104,8 @@ class ServerProcess:
         self.process = None
 
     def tile_url(self, wall: str, tile: str, *, scheme: str = "http") -> str:
-        path = "ws/wall" if scheme == "ws" else "wall"
-        base = self.url.replace("http", scheme, 1)
-        return f"{base}/{path}/{wall}/tile/{tile}?token={tile_token(self.secret, wall)}"
+        base = self.url.replace("http", scheme, 1) + ("/ws" if scheme == "ws" else "")
+        return base + tile_path(self.secret, wall, tile)
 
     def operator(self) -> dict[str, str]:
         return {"Authorization": f"Bearer {operator_token(self.secret)}"}

@@ -6,9 +6,13 @@ from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 
 
+def tile_path(secret: str, wall_id: str, tile_id: str) -> str:
+    """A tile page's path with its token; the tile's websocket is the same under ``/ws``."""
+    return f"/wall/{wall_id}/tile/{tile_id}?token={tile_token(secret, wall_id)}"
+
+
 def tile_url(settings: Settings, wall_id: str, tile_id: str) -> str:
-    token = tile_token(settings.resolved_secret_key, wall_id)
-    return f"{settings.server_url}/wall/{wall_id}/tile/{tile_id}?token={token}"
+    return settings.server_url + tile_path(settings.resolved_secret_key, wall_id, tile_id)
 
 
 def overview_url(settings: Settings, wall_id: str) -> str:
