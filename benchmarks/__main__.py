@@ -11,7 +11,7 @@ import platform
 import sys
 from pathlib import Path
 
-BENCHMARKS = ("fanout",)
+BENCHMARKS = ("fanout", "codes", "placement", "scans")
 RESULTS = Path(__file__).parent / "results"
 
 

@@ -2,8 +2,8 @@
 
 from alembic import context
 
+import webapp.models  # noqa: F401  (registers the tables)
 from webapp.db import Base, make_engine
-from webapp.models import WallEventRecord  # noqa: F401  (registers the tables)
 from webapp.settings import Settings
 
 config = context.config

@@ -81,3 +81,9 @@ def app(settings: Settings) -> FastAPI:
 def client(app: FastAPI) -> Iterator[TestClient]:
     with TestClient(app) as test_client:
         yield test_client
+
+
+def operator_headers(client: TestClient) -> dict[str, str]:
+    """The operator's bearer token for ``client``'s app."""
+    token = client.app.state.services.operator_token  # type: ignore[attr-defined]
+    return {"Authorization": f"Bearer {token}"}

@@ -12,6 +12,7 @@ import pytest
 from webapp import protocol
 from webapp.cli import main
 from webapp.settings import PROJECT_ROOT, Settings
+from webapp.wall_state import HEAVY_FIELDS, WallState
 
 DOCS = PROJECT_ROOT / "docs"
 
@@ -21,7 +22,7 @@ def section(markdown: str, heading: str) -> str:
     match = re.search(rf"^(#+) {re.escape(heading)}\s*$", markdown, re.MULTILINE)
     assert match, f"no heading {heading!r}"
     level = len(match.group(1))
-    rest = markdown[match.end():]
+    rest = markdown[match.end() :]
     end = re.search(rf"^#{{1,{level}}} ", rest, re.MULTILINE)
     return rest[: end.start()] if end else rest
 
@@ -43,6 +44,14 @@ def test_every_message_type_and_field_is_documented(model: type[protocol.Message
     body = section(text, f"`{name}`")
     for field in set(model.model_fields) - {"type"}:
         assert f"`{field}`" in body, f"{name}.{field} is not documented in docs/protocol.md"
+
+
+def test_every_wall_state_field_is_documented_with_its_weight() -> None:
+    body = section((DOCS / "protocol.md").read_text(), "Wall state")
+    for field in WallState.model_fields:
+        row = re.search(rf"^\| `{field}` \|([^|]*)\|", body, re.MULTILINE)
+        assert row, f"wall state field {field} is not documented in docs/protocol.md"
+        assert (row.group(1).strip() == "yes") == (field in HEAVY_FIELDS), field
 
 
 def test_message_types_are_found() -> None:

@@ -8,6 +8,7 @@ from contextlib import asynccontextmanager
 from pathlib import Path
 
 from fastapi import FastAPI, Request
+from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
@@ -15,13 +16,16 @@ from fastapi.templating import Jinja2Templates
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.layout import load_walls
+from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.routes import health, pages, walls, ws
+from webapp.routes import health, pages, resolve, scan, tags, walls, ws
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
+from webapp.tags import declare, show_tag_set
+from webapp.wall_state import read_state
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"
@@ -40,11 +44,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         keep_events=settings.event_history,
     )
     services = Services(
-        settings=settings, db=db, hub=hub, walls=load_walls(settings.wall_configs)
+        settings=settings,
+        db=db,
+        hub=hub,
+        walls=load_walls(settings.wall_configs),
+        apps=builtin_apps(),
     )
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        await prepare_walls(services)
         yield
         await hub.close()
         db.dispose()
@@ -54,10 +63,36 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
     app.add_middleware(SecurityHeadersMiddleware)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
-    for router in (health.router, pages.router, walls.router, ws.router):
+    for router in (
+        health.router,
+        pages.router,
+        resolve.router,
+        scan.router,
+        tags.router,
+        walls.router,
+        ws.router,
+    ):
         app.include_router(router)
     _add_error_pages(app)
     return app
+
+
+async def prepare_walls(services: Services) -> None:
+    """Declare every app's tags on every wall and put each wall's tag set up.
+
+    Idempotent: codes stay as they were and an unchanged set is not placed again, so
+    every server process of a wall may do this at start.
+    """
+    for wall in services.walls.values():
+        for wall_app in services.apps.values():
+            await run_in_threadpool(
+                declare, services.db, wall.id, wall_app.name, wall_app.declare_tags(wall)
+            )
+        _, state = await run_in_threadpool(read_state, services.db, wall.id)
+        tag_set = state.tag_set
+        if not state.tag_layout and state.app in services.apps:
+            tag_set = services.apps[state.app].default_tag_set
+        await show_tag_set(services.hub, wall, tag_set, services.base_url)
 
 
 def _wants_json(request: Request) -> bool:

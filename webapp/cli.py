@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
 from webapp.settings import Settings
-from webapp.urls import dashboard_url, overview_url, tile_url
+from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
 EXIT_USAGE = 2
 
@@ -115,8 +115,12 @@ def tiles(wall_id: str | None) -> None:
 @click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
 @click.option("--node", required=True, help="Render node whose displays to drive.")
 @click.option("--browser", default=None, help="Browser executable (default: chromium on PATH).")
-@click.option("--profiles", type=click.Path(path_type=Path), default=None,
-              help="Folder for per-display browser profiles (default: VAR_DIR/kiosk).")
+@click.option(
+    "--profiles",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Folder for per-display browser profiles (default: VAR_DIR/kiosk).",
+)
 @click.option("--dry-run", is_flag=True, help="Print the commands instead of running them.")
 def kiosk(
     wall_id: str | None, node: str, browser: str | None, profiles: Path | None, dry_run: bool
@@ -136,7 +140,9 @@ def kiosk(
         sys.exit(EXIT_USAGE)
     tile_urls = {d.id: tile_url(settings, wall.id, d.id) for d in displays}
     commands = plan(
-        displays, tile_urls, browser=executable,
+        displays,
+        tile_urls,
+        browser=executable,
         profile_root=profiles or settings.var_dir / "kiosk" / wall.id,
     )
     if dry_run:
@@ -169,6 +175,85 @@ def config_check(files: tuple[Path, ...]) -> None:
         )
     if failed:
         sys.exit(EXIT_USAGE)
+
+
+@main.group()
+def codes() -> None:
+    """QR codes: how big they must be."""
+
+
+@codes.command("size")
+@click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
+@click.option(
+    "--distance",
+    type=click.FloatRange(min=0.1, max=100),
+    default=None,
+    help="Scanning distance in metres (default: the wall's scan_distance_m).",
+)
+@click.option(
+    "--qr-version",
+    type=click.IntRange(1, 40),
+    default=2,
+    show_default=True,
+    help="QR version to size (2 holds a typical LAN URL code).",
+)
+def codes_size(wall_id: str | None, distance: float | None, qr_version: int) -> None:
+    """Print the code size on each display for a scanning distance."""
+    from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
+
+    settings = load_settings()
+    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    distance = distance or wall.scan_distance_m
+    camera = Camera()
+    module_mm = min_module_mm(distance, camera)
+    modules = symbol_modules(17 + 4 * qr_version)
+    click.echo(
+        f"wall {wall.id}, scanning distance {distance:g} m: modules of at least {module_mm:.2f} mm"
+        f" ({camera.field_of_view_deg:g} deg field of view, {camera.frame_px} px frames,"
+        f" {camera.px_per_module:g} camera px per module)"
+    )
+    click.echo(f"QR version {qr_version}: {modules} modules across, 4-module quiet zones included")
+    click.echo(
+        f"{'display':<10}{'mm/px':>8}{'px/module':>11}{'module mm':>11}{'code px':>9}{'code mm':>9}"
+    )
+    for display in wall.displays:
+        size = code_size(display, modules, module_mm)
+        fits = "" if size.side_px <= min(display.mounted_resolution) else "  (does not fit)"
+        click.echo(
+            f"{display.id:<10}{display.mm_per_px:>8.3f}{size.px_per_module:>11}"
+            f"{size.module_mm:>11.2f}{size.side_px:>9}{size.side_mm:>9.1f}{fits}"
+        )
+
+
+@main.command()
+@click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
+@click.option("--server", default=None, help="Server URL (default: the configured server).")
+@click.option("--browser", default=None, help="Chromium executable (default: chromium on PATH).")
+def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
+    """Screenshot every tile of a running wall and decode its codes; exit 1 on any failure."""
+    import httpx
+
+    from webapp.check import check_wall, fetch_layout
+    from webapp.security import operator_token
+
+    settings = load_settings()
+    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    server_url = (server or settings.server_url).rstrip("/")
+    try:
+        executable = browser or find_browser()
+        version, layout = fetch_layout(
+            server_url, wall.id, operator_token(settings.resolved_secret_key)
+        )
+    except (KioskError, httpx.HTTPError) as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_USAGE)
+    secret = settings.resolved_secret_key
+    urls = {d.id: server_url + tile_path(secret, wall.id, d.id) for d in wall.displays}
+    report = check_wall(wall, urls, version, layout, executable)
+    for line in report.lines():
+        click.echo(line)
+    if not report.ok:
+        sys.exit(1)
 
 
 @main.group()

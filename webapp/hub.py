@@ -53,7 +53,12 @@ class WallHub:
     """Commits, publishes and synchronises changes for every wall of this server."""
 
     def __init__(
-        self, db: Database, bus: EventBus, *, apply_lead_ms: int, swap_timeout_ms: int,
+        self,
+        db: Database,
+        bus: EventBus,
+        *,
+        apply_lead_ms: int,
+        swap_timeout_ms: int,
         keep_events: int,
     ) -> None:
         self.db = db
@@ -103,7 +108,9 @@ class WallHub:
             except TimeoutError:
                 log.warning(
                     "wall %s v%d: swapping without %s (not ready in time)",
-                    wall_id, version, ", ".join(sorted(barrier.waiting)),
+                    wall_id,
+                    version,
+                    ", ".join(sorted(barrier.waiting)),
                 )
         self._barriers.pop((wall_id, version), None)
         swap = Swap(version=version, apply_at=now_ms() + self.apply_lead_ms)

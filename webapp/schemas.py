@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Any
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ConfigDict, Field
 
 from wall_client.layout import Wall
 from webapp.hub import TileStatus
@@ -90,3 +91,86 @@ class ChangeResult(BaseModel):
     wall: str
     version: int
     changed: list[str]
+
+
+class PlacedCode(BaseModel):
+    """A code as it stands on the wall: what tiles draw and ``tagwall check`` verifies."""
+
+    code: str
+    label: str
+    kind: str
+    payload: str  # what the symbol encodes (``tagwall check`` compares decodes with it)
+    display: str
+    rect: tuple[float, float, float, float]  # scene mm, on the display's pixel grid
+    pixels: tuple[int, int, int]  # x, y, side in the display's pixels (as mounted)
+    px_per_module: int
+    modules: int  # across, quiet zone included
+    error: str
+    version: int
+    matrix: list[str]  # rows of modules, "1" dark, quiet zone excluded
+    anchor: tuple[float, float]
+    leader: tuple[tuple[float, float], tuple[float, float]] | None
+
+
+class UnplacedCode(BaseModel):
+    code: str
+    label: str
+    reason: str
+
+
+class LayoutInfo(BaseModel):
+    """One placement of a wall's tag set (immutable: cached by id)."""
+
+    id: int
+    wall: str
+    tag_set: str | None
+    placed: list[PlacedCode]
+    unplaced: list[UnplacedCode]
+
+
+class TagInfo(BaseModel):
+    code: str
+    name: str | None
+    label: str
+    wall: str
+    app: str
+    action: str
+    params: dict[str, Any]
+    kind: str
+    payload: str
+    tag_set: str | None
+    anchor: tuple[float, float] | None
+    screen: str | None
+    slot: int
+    size_mm: float | None
+    active: bool
+    expires_at: datetime | None
+    created_at: datetime
+    created_by: str
+    svg_url: str
+    png_url: str
+
+
+class TagUpdate(BaseModel):
+    """What an operator may change on a tag; its code and purpose stay."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    label: str | None = Field(default=None, max_length=200)
+    active: bool | None = None
+    expires_at: datetime | None = None
+
+
+class TagSetChoice(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str | None = Field(max_length=64)
+
+
+class TagSetsInfo(BaseModel):
+    wall: str
+    active: str | None
+    sets: list[str]
+    layout: int
+    placed: int
+    unplaced: list[UnplacedCode]

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from wall_client.layout import Wall
+from webapp.apps import WallApp
 from webapp.db import Database
 from webapp.hub import WallHub
+from webapp.ratelimit import RateLimiter
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 from webapp.urls import tile_url
@@ -18,6 +20,25 @@ class Services:
     db: Database
     hub: WallHub
     walls: dict[str, Wall]
+    apps: dict[str, WallApp]
+    scan_limits: tuple[RateLimiter, RateLimiter] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.scan_limits = (
+            RateLimiter(self.settings.scan_rate_per_minute),
+            RateLimiter(self.settings.scan_rate_per_address_per_minute),
+        )
+
+    def scan_allowed(self, visitor_id: str, client_address: str) -> float | None:
+        """None when this visitor (and its address) may scan now, else seconds to wait."""
+        per_visitor, per_address = self.scan_limits
+        wait = per_visitor.hit(visitor_id)
+        return wait if wait is not None else per_address.hit(client_address)
+
+    @property
+    def base_url(self) -> str:
+        """Where phones reach this server: the base of every URL code."""
+        return self.settings.resolved_public_base_url
 
     @property
     def secret(self) -> str:

@@ -48,6 +48,9 @@ class Settings(BaseSettings):
     tile_queue_size: int = Field(default=256, ge=8, le=100_000)
     event_history: int = Field(default=1_000, ge=10)
     max_frame_bytes: int = Field(default=4_096, ge=256)
+    scan_rate_per_minute: int = Field(default=30, ge=1)
+    scan_rate_per_address_per_minute: int = Field(default=600, ge=1)
+    scan_upload_max_bytes: int = Field(default=10_000_000, ge=10_000)
 
     @field_validator("wall_configs", mode="before")
     @classmethod

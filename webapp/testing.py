@@ -48,6 +48,7 @@ class ServerProcess:
     secret: str
     port: int = field(default_factory=free_port)
     extra_env: dict[str, str] = field(default_factory=dict)
+    command: list[str] | None = None  # default: `tagwall serve`
     process: subprocess.Popen[bytes] | None = None
 
     @property
@@ -80,7 +81,10 @@ class ServerProcess:
         tagwall = Path(sys.executable).with_name("tagwall")
         with self.log.open("ab") as log:
             self.process = subprocess.Popen(
-                [str(tagwall), "serve"], env=self.env(), stdout=log, stderr=subprocess.STDOUT
+                self.command or [str(tagwall), "serve"],
+                env=self.env(),
+                stdout=log,
+                stderr=subprocess.STDOUT,
             )
         wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
 
@@ -122,3 +126,7 @@ class ServerProcess:
         response.raise_for_status()
         result: dict[str, Any] = response.json()
         return result
+
+    def version(self, wall: str) -> int:
+        """The wall's current state version (walls start past 0: their codes are shown)."""
+        return int(self.status(wall)["version"])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from tag_service.codes import content_hash
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 
@@ -21,3 +22,8 @@ def overview_url(settings: Settings, wall_id: str) -> str:
 
 def dashboard_url(settings: Settings) -> str:
     return f"{settings.server_url}/dashboard?token={operator_token(settings.resolved_secret_key)}"
+
+
+def code_image_path(code: str, payload: str, extension: str) -> str:
+    """A code's image under a name that changes with its payload (so it caches for good)."""
+    return f"/codes/{code}.{content_hash(payload, 'M')}.{extension}"

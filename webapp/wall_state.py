@@ -65,7 +65,8 @@ class WallState(BaseModel):
     layers: dict[str, bool] = Field(default_factory=dict)
     balloons: list[Balloon] = Field(default_factory=list, max_length=100)
     public: PublicItem | None = None
-    tag_set: str | None = None
+    tag_set: str | None = Field(default=None, max_length=64)
+    tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
 
 
 class StatePatch(BaseModel):
@@ -79,7 +80,6 @@ class StatePatch(BaseModel):
     layers: dict[str, bool] | None = None
     balloons: list[Balloon] | None = Field(default=None, max_length=100)
     public: PublicItem | None = None
-    tag_set: str | None = None
 
     def apply_to(self, state: WallState) -> WallState:
         """The state with this patch's fields replaced (``layers`` merge key by key)."""
@@ -98,8 +98,9 @@ class Change(BaseModel):
     heavy: bool
 
 
-HEAVY_FIELDS = frozenset({"app", "view"})
-"""Fields whose change makes tiles fetch new renders: applied by prepare -> ready -> swap."""
+HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout"})
+"""Fields whose change makes tiles fetch something (renders, code layouts) first:
+applied by prepare -> ready -> swap."""
 
 _MAX_RETRIES = 20
 
@@ -209,9 +210,7 @@ def _try_commit(
         )
         if result.rowcount != 1:  # type: ignore[attr-defined]
             raise _StaleVersion
-    session.add(
-        WallEventRecord(wall_id=wall_id, version=version + 1, changes=changes, heavy=heavy)
-    )
+    session.add(WallEventRecord(wall_id=wall_id, version=version + 1, changes=changes, heavy=heavy))
     session.execute(
         delete(WallEventRecord).where(
             WallEventRecord.wall_id == wall_id,

@@ -24,7 +24,43 @@ function cell(text, className) {
   return td;
 }
 
+const tagSetSelect = document.getElementById("tag-set");
+
+function option(value, text, selected) {
+  const element = document.createElement("option");
+  element.value = value;
+  element.textContent = text;
+  element.selected = selected;
+  return element;
+}
+
+// The wall's tag sets, the active one selected, and every code placement could not place.
+async function refreshCodes() {
+  const info = await api(`/api/walls/${select.value}/tag-sets`);
+  if (document.activeElement !== tagSetSelect) {
+    tagSetSelect.replaceChildren(
+      option("", "(permanent codes only)", info.active === null),
+      ...info.sets.map((name) => option(name, name, name === info.active)),
+    );
+  }
+  document.getElementById("codes-placed").textContent = info.placed;
+  document.getElementById("codes-layout").textContent = info.layout;
+  document.getElementById("codes-unplaced").replaceChildren(...info.unplaced.map((code) => {
+    const li = document.createElement("li");
+    li.className = "down";
+    li.textContent = `not placed: ${code.label || code.code} (${code.code}): ${code.reason}`;
+    return li;
+  }));
+}
+
+tagSetSelect.addEventListener("change", () => {
+  const name = tagSetSelect.value || null;
+  api(`/api/walls/${select.value}/tag-set`, {method: "PUT", body: JSON.stringify({name})})
+    .then(refresh);
+});
+
 async function refresh() {
+  refreshCodes();
   const status = await api(`/api/walls/${select.value}/status`);
   state = status.state;
   document.getElementById("version").textContent = status.version;

@@ -7,8 +7,9 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
  * @param {string} path websocket path
  * @param {function} drawer state -> (ctx, width, height) => void
  * @param {boolean} reports whether this page reports ready/applied (tiles only)
+ * @param {function} prepare changes -> Promise: load what the changed state needs
  */
-export function showLive(path, drawer, {reports = false} = {}) {
+export function showLive(path, drawer, {reports = false, prepare = () => undefined} = {}) {
   const body = document.body;
   const frames = new Frames(document.getElementById("scene"));
   const marker = document.getElementById("offline");
@@ -23,8 +24,8 @@ export function showLive(path, drawer, {reports = false} = {}) {
         body.dataset.version = String(version);
       };
     },
-    onPrepare() {
-      return Promise.resolve();  // the test pattern has nothing to load
+    onPrepare(changes) {
+      return prepare(changes);
     },
     onOnline(online, reason) {
       marker.hidden = online;

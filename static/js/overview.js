@@ -1,8 +1,10 @@
 // The whole wall in one window, at scale, bezels drawn: what each tile shows, live.
+import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
 import {drawPattern} from "./scene.js";
 
 const wall = JSON.parse(document.body.dataset.wallInfo);
+const layouts = new CodeLayouts(wall.id);
 
 function drawer(state) {
   return (ctx, width, height) => {
@@ -20,9 +22,13 @@ function drawer(state) {
       const [a, b, c, d, e, f] = display.to_wall;
       ctx.transform(a, b, c, d, e, f);
       drawPattern(ctx, wall, state, scale * Math.hypot(a, b));
+      const matrix = [a * scale, b * scale, c * scale, d * scale, e * scale, f * scale];
+      drawCodes(ctx, layouts.get(state.tag_layout), matrix);
       ctx.restore();
     }
   };
 }
 
-showLive(`/ws/wall/${wall.id}/view`, drawer);
+showLive(`/ws/wall/${wall.id}/view`, drawer, {
+  prepare: (changes) => layouts.load(changes.tag_layout),
+});

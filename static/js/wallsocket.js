@@ -12,7 +12,7 @@ export class WallSocket {
    * @param {string} url websocket URL
    * @param {object} hooks render(state, version) -> show(): draw the frame off screen
    *   now and return the function that shows it at the scheduled instant;
-   *   onPrepare(changes) -> Promise: load what a heavy change needs;
+   *   onPrepare(changes) -> Promise: load what a heavy change (or a snapshot) needs;
    *   onOnline(bool, reason); reports: whether to send ready/applied (tiles only)
    */
   constructor(url, hooks) {
@@ -90,13 +90,19 @@ export class WallSocket {
         this.attempt = 0;
         this.hooks.onOnline?.(true, "");
         break;
-      case "snapshot":
+      case "snapshot": {
         this.resync();
         this.attempt = 0;
         this.hooks.onOnline?.(true, "");
         this.queued = message.version;
-        this.apply(message.state, message.version, this.generation);
+        // Load what the state needs (renders, code layouts) before showing it; events
+        // that arrive meanwhile queue behind it on the chain.
+        const generation = this.generation;
+        this.chain = Promise.resolve(this.hooks.onPrepare?.(message.state))
+          .catch(() => undefined)
+          .then(() => this.apply(message.state, message.version, generation));
         break;
+      }
       case "event":
         if (this.accept(message.version)) {
           this.enqueue(message.version, message.changes, Promise.resolve(message.apply_at));
@@ -105,7 +111,10 @@ export class WallSocket {
       case "prepare":
         if (this.accept(message.version)) {
           const swapped = new Promise((resolve) => this.swaps.set(message.version, resolve));
-          const ready = Promise.resolve(this.hooks.onPrepare?.(message.changes));
+          // A failed load still answers ready: the tile draws what it has rather than
+          // holding the whole wall back until the swap timeout.
+          const ready = Promise.resolve(this.hooks.onPrepare?.(message.changes))
+            .catch(() => undefined);
           ready.then(() => {
             if (this.hooks.reports) this.send({type: "ready", version: message.version});
           });

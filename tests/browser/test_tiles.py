@@ -23,7 +23,8 @@ def all_at(pages: list[Page], version: int) -> bool:
 
 def test_a_state_change_shows_on_every_demo_tile(browser: Browser, server: ServerProcess) -> None:
     pages = open_tiles(browser, server, "demo", DEMO_TILES)
-    wait_until(lambda: all_at(pages, 0), what="every tile to draw version 0")
+    start = server.version("demo")
+    wait_until(lambda: all_at(pages, start), what=f"every tile to draw version {start}")
     before = [canvas_image(page) for page in pages]
     assert len(set(before)) == len(DEMO_TILES), "each tile draws its own part of the scene"
 
@@ -42,7 +43,7 @@ def test_tiles_reconnect_after_a_server_restart_with_the_same_state(
     browser: Browser, server: ServerProcess
 ) -> None:
     pages = open_tiles(browser, server, "demo", DEMO_TILES[:3])
-    wait_until(lambda: all_at(pages, 0), what="tiles to start")
+    wait_until(lambda: all_at(pages, server.version("demo")), what="tiles to start")
     version = server.change("demo", {"layers": {"diagonals": False}, "mode": "setup"})
     wait_until(lambda: all_at(pages, version), what="tiles to apply the change")
     drawn = [canvas_image(page) for page in pages]
@@ -88,9 +89,10 @@ def test_skewed_tile_clocks_still_apply_a_change_within_5_ms(
     pages = open_tiles(browser, server, "demo", DEMO_TILES, skews_ms=skews)
     for page in pages:
         page.evaluate(RECORD_SHOWN)
-    wait_until(lambda: all_at(pages, 0), what="tiles to start")
-    clocks = [page.evaluate("Date.now() - performance.timeOrigin - performance.now()")
-              for page in pages]
+    wait_until(lambda: all_at(pages, server.version("demo")), what="tiles to start")
+    clocks = [
+        page.evaluate("Date.now() - performance.timeOrigin - performance.now()") for page in pages
+    ]
     assert all(abs(c - s) < 50 for c, s in zip(clocks, skews, strict=True)), clocks
     time.sleep(3)  # clock sync converges within a few ping round trips
 
@@ -126,7 +128,7 @@ def test_skewed_tile_clocks_still_apply_a_change_within_5_ms(
 def test_the_overview_follows_the_wall_live(browser: Browser, server: ServerProcess) -> None:
     page = browser.new_page(viewport={"width": 1200, "height": 700})
     page.goto(f"{server.url}/wall/demo/overview")
-    wait_until(lambda: version_of(page) == 0, what="the overview to draw")
+    wait_until(lambda: version_of(page) == server.version("demo"), what="the overview to draw")
     before = canvas_image(page)
     assert page.locator("header").inner_text().count("6 displays") == 1
 

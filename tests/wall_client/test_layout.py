@@ -216,8 +216,7 @@ def test_offset_squeezes_bezels_and_margins() -> None:
 def collinear(points: list[tuple[float, float]]) -> bool:
     (x0, y0), (x1, y1) = points[0], points[-1]
     return all(
-        math.isclose((x1 - x0) * (y - y0), (y1 - y0) * (x - x0), abs_tol=1e-6)
-        for x, y in points
+        math.isclose((x1 - x0) * (y - y0), (y1 - y0) * (x - x0), abs_tol=1e-6) for x, y in points
     )
 
 
@@ -395,8 +394,10 @@ def test_explicit_displays_default_nodes_indices_and_desktop_origins() -> None:
 
 def test_explicit_index_orders_nodes_and_origins() -> None:
     wall = parse_wall(
-        explicit_config(panel("a", 0, 0, index=1), panel("b", 200, 0, resolution=[1280, 720],
-                                                            width_mm=160, index=0))
+        explicit_config(
+            panel("a", 0, 0, index=1),
+            panel("b", 200, 0, resolution=[1280, 720], width_mm=160, index=0),
+        )
     )
     assert [x.id for x in wall.nodes()["node1"]] == ["b", "a"]
     assert wall.display("a").desktop_origin == (1280, 0)
@@ -550,8 +551,9 @@ def test_both_or_neither_form() -> None:
 
 
 def test_unknown_keys_anywhere() -> None:
-    config = grid_config(colums=3, bezel_mm={"left": 1, "right": 1, "top": 1, "bottom": 1,
-                                             "middle": 2})
+    config = grid_config(
+        colums=3, bezel_mm={"left": 1, "right": 1, "top": 1, "bottom": 1, "middle": 2}
+    )
     config.update(colour="red", wall={"depth_mm": 3})
     errors = errors_of(config)
     for field in ("colour", "grid.colums", "grid.bezel_mm.middle", "wall.depth_mm"):
@@ -579,8 +581,13 @@ def test_bad_wall_id_and_missing_fields_are_all_reported() -> None:
     config["id"] = "Bad Id"
     errors = errors_of(config)
     assert any(e.startswith("walls/x.toml: id: 'Bad Id' must use only") for e in errors)
-    for field in ("display[0].id", "display[0].y_mm", "display[0].width_mm",
-                  "display[0].height_mm", "display[0].resolution"):
+    for field in (
+        "display[0].id",
+        "display[0].y_mm",
+        "display[0].width_mm",
+        "display[0].height_mm",
+        "display[0].resolution",
+    ):
         assert any(e.startswith(f"walls/x.toml: {field}: ") for e in errors), field
 
 
@@ -686,14 +693,23 @@ def test_documented_keys_are_accepted() -> None:
 def test_accepted_keys_really_are_accepted() -> None:
     config = copy.deepcopy(grid_config())
     config["grid"].update(
-        bezel_mm=dict.fromkeys(BEZEL_SIDES, 1), gap_mm=0, displays_per_node=2,
-        node_prefix="n", rotation=0,
+        bezel_mm=dict.fromkeys(BEZEL_SIDES, 1),
+        gap_mm=0,
+        displays_per_node=2,
+        node_prefix="n",
+        rotation=0,
     )
-    config.update(name="n", bezel_mode="offset", scan_distance_m=1, wall={"width_mm": 4000,
-                  "height_mm": 2000}, screens=dict.fromkeys(ROLES, "r1c1"))
+    config.update(
+        name="n",
+        bezel_mode="offset",
+        scan_distance_m=1,
+        wall={"width_mm": 4000, "height_mm": 2000},
+        screens=dict.fromkeys(ROLES, "r1c1"),
+    )
     assert set(config) | set(config["grid"]) | set(config["wall"]) <= (
         set(TOP_KEYS) | set(GRID_KEYS) | set(WALL_KEYS)
     )
     parse_wall(config)
-    parse_wall(explicit_config(panel("a", 0, 0, rotation=0, node="n", index=0,
-                                     desktop_origin=[0, 0])))
+    parse_wall(
+        explicit_config(panel("a", 0, 0, rotation=0, node="n", index=0, desktop_origin=[0, 0]))
+    )

@@ -91,8 +91,17 @@ def test_db_upgrade_creates_tables(env: dict[str, str], database_url: str) -> No
 
 
 def test_kiosk_dry_run_prints_one_browser_per_display(env: dict[str, str]) -> None:
-    code, out, _ = run(env, "kiosk", "--wall", "kl-3x3", "--node", "node1", "--dry-run",
-                       "--browser", "/usr/bin/chromium")
+    code, out, _ = run(
+        env,
+        "kiosk",
+        "--wall",
+        "kl-3x3",
+        "--node",
+        "node1",
+        "--dry-run",
+        "--browser",
+        "/usr/bin/chromium",
+    )
     lines = out.splitlines()
     assert code == 0 and len(lines) == 2  # two displays per node on the 3x3 wall
     assert lines[0].startswith("r1c1: /usr/bin/chromium --kiosk")
@@ -102,6 +111,7 @@ def test_kiosk_dry_run_prints_one_browser_per_display(env: dict[str, str]) -> No
 
 
 def test_kiosk_unknown_node_exits_2(env: dict[str, str]) -> None:
-    code, _, err = run(env, "kiosk", "--wall", "demo", "--node", "node99", "--dry-run",
-                       "--browser", "chromium")
+    code, _, err = run(
+        env, "kiosk", "--wall", "demo", "--node", "node99", "--dry-run", "--browser", "chromium"
+    )
     assert code == 2 and "node99" in err

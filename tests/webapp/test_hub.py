@@ -14,7 +14,10 @@ from webapp.wall_state import StatePatch, View, now_ms
 def hub(database_url: str) -> WallHub:
     upgrade(database_url)
     return WallHub(
-        Database(database_url), MemoryBus(64), apply_lead_ms=100, swap_timeout_ms=300,
+        Database(database_url),
+        MemoryBus(64),
+        apply_lead_ms=100,
+        swap_timeout_ms=300,
         keep_events=100,
     )
 

@@ -12,9 +12,11 @@ from webapp.schemas import WallInfo
 router = APIRouter(include_in_schema=False)
 
 
-def render(request: Request, template: str, **context: object) -> HTMLResponse:
+def render(
+    request: Request, template: str, status_code: int = 200, **context: object
+) -> HTMLResponse:
     response: HTMLResponse = request.app.state.templates.TemplateResponse(
-        request, template, context
+        request, template, context, status_code=status_code
     )
     return response
 
@@ -22,6 +24,13 @@ def render(request: Request, template: str, **context: object) -> HTMLResponse:
 @router.get("/", response_class=HTMLResponse)
 def index(request: Request, services: ServicesDep) -> HTMLResponse:
     return render(request, "index.html", walls=list(services.walls.values()))
+
+
+@router.get("/wall/{wall_id}")
+def wall_start_page(request: Request, wall: WallDep) -> HTMLResponse:
+    """Where a phone starts (and lands from a code that no longer works)."""
+    registration = ", ".join(d.id for d in wall.screen("registration"))
+    return render(request, "wall_start.html", wall=wall, registration=registration)
 
 
 @router.get("/wall/{wall_id}/tile/{tile_id}", dependencies=[TileTokenDep])
@@ -48,9 +57,7 @@ def overview_page(request: Request, wall: WallDep) -> HTMLResponse:
 
 
 @router.get("/dashboard")
-def dashboard_page(
-    request: Request, services: ServicesDep, token: OperatorPageDep
-) -> HTMLResponse:
+def dashboard_page(request: Request, services: ServicesDep, token: OperatorPageDep) -> HTMLResponse:
     walls = list(services.walls.values())
     return render(
         request,

@@ -1,8 +1,6 @@
 from fastapi.testclient import TestClient
 
-
-def operator(client: TestClient) -> dict[str, str]:
-    return {"Authorization": f"Bearer {client.app.state.services.operator_token}"}  # type: ignore[attr-defined]
+from tests.conftest import operator_headers as operator
 
 
 def test_lists_configured_walls(client: TestClient) -> None:
@@ -37,28 +35,35 @@ def test_status_and_changes_need_the_operator_token(client: TestClient) -> None:
     assert client.post("/api/walls/demo/state", json={"mode": "x"}, headers=tile).status_code == 401
 
 
+def version_now(client: TestClient) -> int:
+    """The wall's version (the app's start already put the wall's codes up)."""
+    return int(client.get("/api/walls/demo/status", headers=operator(client)).json()["version"])
+
+
 def test_state_change_round_trip(client: TestClient) -> None:
+    start = version_now(client)
     response = client.post(
         "/api/walls/demo/state", json={"layers": {"grid": False}}, headers=operator(client)
     )
-    assert response.json() == {"wall": "demo", "version": 1, "changed": ["layers"]}
+    assert response.json() == {"wall": "demo", "version": start + 1, "changed": ["layers"]}
     again = client.post(
         "/api/walls/demo/state", json={"layers": {"grid": False}}, headers=operator(client)
     )
-    assert again.json() == {"wall": "demo", "version": 1, "changed": []}
+    assert again.json() == {"wall": "demo", "version": start + 1, "changed": []}
     status = client.get("/api/walls/demo/status", headers=operator(client)).json()
-    assert status["version"] == 1 and status["state"]["layers"] == {"grid": False}
+    assert status["version"] == start + 1 and status["state"]["layers"] == {"grid": False}
 
 
 def test_malformed_change_is_rejected_and_stores_nothing(client: TestClient) -> None:
+    start = version_now(client)
     for body in ({"view": {"zoom": -1}}, {"unknown": 1}, {"layers": "all"}):
         response = client.post("/api/walls/demo/state", json=body, headers=operator(client))
         assert response.status_code == 422
         assert response.json()["detail"][0]["msg"]
     not_json = client.post(
-        "/api/walls/demo/state", content=b"{oops", headers={**operator(client),
-                                                            "content-type": "application/json"}
+        "/api/walls/demo/state",
+        content=b"{oops",
+        headers={**operator(client), "content-type": "application/json"},
     )
     assert not_json.status_code == 422
-    status = client.get("/api/walls/demo/status", headers=operator(client)).json()
-    assert status["version"] == 0
+    assert version_now(client) == start

@@ -9,6 +9,7 @@ from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
 from tests.conftest import TEST_SECRET
+from tests.conftest import operator_headers as operator
 from webapp.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
 from webapp.security import tile_token
 
@@ -16,8 +17,10 @@ TOKEN = tile_token(TEST_SECRET, "demo")
 TILE = f"/ws/wall/demo/tile/r1c1?token={TOKEN}"
 
 
-def operator(client: TestClient) -> dict[str, str]:
-    return {"Authorization": f"Bearer {client.app.state.services.operator_token}"}  # type: ignore[attr-defined]
+def version_now(client: TestClient) -> int:
+    """The wall's version (the app's start already put the wall's codes up)."""
+    status = client.get("/api/walls/demo/status", headers=operator(client))
+    return int(status.json()["version"])
 
 
 def change(client: TestClient, **patch: object) -> int:
@@ -27,55 +30,58 @@ def change(client: TestClient, **patch: object) -> int:
 
 
 def test_hello_without_version_gets_a_snapshot_with_viewport(client: TestClient) -> None:
-    change(client, mode="quiz")
+    version = change(client, mode="quiz")
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello", "last_version": None})
         snapshot = ws.receive_json()
     assert snapshot["type"] == "snapshot"
-    assert snapshot["version"] == 1 and snapshot["state"]["mode"] == "quiz"
+    assert snapshot["version"] == version and snapshot["state"]["mode"] == "quiz"
     assert snapshot["viewport"]["display_id"] == "r1c1"
     assert len(snapshot["viewport"]["to_pixels"]) == 6
 
 
 def test_live_events_follow_in_order(client: TestClient) -> None:
+    start = version_now(client)
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello"})
-        assert ws.receive_json()["version"] == 0
+        assert ws.receive_json()["version"] == start
         for index in range(3):
             change(client, mode=f"m{index}")
         events = [ws.receive_json() for _ in range(3)]
     assert [e["type"] for e in events] == ["event"] * 3
-    assert [e["version"] for e in events] == [1, 2, 3]
+    assert [e["version"] for e in events] == [start + 1, start + 2, start + 3]
     assert events[2]["changes"] == {"mode": "m2"}
 
 
 def test_reconnect_replays_only_missed_events(client: TestClient) -> None:
+    start = version_now(client)
     for index in range(4):
         change(client, mode=f"m{index}")
     with client.websocket_connect(TILE) as ws:
-        ws.send_json({"type": "hello", "last_version": 2})
+        ws.send_json({"type": "hello", "last_version": start + 2})
         replay = [ws.receive_json() for _ in range(2)]
     assert [(e["type"], e["version"], e["apply_at"]) for e in replay] == [
-        ("event", 3, 0),
-        ("event", 4, 0),
+        ("event", start + 3, 0),
+        ("event", start + 4, 0),
     ]
 
 
 def test_reconnect_beyond_history_gets_snapshot(client: TestClient) -> None:
     client.app.state.services.hub.keep_events = 2  # type: ignore[attr-defined]
+    start = version_now(client)
     for index in range(5):
         change(client, mode=f"m{index}")
     with client.websocket_connect(TILE) as ws:
-        ws.send_json({"type": "hello", "last_version": 1})
+        ws.send_json({"type": "hello", "last_version": start + 1})
         message = ws.receive_json()
-    assert message["type"] == "snapshot" and message["version"] == 5
+    assert message["type"] == "snapshot" and message["version"] == start + 5
 
 
 def test_tile_from_the_future_gets_snapshot(client: TestClient) -> None:
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello", "last_version": 99})
         message = ws.receive_json()
-    assert message["type"] == "snapshot" and message["version"] == 0
+    assert message["type"] == "snapshot" and message["version"] == version_now(client)
 
 
 def test_ping_gets_pong_with_server_times(client: TestClient) -> None:
@@ -89,21 +95,22 @@ def test_ping_gets_pong_with_server_times(client: TestClient) -> None:
 
 
 def test_heavy_change_goes_through_prepare_ready_swap(client: TestClient) -> None:
+    version = version_now(client) + 1
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello"})
         ws.receive_json()
         change(client, view={"center": [0.4, 0.5], "zoom": 2})
         prepare = ws.receive_json()
-        assert prepare["type"] == "prepare" and prepare["version"] == 1
-        ws.send_json({"type": "ready", "version": 1})
+        assert prepare["type"] == "prepare" and prepare["version"] == version
+        ws.send_json({"type": "ready", "version": version})
         swap = ws.receive_json()
-        ws.send_json({"type": "applied", "version": 1, "server_time": swap["apply_at"]})
+        ws.send_json({"type": "applied", "version": version, "server_time": swap["apply_at"]})
         ws.send_json({"type": "ping", "t0": 0})
         ws.receive_json()
-    assert swap == {"type": "swap", "version": 1, "apply_at": swap["apply_at"]}
+    assert swap == {"type": "swap", "version": version, "apply_at": swap["apply_at"]}
     status = client.get("/api/walls/demo/status", headers=operator(client)).json()
     tile = next(t for t in status["tiles"] if t["tile_id"] == "r1c1")
-    assert tile["version"] == 1 and not tile["connected"]
+    assert tile["version"] == version and not tile["connected"]
 
 
 def test_dashboard_status_shows_connected_tile(client: TestClient) -> None:

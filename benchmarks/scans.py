@@ -1,0 +1,148 @@
+"""Scan resolution: ``GET /t/{CODE}`` throughput beside a bare Starlette endpoint.
+
+One server process (uvicorn, as ``tagwall serve`` runs it) serves the tagwall app with a
+bare ``/hello`` route added, so both are measured on the same server in the same run.
+Clients in another process keep ``CONNECTIONS`` HTTP/1.1 keep-alive connections busy
+for ``SECONDS`` each; the client is raw asyncio (no HTTP library) so it costs the shared
+CPUs as little as possible. A resolution looks the code up, checks it, records the scan
+in the database and renders the app's phone page, so the ratio is what the whole
+path costs against the framework's floor.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import multiprocessing
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from fastapi import FastAPI
+from starlette.requests import Request
+from starlette.responses import PlainTextResponse
+
+from webapp.app import create_app
+from webapp.migrate import upgrade
+from webapp.tags import wall_tags
+from webapp.testing import ServerProcess
+
+CONNECTIONS = 16
+SECONDS = 5.0
+TARGET_RATIO = 0.5
+
+
+def app_with_hello() -> FastAPI:
+    """The tagwall app plus the bare endpoint it is compared with."""
+    app = create_app()
+
+    async def hello(_request: Request) -> PlainTextResponse:
+        return PlainTextResponse("hello")
+
+    app.add_route("/hello", hello)
+    return app
+
+
+async def _hammer(port: int, path: str, seconds: float) -> tuple[int, int]:
+    """Requests completed (and how many were not 200) on keep-alive connections."""
+    request = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nUser-Agent: bench\r\n\r\n".encode()
+    deadline = time.perf_counter() + seconds
+    done = failed = 0
+
+    async def connection() -> None:
+        nonlocal done, failed
+        reader, writer = await asyncio.open_connection("127.0.0.1", port)
+        while time.perf_counter() < deadline:
+            writer.write(request)
+            head = await reader.readuntil(b"\r\n\r\n")
+            length = int(
+                next(
+                    line.split(b":", 1)[1]
+                    for line in head.split(b"\r\n")
+                    if line.lower().startswith(b"content-length:")
+                )
+            )
+            await reader.readexactly(length)
+            done += 1
+            failed += not head.startswith(b"HTTP/1.1 200")
+        writer.close()
+
+    await asyncio.gather(*(connection() for _ in range(CONNECTIONS)))
+    return done, failed
+
+
+def _client(port: int, path: str, seconds: float, queue: Any) -> None:
+    queue.put(asyncio.run(_hammer(port, path, seconds)))
+
+
+def measure(port: int, path: str, seconds: float = SECONDS) -> dict[str, float]:
+    queue: Any = multiprocessing.get_context("spawn").Queue()
+    process = multiprocessing.get_context("spawn").Process(
+        target=_client, args=(port, path, seconds, queue)
+    )
+    process.start()
+    done, failed = queue.get()
+    process.join()
+    return {"requests": done, "failed": failed, "per_second": round(done / seconds, 1)}
+
+
+def run() -> dict[str, Any]:
+    with tempfile.TemporaryDirectory() as tmp:
+        database_url = f"sqlite:///{Path(tmp) / 'bench.db'}"
+        upgrade(database_url)
+        server = ServerProcess(
+            var_dir=Path(tmp) / "var",
+            database_url=database_url,
+            secret="benchmark-secret-key-0123456789",
+            extra_env={
+                # one client address makes every request: lift the per-phone limits
+                "TAGWALL_SCAN_RATE_PER_MINUTE": "100000000",
+                "TAGWALL_SCAN_RATE_PER_ADDRESS_PER_MINUTE": "100000000",
+            },
+        )
+        server.command = [
+            sys.executable,
+            "-m",
+            "uvicorn",
+            "--factory",
+            "benchmarks.scans:app_with_hello",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(server.port),
+            "--log-level",
+            "warning",
+        ]
+        server.start()
+        try:
+            from webapp.db import Database
+
+            db = Database(database_url)
+            code = next(t.code for t in wall_tags(db, "demo") if t.name == "register-student")
+            db.dispose()
+            measure(server.port, "/hello", 1.0)  # warm up
+            hello = measure(server.port, "/hello")
+            resolve = measure(server.port, f"/t/{code}")
+        finally:
+            server.stop()
+    ratio = resolve["per_second"] / hello["per_second"]
+    return {
+        "connections": CONNECTIONS,
+        "seconds": SECONDS,
+        "database": "sqlite",
+        "hello": hello,
+        "resolve": resolve,
+        "ratio": round(ratio, 3),
+        "target_ratio": TARGET_RATIO,
+        "meets_target": ratio >= TARGET_RATIO,
+    }
+
+
+def summary(result: dict[str, Any]) -> str:
+    return (
+        f"   hello {result['hello']['per_second']:.0f}/s, "
+        f"resolve {result['resolve']['per_second']:.0f}/s "
+        f"(failed {result['resolve']['failed']}): ratio {result['ratio']:.2f} "
+        f"(target >= {result['target_ratio']})"
+    )

@@ -1,0 +1,107 @@
+// The codes layer: placed QR codes, drawn so every module covers whole device pixels,
+// and the red pins from displaced codes to their anchors.
+
+const KEEP_LAYOUTS = 4;
+const PIN = "#e63946";
+
+// Layouts (placements of a tag set) by id. They never change once made, so each is
+// fetched once; a tile asks only for its own display's codes.
+export class CodeLayouts {
+  constructor(wallId, displayId = null) {
+    this.wallId = wallId;
+    this.displayId = displayId;
+    this.layouts = new Map();
+  }
+
+  get(id) {
+    return this.layouts.get(id);
+  }
+
+  async load(id) {
+    if (!id || this.layouts.has(id)) return;
+    const query = this.displayId ? `?display=${encodeURIComponent(this.displayId)}` : "";
+    const response = await fetch(`/api/walls/${this.wallId}/layouts/${id}${query}`);
+    if (!response.ok) throw new Error(`layout ${id}: ${response.status}`);
+    this.layouts.set(id, await response.json());
+    while (this.layouts.size > KEEP_LAYOUTS) this.layouts.delete(this.layouts.keys().next().value);
+  }
+}
+
+function apply([a, b, c, d, e, f], x, y) {
+  return [a * x + c * y + e, b * x + d * y + f];
+}
+
+// A scene-mm rectangle as whole device pixels under `matrix` (rotation included).
+function pixelBox(matrix, x, y, w, h) {
+  const [x0, y0] = apply(matrix, x, y);
+  const [x1, y1] = apply(matrix, x + w, y + h);
+  const left = Math.round(Math.min(x0, x1));
+  const top = Math.round(Math.min(y0, y1));
+  return [left, top, Math.round(Math.max(x0, x1)) - left, Math.round(Math.max(y0, y1)) - top];
+}
+
+function drawCode(ctx, code, matrix) {
+  const [x, y, w] = code.rect;
+  const size = w / code.modules;
+  const quiet = (code.modules - code.matrix.length) / 2;
+  ctx.fillStyle = "#fff";
+  ctx.fillRect(...pixelBox(matrix, x, y, w, w));
+  ctx.fillStyle = "#000";
+  code.matrix.forEach((row, j) => {
+    for (let i = 0; i < row.length; i++) {
+      if (row[i] === "1") {
+        ctx.fillRect(...pixelBox(matrix, x + (quiet + i) * size, y + (quiet + j) * size, size, size));
+      }
+    }
+  });
+}
+
+// Pins are drawn in scene mm (the caller's transform), under the codes.
+function drawPins(ctx, codes, pxPerMm) {
+  ctx.strokeStyle = PIN;
+  ctx.fillStyle = PIN;
+  ctx.lineWidth = 3 / pxPerMm;
+  for (const code of codes) {
+    if (!code.leader) continue;
+    const [[x0, y0], [x1, y1]] = code.leader;
+    ctx.beginPath();
+    ctx.moveTo(x0, y0);
+    ctx.lineTo(x1, y1);
+    ctx.stroke();
+    ctx.beginPath();
+    ctx.arc(x1, y1, 6 / pxPerMm, 0, 2 * Math.PI);
+    ctx.fill();
+  }
+}
+
+// Screen codes (registration, menu) carry their label underneath, in the cell they stand in.
+function drawLabels(ctx, codes, matrix) {
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.fillStyle = "#fff";
+  ctx.textAlign = "center";
+  ctx.textBaseline = "top";
+  for (const code of codes) {
+    if (!code.label || code.leader) continue;
+    const [x, y, w] = code.rect;
+    const [left, top, width, height] = pixelBox(matrix, x, y, w, w);
+    ctx.font = `bold ${Math.round(width / 8)}px sans-serif`;
+    ctx.fillText(code.label, left + width / 2, top + height + width / 20);
+  }
+  ctx.restore();
+}
+
+/**
+ * Draw a layout's codes. `matrix` maps scene mm to the canvas's device pixels; the
+ * context's current transform is the same map (pins and labels use it).
+ */
+export function drawCodes(ctx, layout, matrix) {
+  if (!layout) return;
+  const [a, b] = matrix;
+  drawPins(ctx, layout.placed, Math.hypot(a, b));
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  for (const code of layout.placed) drawCode(ctx, code, matrix);
+  ctx.restore();
+  drawLabels(ctx, layout.placed, matrix);
+}

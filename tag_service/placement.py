@@ -1,0 +1,334 @@
+"""Placing codes on the wall canvas so every one of them can be scanned.
+
+Rules, in scene millimetres (the wall canvas; physical wall mm in overlay mode):
+
+* a code lies wholly inside one display (never across a bezel or a gap), on that
+  display's pixel grid, with whole pixels per module (see :mod:`tag_service.sizing`);
+* it overlaps no other code and no reserved rectangle (touching is fine: the quiet
+  zone is part of the code);
+* an anchored code never stands on a designated screen (public, menu, registration:
+  those show panels) and stands as near its anchor as possible, at most
+  ``max_offset_codes`` code sides away; a displaced code gets a leader line (pin)
+  from its edge to the anchor;
+* a slot code stands in its cell of a grid laid over its screen's displays;
+* every request ends up placed or unplaced with the reason, never dropped; the
+  result depends only on the inputs (slot codes first, then anchored codes in the
+  order given).
+
+The nearest free position is exact: with rectangular obstacles, the best top-left
+corner has each coordinate either where the anchor wants it or flush against an
+obstacle or display edge, so those candidates are searched (vectorised per display).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from tag_service.sizing import CodeSize, code_size
+from wall_client.layout import ROLES, Display, Rect, Wall
+
+Point = tuple[float, float]
+Ints = npt.NDArray[np.int64]
+Floats = npt.NDArray[np.float64]
+Box = tuple[int, int, int, int]  # x0, y0, x1, y1 in a display's pixels (as mounted)
+
+
+@dataclass(frozen=True)
+class PlacementRequest:
+    key: str  # the tag's code
+    sizes: tuple[int, ...]  # symbol widths in modules incl. quiet zone, preferred first
+    module_mm: float  # the smallest physical module that scans (sizing.min_module_mm)
+    anchor: Point | None = None  # scene mm
+    screen: str | None = None  # a screen role, for slot requests
+    slot: int = 0
+    preferred_mm: float | None = None
+
+    def __post_init__(self) -> None:
+        if (self.anchor is None) == (self.screen is None):
+            raise ValueError(f"{self.key}: give either an anchor or a screen slot")
+        if self.screen is not None and self.screen not in ROLES:
+            raise ValueError(f"{self.key}: unknown screen {self.screen!r} (roles: {ROLES})")
+        if not self.sizes or min(self.sizes) < 1:
+            raise ValueError(f"{self.key}: sizes must be positive module counts")
+        if self.module_mm <= 0:
+            raise ValueError(f"{self.key}: module_mm must be positive")
+
+
+@dataclass(frozen=True)
+class Placement:
+    key: str
+    display_id: str
+    rect: Rect  # scene mm, on the display's pixel grid
+    pixels: tuple[int, int, int]  # x, y, side in the display's pixels (origin: its top-left)
+    px_per_module: int
+    modules: int
+    variant: int  # index into the request's sizes
+    leader: tuple[Point, Point] | None  # from the code's edge to the anchor
+
+
+@dataclass(frozen=True)
+class Unplaced:
+    key: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class Layout:
+    placed: tuple[Placement, ...]
+    unplaced: tuple[Unplaced, ...]
+
+
+class _Canvas:
+    """One display's pixel grid and what already occupies it."""
+
+    def __init__(self, wall: Wall, display: Display) -> None:
+        self.display = display
+        self.rect = wall.viewport(display.id).scene_rect
+        self.pw, self.ph = display.mounted_resolution
+        self.sx = self.rect.width / self.pw
+        self.sy = self.rect.height / self.ph
+        self.boxes: list[Box] = []
+        # Boxes are only ever added, so once no spot fits a side, none fits a larger one.
+        self.no_room_from = min(self.pw, self.ph) + 1
+        self._sizes: dict[tuple[int, float, float | None], CodeSize] = {}
+
+    def size(self, request: PlacementRequest, modules: int) -> CodeSize:
+        """The code of ``modules`` across that ``request`` needs here (memoised)."""
+        key = (modules, request.module_mm, request.preferred_mm)
+        if key not in self._sizes:
+            self._sizes[key] = code_size(
+                self.display, modules, request.module_mm, request.preferred_mm
+            )
+        return self._sizes[key]
+
+    def reserve(self, area: Rect) -> None:
+        if not self.rect.intersects(area):
+            return
+        self.boxes.append(
+            (
+                max(0, math.floor((area.x - self.rect.x) / self.sx)),
+                max(0, math.floor((area.y - self.rect.y) / self.sy)),
+                min(self.pw, math.ceil((area.right - self.rect.x) / self.sx)),
+                min(self.ph, math.ceil((area.bottom - self.rect.y) / self.sy)),
+            )
+        )
+
+    def to_scene(self, x: int, y: int, side: int) -> Rect:
+        return Rect(
+            self.rect.x + x * self.sx, self.rect.y + y * self.sy, side * self.sx, side * self.sy
+        )
+
+    def nearest(self, anchor: Point, side: int) -> tuple[float, int, int] | None:
+        """The free spot for a ``side`` px code whose centre is nearest ``anchor``."""
+        if side >= self.no_room_from:
+            return None
+        ax, ay = anchor
+        ideal_x = (ax - self.rect.x) / self.sx - side / 2
+        ideal_y = (ay - self.rect.y) / self.sy - side / 2
+        boxes = np.array(self.boxes, dtype=np.int64).reshape(-1, 4)
+        xs = _candidates(ideal_x, boxes[:, 0], boxes[:, 2], side, self.pw)
+        ys = _candidates(ideal_y, boxes[:, 1], boxes[:, 3], side, self.ph)
+        grid_x, grid_y = (a.ravel() for a in np.meshgrid(xs, ys))
+        if len(boxes):
+            overlap = (
+                (grid_x[:, None] < boxes[:, 2])
+                & (grid_x[:, None] + side > boxes[:, 0])
+                & (grid_y[:, None] < boxes[:, 3])
+                & (grid_y[:, None] + side > boxes[:, 1])
+            ).any(axis=1)
+            grid_x, grid_y = grid_x[~overlap], grid_y[~overlap]
+        if not len(grid_x):
+            self.no_room_from = side
+            return None
+        distance = np.hypot(
+            self.rect.x + (grid_x + side / 2) * self.sx - ax,
+            self.rect.y + (grid_y + side / 2) * self.sy - ay,
+        )
+        best = np.lexsort((grid_x, grid_y, distance))[0]
+        return float(distance[best]), int(grid_x[best]), int(grid_y[best])
+
+
+def _candidates(ideal: float, starts: Ints, ends: Ints, side: int, extent: int) -> Ints:
+    """Top-left coordinates worth trying along one axis."""
+    values = np.concatenate(([round(ideal), 0, extent - side], ends, starts - side))
+    return np.unique(np.clip(values, 0, extent - side))
+
+
+def place(
+    wall: Wall,
+    requests: Sequence[PlacementRequest],
+    reserved: Sequence[Rect] = (),
+    *,
+    max_offset_codes: float = 3.0,
+) -> Layout:
+    """Place ``requests`` on ``wall`` avoiding ``reserved`` rectangles (scene mm)."""
+    keys = [request.key for request in requests]
+    if len(set(keys)) != len(keys):
+        raise ValueError("placement requests need unique keys")
+    canvases = {d.id: _Canvas(wall, d) for d in wall.displays}
+    for canvas in canvases.values():
+        for area in reserved:
+            canvas.reserve(area)
+    outcome: dict[str, Placement | Unplaced] = {}
+    slotted = [r for r in requests if r.screen is not None]
+    for role in ROLES:
+        on_screen = sorted((r for r in slotted if r.screen == role), key=lambda r: r.slot)
+        if on_screen:
+            _place_on_screen(wall, role, on_screen, canvases, outcome)
+    designated = {d.id for role in ROLES for d in wall.screen(role)}
+    free = [canvases[d.id] for d in wall.displays if d.id not in designated]
+    bounds = _bounds(free)
+    for request in requests:
+        if request.anchor is not None:
+            outcome[request.key] = _place_anchored(
+                request, request.anchor, free, bounds, max_offset_codes
+            )
+    placed = tuple(o for key in keys if isinstance(o := outcome[key], Placement))
+    unplaced = tuple(o for key in keys if isinstance(o := outcome[key], Unplaced))
+    return Layout(placed, unplaced)
+
+
+def _place_anchored(
+    request: PlacementRequest,
+    anchor: Point,
+    canvases: list[_Canvas],
+    bounds: Floats,
+    max_offset_codes: float,
+) -> Placement | Unplaced:
+    gaps = _distances(anchor, bounds)
+    by_distance = [(float(gaps[i]), canvases[i]) for i in np.argsort(gaps, kind="stable")]
+    smallest_side: tuple[float, int] | None = None
+    reach = 0.0
+    for variant, modules in enumerate(request.sizes):
+        best: tuple[float, _Canvas, int, int, int, int] | None = None
+        for gap, canvas in by_distance:
+            if best is not None and gap > best[0]:
+                break
+            size = canvas.size(request, modules)
+            side_mm = size.side_px * canvas.sx
+            if smallest_side is None or side_mm < smallest_side[0]:
+                smallest_side = (side_mm, size.side_px)
+            limit = max_offset_codes * side_mm
+            reach = max(reach, limit)
+            if gap > limit:
+                continue
+            spot = canvas.nearest(anchor, size.side_px)
+            if spot is None or spot[0] > limit:
+                continue
+            if best is None or spot[0] < best[0]:
+                best = (spot[0], canvas, spot[1], spot[2], size.side_px, size.px_per_module)
+        if best is not None:
+            _, canvas, x, y, side, ppm = best
+            return _commit(request, canvas, x, y, side, ppm, modules, variant, anchor)
+    if smallest_side is not None and all(
+        c.size(request, m).side_px > min(c.pw, c.ph) for c in canvases for m in request.sizes
+    ):
+        side_mm, side_px = smallest_side
+        return Unplaced(
+            request.key, f"display too small for a {side_mm:.0f} mm code (needs {side_px} px)"
+        )
+    ax, ay = anchor
+    return Unplaced(
+        request.key, f"no space within {reach:.0f} mm of the anchor ({ax:.1f}, {ay:.1f})"
+    )
+
+
+def _place_on_screen(
+    wall: Wall,
+    role: str,
+    requests: list[PlacementRequest],
+    canvases: dict[str, _Canvas],
+    outcome: dict[str, Placement | Unplaced],
+) -> None:
+    displays = wall.screen(role)
+    if not displays:
+        for request in requests:
+            outcome[request.key] = Unplaced(request.key, f"wall has no {role!r} screen")
+        return
+    per_display = math.ceil(len(requests) / len(displays))
+    for index, display in enumerate(displays):
+        chunk = requests[index * per_display : (index + 1) * per_display]
+        canvas = canvases[display.id]
+        for request, anchor in zip(chunk, _cell_centres(canvas.rect, len(chunk)), strict=True):
+            outcome[request.key] = _place_in_cell(request, anchor, canvas, role, len(chunk))
+
+
+def _place_in_cell(
+    request: PlacementRequest, anchor: Point, canvas: _Canvas, role: str, count: int
+) -> Placement | Unplaced:
+    side_mm = 0.0
+    for variant, modules in enumerate(request.sizes):
+        size = canvas.size(request, modules)
+        side_mm = side_mm or size.side_px * canvas.sx
+        spot = canvas.nearest(anchor, size.side_px)
+        if spot is not None:
+            _, x, y = spot
+            return _commit(
+                request, canvas, x, y, size.side_px, size.px_per_module, modules, variant, None
+            )
+    return Unplaced(
+        request.key,
+        f"the {role} screen ({canvas.display.id}) has no room for"
+        f" {count} codes of {side_mm:.0f} mm",
+    )
+
+
+def _cell_centres(rect: Rect, count: int) -> list[Point]:
+    """Centres of ``count`` near-square cells filling ``rect`` in reading order."""
+    columns = max(1, math.ceil(math.sqrt(count * rect.width / rect.height)))
+    columns = min(columns, count)
+    rows = math.ceil(count / columns)
+    width, height = rect.width / columns, rect.height / rows
+    return [
+        (rect.x + (i % columns + 0.5) * width, rect.y + (i // columns + 0.5) * height)
+        for i in range(count)
+    ]
+
+
+def _commit(
+    request: PlacementRequest,
+    canvas: _Canvas,
+    x: int,
+    y: int,
+    side: int,
+    ppm: int,
+    modules: int,
+    variant: int,
+    anchor: Point | None,
+) -> Placement:
+    canvas.boxes.append((x, y, x + side, y + side))
+    rect = canvas.to_scene(x, y, side)
+    leader = None
+    if anchor is not None and not rect.contains(anchor):
+        edge = (min(max(anchor[0], rect.x), rect.right), min(max(anchor[1], rect.y), rect.bottom))
+        leader = (edge, anchor)
+    return Placement(
+        key=request.key,
+        display_id=canvas.display.id,
+        rect=rect,
+        pixels=(x, y, side),
+        px_per_module=ppm,
+        modules=modules,
+        variant=variant,
+        leader=leader,
+    )
+
+
+def _bounds(canvases: Sequence[_Canvas]) -> Floats:
+    """Each canvas as a row ``x0, y0, x1, y1`` (scene mm)."""
+    rows = [(c.rect.x, c.rect.y, c.rect.right, c.rect.bottom) for c in canvases]
+    return np.array(rows, dtype=np.float64).reshape(-1, 4)
+
+
+def _distances(point: Point, bounds: Floats) -> Floats:
+    """How far ``point`` is from each rectangle of ``bounds`` (0 inside it)."""
+    x, y = point
+    dx = np.maximum(np.maximum(bounds[:, 0] - x, x - bounds[:, 2]), 0.0)
+    dy = np.maximum(np.maximum(bounds[:, 1] - y, y - bounds[:, 3]), 0.0)
+    distance: Floats = np.hypot(dx, dy)
+    return distance

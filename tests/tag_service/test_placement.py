@@ -1,0 +1,269 @@
+"""Placement: every code inside one display, free of others, near its anchor."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tag_service.placement import Layout, Placement, PlacementRequest, place
+from tag_service.sizing import min_module_mm, symbol_modules
+from wall_client.layout import ROLES, Rect, Wall, load_wall
+
+WALLS = Path(__file__).resolve().parents[2] / "content" / "walls"
+V2 = symbol_modules(25)  # 33 modules across with the quiet zone
+V1 = symbol_modules(21)
+TOL = 1e-6  # mm: float rounding of pixel edges
+
+
+def grown(rect: Rect, margin: float) -> Rect:
+    return Rect(rect.x - margin, rect.y - margin, rect.width + 2 * margin, rect.height + 2 * margin)
+
+
+@pytest.fixture(scope="module")
+def demo() -> Wall:
+    return load_wall(WALLS / "demo.toml")
+
+
+def load(name: str) -> Wall:
+    return load_wall(WALLS / f"{name}.toml")
+
+
+def anchored(
+    key: str, x: float, y: float, distance_m: float = 2.0, **kw: object
+) -> PlacementRequest:
+    return PlacementRequest(
+        key=key, sizes=(V2,), module_mm=min_module_mm(distance_m), anchor=(x, y), **kw
+    )
+
+
+def designated(wall: Wall) -> set[str]:
+    return {d.id for role in ROLES for d in wall.screen(role)}
+
+
+def assert_valid(
+    wall: Wall, requests: list[PlacementRequest], reserved: list[Rect], layout: Layout
+) -> None:
+    """The rules of :mod:`tag_service.placement`, checked on any outcome."""
+    placed = {p.key: p for p in layout.placed}
+    unplaced = {u.key for u in layout.unplaced}
+    assert placed.keys().isdisjoint(unplaced)
+    assert placed.keys() | unplaced == {r.key for r in requests}, "nothing is dropped"
+    assert all(u.reason for u in layout.unplaced)
+    by_key = {r.key: r for r in requests}
+    for p in layout.placed:
+        request = by_key[p.key]
+        display = wall.display(p.display_id)
+        scene = wall.viewport(p.display_id).scene_rect
+        x, y, side = p.pixels
+        width, height = display.mounted_resolution
+        assert 0 <= x <= width - side and 0 <= y <= height - side
+        assert grown(scene, TOL).contains(p.rect), "wholly inside one display"
+        assert side == p.modules * p.px_per_module and p.px_per_module >= 3
+        assert p.modules == request.sizes[p.variant]
+        assert p.px_per_module * display.mm_per_px >= request.module_mm * 0.999
+        assert not any(p.rect.intersects(area) for area in reserved)
+        if request.anchor is not None:
+            assert p.display_id not in designated(wall), "panels keep their screens"
+            inside = p.rect.contains(request.anchor)
+            assert (p.leader is None) == inside
+            if p.leader is not None:
+                start, end = p.leader
+                assert end == request.anchor
+                assert grown(p.rect, TOL).contains(start)
+        else:
+            assert p.leader is None
+            assert p.display_id in {d.id for d in wall.screen(str(request.screen))}
+    for a, b in itertools.combinations(layout.placed, 2):
+        if a.display_id == b.display_id:
+            assert not boxes_overlap(a, b), (a, b)
+
+
+def boxes_overlap(a: Placement, b: Placement) -> bool:
+    ax, ay, aside = a.pixels
+    bx, by, bside = b.pixels
+    return ax < bx + bside and bx < ax + aside and ay < by + bside and by < ay + aside
+
+
+@st.composite
+def scenarios(draw: st.DrawFn) -> tuple[Wall, list[PlacementRequest], list[Rect]]:
+    wall = draw(st.sampled_from([load("demo"), load("irregular"), load("kl-3x3")]))
+    distance = draw(st.floats(0.3, 4.0))
+    count = draw(st.integers(0, 40))
+    requests = []
+    for index in range(count):
+        x = draw(st.floats(-100, wall.width + 100))
+        y = draw(st.floats(-100, wall.height + 100))
+        sizes = draw(st.sampled_from([(V2,), (V2, V1), (V1,)]))
+        preferred = draw(st.none() | st.floats(20, 400))
+        requests.append(
+            PlacementRequest(
+                key=f"T{index}",
+                sizes=sizes,
+                module_mm=min_module_mm(distance),
+                anchor=(x, y),
+                preferred_mm=preferred,
+            )
+        )
+    for slot in range(draw(st.integers(0, 6))):
+        role = draw(st.sampled_from(ROLES))
+        requests.append(
+            PlacementRequest(
+                key=f"S{slot}",
+                sizes=(V2,),
+                module_mm=min_module_mm(distance),
+                screen=role,
+                slot=slot,
+            )
+        )
+    reserved = [
+        Rect(
+            draw(st.floats(0, wall.width)),
+            draw(st.floats(0, wall.height)),
+            draw(st.floats(1, 800)),
+            draw(st.floats(1, 800)),
+        )
+        for _ in range(draw(st.integers(0, 3)))
+    ]
+    return wall, requests, reserved
+
+
+@settings(max_examples=60, deadline=None)
+@given(scenarios())
+def test_any_layout_keeps_the_rules(
+    scenario: tuple[Wall, list[PlacementRequest], list[Rect]],
+) -> None:
+    wall, requests, reserved = scenario
+    layout = place(wall, requests, reserved)
+    assert_valid(wall, requests, reserved, layout)
+    assert place(wall, requests, reserved) == layout, "deterministic"
+
+
+def test_a_code_stands_centred_on_its_anchor_when_there_is_room(demo: Wall) -> None:
+    scene = demo.viewport("r1c1").scene_rect
+    layout = place(demo, [anchored("A", *scene.center)])
+    [code] = layout.placed
+    assert code.display_id == "r1c1" and code.leader is None
+    cx, cy = code.rect.center
+    assert abs(cx - scene.center[0]) <= code.rect.width / code.pixels[2]
+    assert abs(cy - scene.center[1]) <= code.rect.height / code.pixels[2]
+
+
+def test_an_anchor_on_a_bezel_gets_a_code_beside_it_with_a_pin(demo: Wall) -> None:
+    left = demo.viewport("r2c2").scene_rect
+    anchor = (left.right + 1.0, left.center[1])  # in the bezel between r2c2 and r2c3
+    layout = place(demo, [anchored("A", *anchor)])
+    [code] = layout.placed
+    assert code.display_id in {"r2c2", "r2c3"}
+    assert code.leader is not None and code.leader[1] == anchor
+    assert_valid(demo, [anchored("A", *anchor)], [], layout)
+
+
+def test_crowded_codes_move_apart_and_point_back(demo: Wall) -> None:
+    centre = demo.viewport("r2c2").scene_rect.center
+    requests = [anchored(f"A{i}", *centre) for i in range(5)]
+    layout = place(demo, requests)
+    assert len(layout.placed) == 5
+    assert sum(p.leader is None for p in layout.placed) == 1, "only the first sits on the anchor"
+    assert_valid(demo, requests, [], layout)
+
+
+def test_codes_keep_off_designated_screens(demo: Wall) -> None:
+    public = demo.screen("public")[0]
+    anchor = demo.viewport(public.id).scene_rect.center
+    [code] = place(demo, [anchored("A", *anchor)]).placed
+    assert code.display_id != public.id
+
+
+def test_a_reserved_panel_pushes_codes_aside(demo: Wall) -> None:
+    scene = demo.viewport("r2c2").scene_rect
+    panel = Rect(scene.x, scene.y, scene.width, scene.height / 2)
+    request = anchored("A", scene.center[0], scene.y + 10)
+    [code] = place(demo, [request], [panel]).placed
+    assert not code.rect.intersects(panel)
+    assert code.leader is not None
+
+
+def test_the_smaller_variant_is_used_when_the_preferred_one_does_not_fit(demo: Wall) -> None:
+    # At 7.5 m a module is ~22 mm: a version-2 symbol (33 across) is taller than a
+    # 680 mm panel, a version-1 symbol (29 across) is not.
+    module = min_module_mm(7.5)
+    centre = demo.viewport("r2c2").scene_rect.center
+    request = PlacementRequest(key="A", sizes=(V2, V1), module_mm=module, anchor=centre)
+    [code] = place(demo, [request]).placed
+    assert (code.variant, code.modules) == (1, V1)
+    only_v2 = PlacementRequest(key="B", sizes=(V2,), module_mm=module, anchor=centre)
+    [problem] = place(demo, [only_v2]).unplaced
+    assert problem.reason.startswith("display too small")
+
+
+def test_a_code_too_big_for_any_display_is_reported(demo: Wall) -> None:
+    request = anchored("BIG", 100, 100, distance_m=40.0)
+    layout = place(demo, [request])
+    [problem] = layout.unplaced
+    assert problem.key == "BIG" and problem.reason.startswith("display too small")
+
+
+def test_no_space_near_the_anchor_is_reported(demo: Wall) -> None:
+    everything = Rect(-10, -10, demo.width + 20, demo.height + 20)
+    layout = place(demo, [anchored("A", 500, 300)], [everything])
+    [problem] = layout.unplaced
+    assert problem.reason.startswith("no space within") and "(500.0, 300.0)" in problem.reason
+
+
+def test_slot_codes_share_their_screen_in_reading_order(demo: Wall) -> None:
+    module = min_module_mm(demo.scan_distance_m)
+    requests = [
+        PlacementRequest(key=k, sizes=(V2,), module_mm=module, screen="registration", slot=s)
+        for k, s in [("second", 1), ("first", 0)]
+    ]
+    layout = place(demo, requests)
+    first, second = sorted(layout.placed, key=lambda p: p.rect.x)
+    assert (first.key, second.key) == ("first", "second")
+    assert {p.display_id for p in layout.placed} == {"r2c1"}
+    assert [p.key for p in layout.placed] == ["second", "first"], "results keep request order"
+
+
+def test_a_missing_screen_is_reported() -> None:
+    wall = load("irregular")
+    missing = [role for role in ROLES if not wall.screen(role)]
+    assert missing == ["menu"]
+    request = PlacementRequest(key="S", sizes=(V2,), module_mm=1.0, screen=missing[0])
+    [problem] = place(wall, [request]).unplaced
+    assert problem.reason == f"wall has no {missing[0]!r} screen"
+
+
+def test_a_crowded_screen_says_how_many_codes_did_not_fit(demo: Wall) -> None:
+    module = min_module_mm(demo.scan_distance_m)
+    requests = [
+        PlacementRequest(key=f"S{i}", sizes=(V2,), module_mm=module, screen="menu", slot=i)
+        for i in range(200)
+    ]
+    layout = place(demo, requests)
+    assert layout.placed and layout.unplaced
+    assert "menu screen (r1c3) has no room for 200 codes" in layout.unplaced[0].reason
+    assert_valid(demo, requests, [], layout)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"anchor": None}, "give either an anchor or a screen slot"),
+        ({"screen": "public"}, "give either an anchor or a screen slot"),
+        ({"anchor": None, "screen": "lobby"}, "unknown screen 'lobby'"),
+        ({"sizes": ()}, "sizes must be positive"),
+        ({"module_mm": 0.0}, "module_mm must be positive"),
+    ],
+)
+def test_malformed_requests_are_refused(kwargs: dict[str, object], message: str) -> None:
+    fields: dict[str, object] = {"key": "X", "sizes": (V2,), "module_mm": 1.0, "anchor": (0.0, 0.0)}
+    with pytest.raises(ValueError, match=message):
+        PlacementRequest(**{**fields, **kwargs})  # type: ignore[arg-type]
+
+
+def test_duplicate_keys_are_refused(demo: Wall) -> None:
+    with pytest.raises(ValueError, match="unique keys"):
+        place(demo, [anchored("A", 10, 10), anchored("A", 20, 20)])

@@ -1,0 +1,81 @@
+"""The setup test pattern: a calibration code on every display, for installers.
+
+Scanning one tells the phone which display it is, where the code stands and how big
+its modules are, so a wrongly cabled or mis-configured display shows up at once. A
+code on the bezel between the first two side-by-side displays shows placement at work: it
+cannot stand on the bezel, so it moves onto a display and a pin points back (on
+walls whose displays hold only one code at the design distance, it is reported as
+unplaceable instead, which the dashboard shows).
+"""
+
+from __future__ import annotations
+
+from fastapi import Response
+from fastapi.concurrency import run_in_threadpool
+
+from wall_client.layout import ROLES, Display, Wall
+from webapp.apps import Scan
+from webapp.routes.pages import render
+from webapp.tags import TagSpec, get_layout
+from webapp.wall_state import read_state
+
+SETUP_SET = "setup"
+
+
+class PatternApp:
+    name: str = "pattern"
+    default_tag_set: str | None = SETUP_SET
+
+    def declare_tags(self, wall: Wall) -> list[TagSpec]:
+        designated = {d.id for role in ROLES for d in wall.screen(role)}
+        free = [d for d in wall.displays if d.id not in designated]
+        tags = [self._tag(f"setup-{d.id}", f"Display {d.id}", d.rect.center) for d in free]
+        for left, right in _side_by_side(free)[:1]:
+            x = (left.rect.right + right.rect.x) / 2
+            y = (max(left.rect.y, right.rect.y) + min(left.rect.bottom, right.rect.bottom)) / 2
+            tags.append(
+                self._tag(f"setup-{left.id}-{right.id}", f"Bezel {left.id}|{right.id}", (x, y))
+            )
+        return tags
+
+    def _tag(self, name: str, label: str, anchor: tuple[float, float]) -> TagSpec:
+        return TagSpec(
+            name=name, label=label, app=self.name, action="locate", tag_set=SETUP_SET, anchor=anchor
+        )
+
+    async def on_scan(self, scan: Scan) -> Response:
+        db = scan.services.db
+        _, state = await run_in_threadpool(read_state, db, scan.wall.id)
+        layout = await run_in_threadpool(get_layout, db, scan.wall.id, state.tag_layout)
+        placed = next(
+            (p for p in (layout.placed if layout else []) if p["code"] == scan.tag.code), None
+        )
+        display = scan.wall.display(placed["display"]) if placed else None
+        return render(
+            scan.request,
+            "locate.html",
+            wall=scan.wall,
+            tag=scan.tag,
+            placed=placed,
+            display=display,
+        )
+
+
+def _side_by_side(displays: list[Display]) -> list[tuple[Display, Display]]:
+    """Pairs of displays next to each other in a row (sharing most of their height)."""
+    pairs = []
+    for left in displays:
+        right = min(
+            (
+                d
+                for d in displays
+                if d.rect.x >= left.rect.right
+                and min(d.rect.bottom, left.rect.bottom) - max(d.rect.y, left.rect.y)
+                > left.rect.height / 2
+            ),
+            key=lambda d: d.rect.x,
+            default=None,
+        )
+        if right is not None:
+            pairs.append((left, right))
+    return pairs

@@ -1,0 +1,118 @@
+"""What phones open: ``/t/{code}`` resolves a scanned code, ``/codes/...`` draws one."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Request
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+
+from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
+from webapp.apps import Scan
+from webapp.deps import ServicesDep
+from webapp.routes.pages import render
+from webapp.tags import find, payload_of, resolve_scan
+from webapp.visitors import visitor_of
+
+router = APIRouter(include_in_schema=False)
+
+IMMUTABLE = "public, max-age=31536000, immutable"
+MAX_USER_AGENT = 400
+
+
+def problem_page(
+    request: Request, status: int, title: str, detail: str, wall_id: str | None = None
+) -> HTMLResponse:
+    """A friendly, phone-sized page for a code that does not work, with a way on."""
+    return render(
+        request,
+        "scan_problem.html",
+        status_code=status,
+        title=title,
+        detail=detail,
+        wall_id=wall_id,
+    )
+
+
+@router.get("/t/{code}")
+@router.get("/T/{code}")
+async def resolve(code: str, request: Request, services: ServicesDep) -> Response:
+    """A scanned code: look it up, check it works now, record the scan, hand it to its app."""
+    visitor = visitor_of(request, services.secret)
+    address = request.client.host if request.client else ""
+    normalized = normalize_code(code)
+    if normalized is None:
+        response: Response = problem_page(
+            request, 404, "Unknown code", "This is not one of this wall's codes."
+        )
+    elif (wait := services.scan_allowed(visitor.id, address)) is not None:
+        response = problem_page(
+            request,
+            429,
+            "Slow down",
+            f"That was a lot of scans in a short time. Try again in {int(wait) + 1} seconds.",
+        )
+        response.headers["Retry-After"] = str(int(wait) + 1)
+    else:
+        response = await _resolve(request, services, normalized, visitor.id, address)
+    visitor.remember(request, response, services.secret)
+    return response
+
+
+async def _resolve(
+    request: Request, services: ServicesDep, code: str, visitor_id: str, address: str
+) -> Response:
+    user_agent = request.headers.get("user-agent", "")[:MAX_USER_AGENT]
+    resolution = await run_in_threadpool(
+        resolve_scan, services.db, code, visitor_id, address, user_agent
+    )
+    tag = resolution.tag
+    if tag is None:
+        return problem_page(request, 404, "Unknown code", "This is not one of this wall's codes.")
+    wall = services.walls.get(tag.wall_id)
+    app = services.apps.get(tag.app)
+    if resolution.problem or wall is None or app is None:
+        detail = resolution.problem or "This code belongs to a wall or app not running here."
+        return problem_page(request, 410, "This code is no longer in use", detail, tag.wall_id)
+    visitor = visitor_of(request, services.secret)
+    return await app.on_scan(Scan(request, services, wall, tag, visitor))
+
+
+@lru_cache(maxsize=1024)
+def _svg(payload: str, error: str) -> bytes:
+    """Rendering is pure: cached by content, so a wall's codes render once."""
+    return render_svg(make_symbol(payload, "L" if error == "L" else "M"))
+
+
+@router.get("/codes/{name}")
+async def code_image(
+    name: str,
+    request: Request,
+    services: ServicesDep,
+    scale: Annotated[int, Query(ge=1, le=40)] = 10,
+) -> Response:
+    """``CODE.svg`` / ``CODE.png`` (revalidated) or ``CODE.HASH.svg`` (cached for a year).
+
+    The hash names the payload, so a hashed URL never changes content: when the
+    payload changes (a new server address), the URL changes with it.
+    """
+    stem, _, extension = name.rpartition(".")
+    code_text, _, given_hash = stem.partition(".")
+    code = normalize_code(code_text)
+    tag = await run_in_threadpool(find, services.db, code) if code else None
+    if tag is None or extension not in ("svg", "png"):
+        return Response("No such code image.", 404, media_type="text/plain")
+    payload = payload_of(tag, services.base_url)
+    digest = content_hash(payload, "M")
+    if given_hash and given_hash != digest:
+        return RedirectResponse(f"/codes/{tag.code}.{digest}.{extension}", 307)
+    etag = f'"{digest}"' if extension == "svg" else f'"{digest}-{scale}"'
+    headers = {"ETag": etag, "Cache-Control": IMMUTABLE if given_hash else "no-cache"}
+    if request.headers.get("if-none-match") == etag:
+        return Response(status_code=304, headers=headers)
+    if extension == "svg":
+        return Response(_svg(payload, "M"), media_type="image/svg+xml", headers=headers)
+    png = await run_in_threadpool(render_png, make_symbol(payload), scale)
+    return Response(png, media_type="image/png", headers=headers)

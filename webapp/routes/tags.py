@@ -1,0 +1,160 @@
+"""The tags API: the registry and tag sets for the operator, layouts for tiles."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, HTTPException, Query, status
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import JSONResponse
+
+from tag_service.codes import PayloadError, normalize_code
+from webapp.deps import OperatorDep, ServicesDep, WallDep
+from webapp.models import TagRecord
+from webapp.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate
+from webapp.services import Services
+from webapp.tags import (
+    TagSpec,
+    anchor_of,
+    find,
+    get_layout,
+    issue,
+    payload_of,
+    refresh_tags,
+    show_tag_set,
+    tag_sets,
+    update_tag,
+    wall_tags,
+)
+from webapp.urls import code_image_path
+from webapp.wall_state import read_state
+
+router = APIRouter(prefix="/api", tags=["tags"])
+
+IMMUTABLE = "public, max-age=31536000, immutable"
+
+
+def tag_info(tag: TagRecord, services: Services) -> TagInfo:
+    payload = payload_of(tag, services.base_url)
+    return TagInfo(
+        code=tag.code,
+        name=tag.name,
+        label=tag.label,
+        wall=tag.wall_id,
+        app=tag.app,
+        action=tag.action,
+        params=tag.params,
+        kind=tag.kind,
+        payload=payload,
+        tag_set=tag.tag_set,
+        anchor=anchor_of(tag),
+        screen=tag.screen,
+        slot=tag.slot,
+        size_mm=tag.size_mm,
+        active=tag.active,
+        expires_at=tag.expires_at,
+        created_at=tag.created_at,
+        created_by=tag.created_by,
+        svg_url=code_image_path(tag.code, payload, "svg"),
+        png_url=code_image_path(tag.code, payload, "png"),
+    )
+
+
+@router.get("/walls/{wall_id}/tags", dependencies=[OperatorDep])
+async def list_tags(wall: WallDep, services: ServicesDep) -> list[TagInfo]:
+    tags = await run_in_threadpool(wall_tags, services.db, wall.id)
+    return [tag_info(tag, services) for tag in tags]
+
+
+@router.post("/walls/{wall_id}/tags", dependencies=[OperatorDep], status_code=201)
+async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagInfo:
+    """Register a tag (any payload kind); when it belongs on the wall now, it is placed."""
+    try:
+        tag = await run_in_threadpool(issue, services.db, wall.id, spec, "operator")
+    except PayloadError as error:  # pragma: no cover - TagSpec validation catches these first
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    await refresh_tags(services.hub, wall, services.base_url)
+    return tag_info(tag, services)
+
+
+async def _tag(code: str, services: Services) -> TagRecord:
+    normalized = normalize_code(code)
+    tag = await run_in_threadpool(find, services.db, normalized) if normalized else None
+    if tag is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no tag {code!r}.")
+    return tag
+
+
+@router.get("/tags/{code}", dependencies=[OperatorDep])
+async def get_tag(code: str, services: ServicesDep) -> TagInfo:
+    return tag_info(await _tag(code, services), services)
+
+
+@router.patch("/tags/{code}", dependencies=[OperatorDep])
+async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> TagInfo:
+    """Relabel, switch off or set an expiry; the wall re-places when that changes it."""
+    tag = await _tag(code, services)
+    tag = await run_in_threadpool(update_tag, services.db, tag.code, update)
+    wall = services.walls.get(tag.wall_id)
+    if wall is not None:
+        await refresh_tags(services.hub, wall, services.base_url)
+    return tag_info(tag, services)
+
+
+@router.get("/walls/{wall_id}/tag-sets", dependencies=[OperatorDep])
+async def list_tag_sets(wall: WallDep, services: ServicesDep) -> TagSetsInfo:
+    sets = await run_in_threadpool(tag_sets, services.db, wall.id)
+    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
+    return TagSetsInfo(
+        wall=wall.id,
+        active=state.tag_set,
+        sets=sets,
+        layout=state.tag_layout,
+        placed=len(layout.placed) if layout else 0,
+        unplaced=layout.unplaced if layout else [],  # type: ignore[arg-type]
+    )
+
+
+@router.put("/walls/{wall_id}/tag-set", dependencies=[OperatorDep])
+async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: ServicesDep) -> TagSetsInfo:
+    """Switch the wall's codes to another set: placed, then shown by every tile at once."""
+    sets = await run_in_threadpool(tag_sets, services.db, wall.id)
+    if choice.name is not None and choice.name not in sets:
+        known = ", ".join(sets) or "none"
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND,
+            f"Wall {wall.id!r} has no tag set {choice.name!r} (sets: {known}).",
+        )
+    await show_tag_set(services.hub, wall, choice.name, services.base_url)
+    return await list_tag_sets(wall, services)
+
+
+@router.get("/walls/{wall_id}/layouts/{layout_id}")
+async def get_wall_layout(
+    wall: WallDep,
+    layout_id: int,
+    services: ServicesDep,
+    display: Annotated[str | None, Query(max_length=64)] = None,
+) -> JSONResponse:
+    """A placement of codes, optionally just one display's (tiles fetch only theirs).
+
+    Public: the codes stand on the wall for anyone in the room to see. Layouts never
+    change once made, so they are cached for good.
+    """
+    record = await run_in_threadpool(get_layout, services.db, wall.id, layout_id)
+    if record is None:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"Wall {wall.id!r} has no layout {layout_id}."
+        )
+    placed = [p for p in record.placed if display is None or p["display"] == display]
+    info = LayoutInfo.model_validate(
+        {
+            "id": record.id,
+            "wall": wall.id,
+            "tag_set": record.tag_set,
+            "placed": placed,
+            "unplaced": record.unplaced,
+        }
+    )
+    return JSONResponse(info.model_dump(mode="json"), headers={"Cache-Control": IMMUTABLE})

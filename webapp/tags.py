@@ -1,0 +1,458 @@
+"""The tag registry: issuing codes, declaring an app's tags, placing tag sets.
+
+``tag_service`` holds the pure rules (codes, sizing, placement, decoding); this
+module keeps them in the database. A *layout* is one placement of a wall's tag set,
+stored immutably; the wall state names the layout in use, so switching sets or
+re-placing is an ordinary (heavy) wall-state change that every tile applies in sync.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any, Literal
+
+from fastapi.concurrency import run_in_threadpool
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from sqlalchemy import delete, or_, select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from tag_service.codes import (
+    Contact,
+    PayloadKind,
+    matrix_rows,
+    modules_across,
+    new_code,
+    symbol_variants,
+    tel_payload,
+    text_payload,
+    url_payload,
+    vcard_payload,
+)
+from tag_service.placement import PlacementRequest, place
+from tag_service.sizing import min_module_mm
+from wall_client.layout import Wall
+from webapp.db import Database
+from webapp.hub import WallHub
+from webapp.models import ScanRecord, TagLayoutRecord, TagRecord, WallStateRecord
+from webapp.schemas import PlacedCode, TagUpdate, UnplacedCode
+from webapp.wall_state import Change, WallState, read_state
+
+LAYOUTS_KEPT = 20
+"""Layouts kept per wall: the one in use and a few before it (tiles mid-swap fetch them)."""
+
+_ISSUE_ATTEMPTS = 5
+_SAFE_NAME = r"^[A-Za-z0-9_.:-]+$"
+
+
+class ContactSpec(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    name: str = Field(min_length=1, max_length=100)
+    phone: str | None = Field(default=None, max_length=40)
+    email: str | None = Field(default=None, max_length=200)
+    organization: str | None = Field(default=None, max_length=200)
+    url: str | None = Field(default=None, max_length=300)
+
+
+class TagSpec(BaseModel):
+    """A tag as an app declares it or an operator issues it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str | None = Field(default=None, min_length=1, max_length=100, pattern=_SAFE_NAME)
+    label: str = Field(default="", max_length=200)
+    app: str = Field(min_length=1, max_length=64, pattern=_SAFE_NAME)
+    action: str = Field(min_length=1, max_length=64, pattern=_SAFE_NAME)
+    params: dict[str, Any] = Field(default_factory=dict)
+    kind: PayloadKind = "url"
+    text: str | None = Field(default=None, max_length=500)
+    number: str | None = Field(default=None, max_length=40)
+    contact: ContactSpec | None = None
+    tag_set: str | None = Field(default=None, min_length=1, max_length=64, pattern=_SAFE_NAME)
+    anchor: tuple[float, float] | None = None
+    screen: Literal["public", "menu", "registration"] | None = None
+    slot: int = Field(default=0, ge=0, le=99)
+    size_mm: float | None = Field(default=None, gt=0, le=5_000)
+    priority: int = Field(default=0, ge=-1_000, le=1_000)
+    active: bool = True
+    expires_at: datetime | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> TagSpec:
+        if (self.anchor is None) == (self.screen is None):
+            raise ValueError("give a tag either an anchor (wall mm) or a screen slot")
+        content_payload(self.kind, self.content())  # raises PayloadError with the reason
+        if self.expires_at is not None and self.expires_at.tzinfo is None:
+            self.expires_at = self.expires_at.replace(tzinfo=UTC)
+        return self
+
+    def content(self) -> dict[str, Any]:
+        """What a direct (non-URL) tag carries, as stored."""
+        if self.kind == "text":
+            return {"text": self.text or ""}
+        if self.kind == "tel":
+            return {"number": self.number or ""}
+        if self.kind == "vcard":
+            return {"contact": self.contact.model_dump() if self.contact else {"name": ""}}
+        return {}
+
+
+def content_payload(kind: str, content: dict[str, Any]) -> str | None:
+    """The payload of a direct tag; None for URL tags (their payload names the server)."""
+    if kind == "text":
+        return text_payload(content.get("text", ""))
+    if kind == "tel":
+        return tel_payload(content.get("number", ""))
+    if kind == "vcard":
+        return vcard_payload(Contact(**content.get("contact", {"name": ""})))
+    return None
+
+
+def payload_of(tag: TagRecord, base_url: str) -> str:
+    """What the tag's QR symbol encodes."""
+    direct = content_payload(tag.kind, tag.content)
+    return direct if direct is not None else url_payload(base_url, tag.code)
+
+
+def _fill(record: TagRecord, spec: TagSpec) -> None:
+    record.name = spec.name
+    record.label = spec.label
+    record.app = spec.app
+    record.action = spec.action
+    record.params = spec.params
+    record.kind = spec.kind
+    record.content = spec.content()
+    record.tag_set = spec.tag_set
+    record.anchor_x, record.anchor_y = spec.anchor if spec.anchor else (None, None)
+    record.screen = spec.screen
+    record.slot = spec.slot
+    record.size_mm = spec.size_mm
+    record.priority = spec.priority
+    record.active = spec.active
+    record.expires_at = spec.expires_at
+
+
+def issue(db: Database, wall_id: str, spec: TagSpec, created_by: str) -> TagRecord:
+    """Register a new tag under a fresh random code (or, for a named tag, update it)."""
+    for _ in range(_ISSUE_ATTEMPTS):
+        try:
+            with db.session() as session:
+                return _issue(session, wall_id, spec, created_by)
+        except IntegrityError:
+            continue  # a code collision, or a concurrent declaration of the same name
+    raise RuntimeError(f"could not register tag {spec.name or spec.label!r} on {wall_id!r}")
+
+
+def _issue(session: Session, wall_id: str, spec: TagSpec, created_by: str) -> TagRecord:
+    record = None
+    if spec.name is not None:
+        record = session.scalar(
+            select(TagRecord).where(TagRecord.wall_id == wall_id, TagRecord.name == spec.name)
+        )
+    if record is None:
+        record = TagRecord(code=new_code(), wall_id=wall_id, created_by=created_by)
+        session.add(record)
+    _fill(record, spec)
+    session.flush()
+    return record
+
+
+async def show_tag_set(
+    hub: WallHub, wall: Wall, tag_set: str | None, base_url: str
+) -> Change | None:
+    """Put ``tag_set`` on the wall: place it, then switch every tile in sync."""
+    layout_id = await run_in_threadpool(layout_for, hub.db, wall, tag_set, base_url)
+
+    def switch(state: WallState) -> WallState:
+        return state.model_copy(update={"tag_set": tag_set, "tag_layout": layout_id})
+
+    return await hub.change_state(wall.id, switch)
+
+
+async def refresh_tags(hub: WallHub, wall: Wall, base_url: str) -> Change | None:
+    """Re-place the active set after its tags changed (nothing happens if none did)."""
+    _, state = await run_in_threadpool(read_state, hub.db, wall.id)
+    layout_id = await run_in_threadpool(layout_for, hub.db, wall, state.tag_set, base_url)
+
+    def replace(current: WallState) -> WallState:
+        if current.tag_set != state.tag_set:  # switched meanwhile: that switch placed it
+            return current
+        return current.model_copy(update={"tag_layout": layout_id})
+
+    return await hub.change_state(wall.id, replace)
+
+
+def declare(db: Database, wall_id: str, app: str, specs: Sequence[TagSpec]) -> None:
+    """Make ``app``'s named tags on the wall exactly ``specs``, in one transaction.
+
+    Codes of tags declared before never change; tags the app no longer declares are
+    switched off, not deleted, so their scan history stays.
+    """
+    if any(spec.name is None or spec.app != app for spec in specs):
+        raise ValueError(f"declared tags need a name and app {app!r}")
+    names = {spec.name for spec in specs}
+    for _ in range(_ISSUE_ATTEMPTS):
+        try:
+            with db.session() as session:
+                for spec in specs:
+                    _issue(session, wall_id, spec, created_by=f"app:{app}")
+                stale = session.scalars(
+                    select(TagRecord).where(
+                        TagRecord.wall_id == wall_id,
+                        TagRecord.app == app,
+                        TagRecord.name.is_not(None),
+                        TagRecord.active.is_(True),
+                    )
+                )
+                for record in stale:
+                    if record.name not in names:
+                        record.active = False
+            return
+        except IntegrityError:
+            continue
+    raise RuntimeError(f"could not declare the tags of {app!r} on {wall_id!r}")
+
+
+def find(db: Database, code: str) -> TagRecord | None:
+    with db.session() as session:
+        return session.get(TagRecord, code)
+
+
+def wall_tags(db: Database, wall_id: str) -> list[TagRecord]:
+    with db.session() as session:
+        return list(
+            session.scalars(
+                select(TagRecord)
+                .where(TagRecord.wall_id == wall_id)
+                .order_by(TagRecord.tag_set, TagRecord.created_at, TagRecord.code)
+            )
+        )
+
+
+def tag_sets(db: Database, wall_id: str) -> list[str]:
+    """The wall's named tag sets (tags without a set stand in every set)."""
+    with db.session() as session:
+        names = session.scalars(
+            select(TagRecord.tag_set)
+            .where(TagRecord.wall_id == wall_id, TagRecord.tag_set.is_not(None))
+            .distinct()
+        )
+        return sorted(name for name in names if name is not None)
+
+
+def is_live(tag: TagRecord, now: datetime | None = None) -> bool:
+    """Active and not expired: the one rule for whether a tag still works."""
+    now = now or datetime.now(UTC)
+    expires = tag.expires_at
+    if expires is not None and expires.tzinfo is None:
+        expires = expires.replace(tzinfo=UTC)  # SQLite returns naive datetimes
+    return tag.active and (expires is None or expires > now)
+
+
+def shown_in(tag: TagRecord, tag_set: str | None) -> bool:
+    """Whether ``tag`` belongs on the wall while ``tag_set`` is the active set."""
+    return tag.tag_set is None or tag.tag_set == tag_set
+
+
+def _tags_to_place(session: Session, wall_id: str, tag_set: str | None) -> list[TagRecord]:
+    rows = session.scalars(
+        select(TagRecord)
+        .where(
+            TagRecord.wall_id == wall_id,
+            or_(TagRecord.tag_set.is_(None), TagRecord.tag_set == tag_set),
+        )
+        .order_by(TagRecord.priority.desc(), TagRecord.created_at, TagRecord.code)
+    )
+    now = datetime.now(UTC)
+    return [tag for tag in rows if is_live(tag, now)]
+
+
+def layout_for(db: Database, wall: Wall, tag_set: str | None, base_url: str) -> int:
+    """The id of a layout placing ``tag_set`` as its tags stand now.
+
+    A layout's inputs (wall geometry, tags, payloads) are hashed and an existing
+    layout with the same inputs is reused, so restarts and switching back and forth
+    place nothing again.
+    """
+    with db.session() as session:
+        tags = _tags_to_place(session, wall.id, tag_set)
+        payloads = [payload_of(tag, base_url) for tag in tags]
+        digest = _inputs_hash(wall, tag_set, tags, payloads)
+        existing = session.scalar(
+            select(TagLayoutRecord.id)
+            .where(TagLayoutRecord.wall_id == wall.id, TagLayoutRecord.inputs_hash == digest)
+            .order_by(TagLayoutRecord.id.desc())
+            .limit(1)
+        )
+        if existing is not None:
+            return existing
+        placed, unplaced = compute_layout(wall, tags, payloads)
+        record = TagLayoutRecord(
+            wall_id=wall.id,
+            tag_set=tag_set,
+            inputs_hash=digest,
+            placed=placed,
+            unplaced=unplaced,
+        )
+        session.add(record)
+        session.flush()
+        recent = (
+            select(TagLayoutRecord.id)
+            .where(TagLayoutRecord.wall_id == wall.id)
+            .order_by(TagLayoutRecord.id.desc())
+            .limit(LAYOUTS_KEPT)
+            .scalar_subquery()
+        )
+        in_use = session.get(WallStateRecord, wall.id)
+        session.execute(
+            delete(TagLayoutRecord).where(
+                TagLayoutRecord.wall_id == wall.id,
+                TagLayoutRecord.id.not_in(recent),
+                TagLayoutRecord.id != (in_use.state.get("tag_layout", 0) if in_use else 0),
+            )
+        )
+        return record.id
+
+
+def compute_layout(
+    wall: Wall, tags: Sequence[TagRecord], payloads: Sequence[str]
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Place ``tags`` on ``wall``: what tiles draw, and what could not be placed and why."""
+    module_mm = min_module_mm(wall.scan_distance_m)
+    variants = {tag.code: symbol_variants(p) for tag, p in zip(tags, payloads, strict=True)}
+    requests = [
+        PlacementRequest(
+            key=tag.code,
+            sizes=tuple(modules_across(symbol) for symbol in variants[tag.code]),
+            module_mm=module_mm,
+            anchor=anchor_of(tag),
+            screen=tag.screen,
+            slot=tag.slot,
+            preferred_mm=tag.size_mm,
+        )
+        for tag in tags
+    ]
+    result = place(wall, requests)
+    by_code = {tag.code: tag for tag in tags}
+    payload_by_code = {tag.code: p for tag, p in zip(tags, payloads, strict=True)}
+    placed = [
+        PlacedCode(
+            code=p.key,
+            label=by_code[p.key].label,
+            kind=by_code[p.key].kind,
+            payload=payload_by_code[p.key],
+            display=p.display_id,
+            rect=p.rect.xywh,
+            pixels=p.pixels,
+            px_per_module=p.px_per_module,
+            modules=p.modules,
+            error=variants[p.key][p.variant].error or "M",
+            version=int(variants[p.key][p.variant].version),
+            matrix=matrix_rows(variants[p.key][p.variant]),
+            anchor=anchor_of(by_code[p.key]) or p.rect.center,
+            leader=p.leader,
+        ).model_dump(mode="json")
+        for p in result.placed
+    ]
+    unplaced = [
+        UnplacedCode(code=u.key, label=by_code[u.key].label, reason=u.reason).model_dump()
+        for u in result.unplaced
+    ]
+    return placed, unplaced
+
+
+def anchor_of(tag: TagRecord) -> tuple[float, float] | None:
+    if tag.anchor_x is None or tag.anchor_y is None:
+        return None
+    return (tag.anchor_x, tag.anchor_y)
+
+
+def _inputs_hash(
+    wall: Wall, tag_set: str | None, tags: Sequence[TagRecord], payloads: Sequence[str]
+) -> str:
+    geometry = [(d.id, d.rect.xywh, d.resolution, d.rotation) for d in wall.displays]
+    inputs = {
+        "wall": [wall.id, wall.bezel_mode, wall.scan_distance_m, geometry, wall.screens],
+        "set": tag_set,
+        "tags": [
+            [t.code, t.label, t.kind, anchor_of(t), t.screen, t.slot, t.size_mm, payload]
+            for t, payload in zip(tags, payloads, strict=True)
+        ],
+    }
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
+
+
+def get_layout(db: Database, wall_id: str, layout_id: int) -> TagLayoutRecord | None:
+    with db.session() as session:
+        record = session.get(TagLayoutRecord, layout_id)
+        return record if record is not None and record.wall_id == wall_id else None
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """What a scanned code turned out to be: its tag, and why it does not work if not."""
+
+    tag: TagRecord | None
+    problem: str | None = None
+
+
+def resolve_scan(
+    db: Database, code: str, visitor_id: str, client_address: str, user_agent: str
+) -> Resolution:
+    """Look ``code`` up and, when it works now, record the scan (one transaction)."""
+    with db.session() as session:
+        tag = session.get(TagRecord, code)
+        if tag is None:
+            return Resolution(None)
+        state = session.get(WallStateRecord, tag.wall_id)
+        active_set = state.state.get("tag_set") if state else None
+        if not is_live(tag):
+            return Resolution(tag, "This code has been switched off or has expired.")
+        if not shown_in(tag, active_set):
+            return Resolution(
+                tag,
+                f"This code belongs to the {tag.tag_set!r} codes, which are not on the wall now.",
+            )
+        session.add(
+            ScanRecord(
+                code=tag.code,
+                wall_id=tag.wall_id,
+                visitor_id=visitor_id,
+                client_address=client_address[:64],
+                user_agent=user_agent[:400],
+            )
+        )
+        return Resolution(tag)
+
+
+def scans_of(db: Database, code: str) -> list[ScanRecord]:
+    with db.session() as session:
+        return list(
+            session.scalars(
+                select(ScanRecord).where(ScanRecord.code == code).order_by(ScanRecord.id)
+            )
+        )
+
+
+def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:
+    """Apply an operator's change to a tag (fields not given stay as they are)."""
+    with db.session() as session:
+        tag = session.get(TagRecord, code)
+        if tag is None:
+            raise KeyError(code)
+        given = update.model_dump(exclude_unset=True)
+        if "label" in given and update.label is not None:
+            tag.label = update.label
+        if "active" in given and update.active is not None:
+            tag.active = update.active
+        if "expires_at" in given:
+            expires = update.expires_at
+            tag.expires_at = (
+                expires.replace(tzinfo=UTC) if expires and not expires.tzinfo else expires
+            )
+        return tag
