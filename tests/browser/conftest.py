@@ -64,11 +64,17 @@ def open_tiles(
     wall: str,
     tiles: list[str],
     skews_ms: list[int] | None = None,
+    native: bool = False,
 ) -> list[Page]:
-    """One page per tile, each in its own context (its own clock when skewed)."""
+    """One page per tile, each in its own context (its own clock when skewed).
+
+    Tiles are small windows unless ``native``: then 1920 x 1080 CSS pixels at a device
+    scale of 1, as a kiosk shows them, so screenshots carry codes pixel for pixel.
+    """
+    viewport = {"width": 1920, "height": 1080} if native else {"width": 480, "height": 270}
     pages = []
     for index, tile in enumerate(tiles):
-        context = browser.new_context(viewport={"width": 480, "height": 270})
+        context = browser.new_context(viewport=viewport, device_scale_factor=1)
         if skews_ms:
             context.add_init_script(
                 f"(() => {{ const now = Date.now.bind(Date); const skew = {skews_ms[index]};"

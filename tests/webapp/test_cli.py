@@ -115,3 +115,34 @@ def test_kiosk_unknown_node_exits_2(env: dict[str, str]) -> None:
         env, "kiosk", "--wall", "demo", "--node", "node99", "--dry-run", "--browser", "chromium"
     )
     assert code == 2 and "node99" in err
+
+
+def test_codes_size_prints_the_code_on_every_display(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "codes", "size", "--wall", "demo", "--distance", "1.0")
+    lines = out.splitlines()
+    assert code == 0
+    assert lines[0].startswith("wall demo, scanning distance 1 m: modules of at least 2.92 mm")
+    assert lines[1] == "QR version 2: 33 modules across, 4-module quiet zones included"
+    rows = [line.split() for line in lines[3:]]
+    assert [row[0] for row in rows] == ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
+    # 0.63 mm pixels: 2.92 mm needs 5 px per module, 33 x 5 = 165 px, 104 mm.
+    assert all(row[1:] == ["0.630", "5", "3.15", "165", "104.0"] for row in rows)
+
+
+def test_codes_size_flags_codes_that_do_not_fit(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "codes", "size", "--wall", "hiperwall", "--distance", "30")
+    assert code == 0 and out.count("(does not fit)") == 50
+
+
+def test_codes_size_defaults_to_the_walls_design_distance(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "codes", "size", "--wall", "hiperwall", "--qr-version", "3")
+    assert code == 0 and out.startswith("wall hiperwall, scanning distance 3 m")
+    assert "QR version 3: 37 modules across" in out
+
+
+@pytest.mark.parametrize(
+    "args", [("--distance", "0"), ("--distance", "far"), ("--qr-version", "41")]
+)
+def test_codes_size_rejects_bad_options(env: dict[str, str], args: tuple[str, str]) -> None:
+    code, _, err = run(env, "codes", "size", "--wall", "demo", *args)
+    assert code == 2 and "Invalid value" in err

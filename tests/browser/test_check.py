@@ -1,0 +1,67 @@
+"""``tagwall check`` against a running server and real tiles.
+
+Kept apart from the other browser tests: the check drives its own Playwright, which
+cannot share a thread with the module-scoped ``browser`` fixture.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+from wall_client.layout import load_wall
+from webapp.check import check_wall, fetch_layout
+from webapp.security import operator_token
+from webapp.settings import CONTENT_DIR
+from webapp.testing import ServerProcess
+from webapp.urls import tile_path
+
+
+def run_check(server: ServerProcess, *args: str) -> subprocess.CompletedProcess[str]:
+    tagwall = Path(sys.executable).with_name("tagwall")
+    return subprocess.run(
+        [str(tagwall), "check", "--wall", "demo", "--server", server.url, *args],
+        env=server.env(),
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
+
+
+def test_check_decodes_every_code_the_demo_tiles_show(server: ServerProcess) -> None:
+    result = run_check(server)
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    count = len(layout.placed)
+    assert count >= 6
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert result.stdout.splitlines()[0] == f"decoded {count}/{count} codes"
+    assert "smallest pixels per module: " in result.stdout
+
+
+def test_check_reports_a_tile_that_shows_the_wrong_code(server: ServerProcess) -> None:
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    version, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    wrong = layout.placed[0]
+    expected = wrong.model_copy(update={"payload": wrong.payload + "X"})
+    tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
+    urls = {d.id: server.url + tile_path(server.secret, "demo", d.id) for d in wall.displays}
+    chromium = shutil.which("chromium")
+    assert chromium is not None
+
+    report = check_wall(wall, urls, version, tampered, chromium)
+
+    assert not report.ok
+    assert report.decoded == len(layout.placed) - 1
+    lines = report.lines()
+    assert lines[0] == f"decoded {report.decoded}/{len(layout.placed)} codes"
+    assert f"  FAIL tile {wrong.display}: a code decodes to {wrong.payload!r}" in "\n".join(lines)
+    assert f"  FAIL tile {wrong.display}: {wrong.code} ({wrong.label}) did not decode" in lines
+
+
+def test_check_exits_2_when_the_server_is_unreachable(server: ServerProcess) -> None:
+    server.stop()
+    result = run_check(server)
+    assert result.returncode == 2
+    assert result.stderr.startswith("error: ")

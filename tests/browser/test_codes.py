@@ -1,0 +1,104 @@
+"""Codes as people meet them: photographed off real tiles, decoded, scanned by a phone."""
+
+from __future__ import annotations
+
+import io
+
+import httpx
+from PIL import Image
+from playwright.sync_api import Browser, Page, expect
+
+from tag_service.verify import decode_image
+from tests.browser.conftest import open_tiles, version_of
+from wall_client.layout import load_wall
+from webapp.check import fetch_layout
+from webapp.schemas import LayoutInfo
+from webapp.security import operator_token
+from webapp.settings import CONTENT_DIR
+from webapp.testing import ServerProcess, wait_until
+
+DEMO_TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
+PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
+
+
+def shown_payloads(page: Page) -> set[str]:
+    """Every code the tile shows, decoded from a screenshot of it."""
+    image = Image.open(io.BytesIO(page.screenshot(type="png")))
+    return {decoded.payload for decoded in decode_image(image)}
+
+
+def placed_payloads(layout: LayoutInfo, display: str) -> set[str]:
+    return {code.payload for code in layout.placed if code.display == display}
+
+
+def current_layout(server: ServerProcess) -> tuple[int, LayoutInfo]:
+    return fetch_layout(server.url, "demo", operator_token(server.secret))
+
+
+def test_every_tile_shows_exactly_its_placed_codes_and_a_phone_can_follow_them(
+    browser: Browser, server: ServerProcess
+) -> None:
+    pages = open_tiles(browser, server, "demo", DEMO_TILES, native=True)
+    version, layout = current_layout(server)
+    wait_until(lambda: all(version_of(p) == version for p in pages), what="tiles to show the codes")
+    assert layout.tag_set == "setup" and not layout.unplaced
+
+    shown = {tile: shown_payloads(page) for tile, page in zip(DEMO_TILES, pages, strict=True)}
+    for tile in DEMO_TILES:
+        assert shown[tile] == placed_payloads(layout, tile), tile
+    assert shown["r1c2"] == set() and shown["r1c3"] == set(), "panels stay free of codes"
+    assert len(shown["r2c1"]) == 2, "the two registration codes"
+
+    phone = browser.new_context(**PHONE).new_page()
+    [display_code] = shown["r2c2"] - {c.payload for c in layout.placed if c.leader}
+    phone.goto(display_code)
+    expect(phone.locator("h1")).to_have_text("Display r2c2")
+    expect(phone.locator("dl.facts")).to_contain_text("r2c2")
+    assert phone.evaluate("document.documentElement.scrollWidth") <= 390, "fits the phone"
+
+    student = next(c for c in layout.placed if c.display == "r2c1" and "tudent" in c.label)
+    assert student.payload in shown["r2c1"]
+    phone.goto(student.payload)
+    expect(phone.locator("body")).to_contain_text("student")
+    phone.context.close()
+    for page in pages:
+        page.context.close()
+
+
+def test_switching_the_tag_set_changes_the_codes_on_every_tile_at_once(
+    browser: Browser, server: ServerProcess
+) -> None:
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    with httpx.Client(base_url=server.url, headers=server.operator()) as client:
+        for tile in ["r1c1", "r2c2", "r2c3"]:
+            spec = {
+                "app": "pattern",
+                "action": "locate",
+                "label": f"Quiz {tile}",
+                "tag_set": "quiz",
+                "anchor": list(wall.display(tile).rect.center),
+            }
+            assert client.post("/api/walls/demo/tags", json=spec).status_code == 201
+        pages = open_tiles(browser, server, "demo", DEMO_TILES, native=True)
+        before_version, before = current_layout(server)
+        wait_until(
+            lambda: all(version_of(p) == before_version for p in pages), what="tiles to start"
+        )
+
+        response = client.put("/api/walls/demo/tag-set", json={"name": "quiz"})
+        assert response.status_code == 200, response.text
+
+    version, after = current_layout(server)
+    assert version > before_version and after.tag_set == "quiz"
+    wait_until(lambda: all(version_of(p) == version for p in pages), what="tiles to switch sets")
+    applied = [t["applied_at"] for t in server.status("demo")["tiles"] if t["version"] == version]
+    assert len(applied) == len(DEMO_TILES) and max(applied) - min(applied) < 20.0, applied
+
+    quiz = {code.payload for code in after.placed if code.label.startswith("Quiz")}
+    assert len(quiz) == 3
+    setup = {code.payload for code in before.placed if code.label.startswith("Display")}
+    everything = set().union(*(shown_payloads(page) for page in pages))
+    assert quiz <= everything and not (setup & everything)
+    for tile, page in zip(DEMO_TILES, pages, strict=True):
+        assert shown_payloads(page) == placed_payloads(after, tile), tile
+        page.context.close()

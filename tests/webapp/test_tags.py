@@ -1,0 +1,184 @@
+"""The tag registry: issuing, declaring, layouts and scan resolution, on both backends."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from datetime import UTC, datetime, timedelta
+
+import pytest
+from pydantic import ValidationError
+
+from tag_service.codes import ALPHABET
+from wall_client.layout import Wall, load_wall
+from webapp.db import Database
+from webapp.migrate import upgrade
+from webapp.models import TagLayoutRecord
+from webapp.schemas import TagUpdate
+from webapp.settings import CONTENT_DIR
+from webapp.tags import (
+    LAYOUTS_KEPT,
+    TagSpec,
+    declare,
+    find,
+    get_layout,
+    issue,
+    layout_for,
+    payload_of,
+    resolve_scan,
+    scans_of,
+    tag_sets,
+    update_tag,
+    wall_tags,
+)
+
+BASE = "http://192.168.1.20:8000"
+
+
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    upgrade(database_url)
+    database = Database(database_url)
+    yield database
+    database.dispose()
+
+
+@pytest.fixture(scope="module")
+def demo() -> Wall:
+    return load_wall(CONTENT_DIR / "walls" / "demo.toml")
+
+
+def spec(**fields: object) -> TagSpec:
+    base: dict[str, object] = {"app": "quiz", "action": "ask", "anchor": (300.0, 300.0)}
+    return TagSpec.model_validate({**base, **fields})
+
+
+def test_issued_codes_are_random_short_and_upper_case(db: Database) -> None:
+    codes = [issue(db, "demo", spec(label=f"T{i}"), "test").code for i in range(50)]
+    assert len(set(codes)) == 50
+    assert all(len(code) == 7 and set(code) <= set(ALPHABET) for code in codes)
+    assert codes != sorted(codes), "not sequential"
+    tag = find(db, codes[0])
+    assert tag is not None and payload_of(tag, BASE) == f"HTTP://192.168.1.20:8000/T/{codes[0]}"
+
+
+def test_direct_payloads_are_encoded_as_given(db: Database) -> None:
+    text = issue(db, "demo", spec(kind="text", text="Room 101"), "test")
+    tel = issue(db, "demo", spec(kind="tel", number="+1 949 824 5011"), "test")
+    assert payload_of(text, BASE) == "Room 101"
+    assert payload_of(tel, BASE) == "tel:+19498245011"
+
+
+@pytest.mark.parametrize(
+    ("fields", "message"),
+    [
+        ({"anchor": None}, "either an anchor"),
+        ({"screen": "menu"}, "either an anchor"),
+        ({"kind": "tel", "number": "call me"}, "phone number"),
+        ({"kind": "text", "text": "Grüße"}, "ASCII"),
+        ({"tag_set": "no spaces"}, "String should match pattern"),
+        ({"colour": "red"}, "Extra inputs are not permitted"),
+    ],
+)
+def test_malformed_specs_are_refused(fields: dict[str, object], message: str) -> None:
+    with pytest.raises(ValidationError, match=message):
+        spec(**fields)
+
+
+def test_declaring_keeps_codes_and_switches_off_what_is_gone(db: Database) -> None:
+    first = [spec(name="a", label="A"), spec(name="b", label="B")]
+    declare(db, "demo", "quiz", first)
+    codes = {t.name: t.code for t in wall_tags(db, "demo")}
+
+    declare(db, "demo", "quiz", [spec(name="a", label="A again")])
+
+    tags = {t.name: t for t in wall_tags(db, "demo")}
+    assert {name: t.code for name, t in tags.items()} == codes, "codes never change"
+    assert tags["a"].label == "A again" and tags["a"].active
+    assert not tags["b"].active, "switched off, history kept"
+    with pytest.raises(ValueError, match="need a name and app 'quiz'"):
+        declare(db, "demo", "quiz", [spec(label="nameless")])
+
+
+def test_tag_sets_are_the_named_sets(db: Database) -> None:
+    issue(db, "demo", spec(tag_set="k5"), "test")
+    issue(db, "demo", spec(tag_set="medical"), "test")
+    issue(db, "demo", spec(), "test")
+    issue(db, "other", spec(tag_set="elsewhere"), "test")
+    assert tag_sets(db, "demo") == ["k5", "medical"]
+
+
+def test_layouts_place_the_set_and_the_tags_of_every_set(db: Database, demo: Wall) -> None:
+    always = issue(db, "demo", spec(screen="registration", anchor=None), "test")
+    k5 = issue(db, "demo", spec(tag_set="k5"), "test")
+    medical = issue(db, "demo", spec(tag_set="medical"), "test")
+
+    layout = get_layout(db, "demo", layout_for(db, demo, "k5", BASE))
+
+    assert layout is not None
+    assert {p["code"] for p in layout.placed} == {always.code, k5.code}
+    placed = next(p for p in layout.placed if p["code"] == k5.code)
+    assert placed["payload"] == payload_of(k5, BASE)
+    assert len(placed["matrix"]) == placed["modules"] - 8, "the symbol without quiet zone"
+    assert medical.code not in {p["code"] for p in layout.placed}
+    assert get_layout(db, "other-wall", layout.id) is None
+
+
+def test_an_unchanged_set_reuses_its_layout_and_a_change_makes_a_new_one(
+    db: Database, demo: Wall
+) -> None:
+    tag = issue(db, "demo", spec(tag_set="k5"), "test")
+    first = layout_for(db, demo, "k5", BASE)
+    assert layout_for(db, demo, "k5", BASE) == first
+    update_tag(db, tag.code, TagUpdate(label="renamed"))
+    second = layout_for(db, demo, "k5", BASE)
+    assert second != first
+    update_tag(db, tag.code, TagUpdate(active=False))
+    third = get_layout(db, "demo", layout_for(db, demo, "k5", BASE))
+    assert third is not None and third.placed == []
+
+
+def test_old_layouts_are_pruned(db: Database, demo: Wall) -> None:
+    tag = issue(db, "demo", spec(tag_set="k5"), "test")
+    for index in range(LAYOUTS_KEPT + 5):
+        update_tag(db, tag.code, TagUpdate(label=f"v{index}"))
+        layout_for(db, demo, "k5", BASE)
+    with db.session() as session:
+        assert session.query(TagLayoutRecord).count() == LAYOUTS_KEPT
+
+
+def test_unplaceable_tags_are_kept_with_the_reason(db: Database, demo: Wall) -> None:
+    issue(db, "demo", spec(label="huge", size_mm=2000.0), "test")
+    layout = get_layout(db, "demo", layout_for(db, demo, None, BASE))
+    assert layout is not None and layout.placed == []
+    [problem] = layout.unplaced
+    assert problem["label"] == "huge" and problem["reason"].startswith("display too small")
+
+
+def test_resolving_records_each_scan_of_a_live_code(db: Database) -> None:
+    tag = issue(db, "demo", spec(), "test")
+    resolution = resolve_scan(db, tag.code, "visitor-1", "10.0.0.7", "Phone/1.0 " + "x" * 500)
+    assert resolution.problem is None and resolution.tag is not None
+    [scan] = scans_of(db, tag.code)
+    assert (scan.visitor_id, scan.client_address, scan.wall_id) == ("visitor-1", "10.0.0.7", "demo")
+    assert scan.user_agent.startswith("Phone/1.0") and len(scan.user_agent) == 400
+    assert scan.scanned_at is not None
+
+
+def test_resolving_refuses_unknown_off_expired_and_hidden_codes(db: Database) -> None:
+    assert resolve_scan(db, "NOSUCH1", "v", "a", "ua").tag is None
+    off = issue(db, "demo", spec(active=False), "test")
+    past = datetime.now(UTC) - timedelta(minutes=1)
+    expired = issue(db, "demo", spec(expires_at=past), "test")
+    hidden = issue(db, "demo", spec(tag_set="k5"), "test")
+    for tag in (off, expired):
+        assert resolve_scan(db, tag.code, "v", "a", "ua").problem == (
+            "This code has been switched off or has expired."
+        )
+    problem = resolve_scan(db, hidden.code, "v", "a", "ua").problem
+    assert problem is not None and "'k5' codes, which are not on the wall now" in problem
+    assert all(scans_of(db, t.code) == [] for t in (off, expired, hidden)), "nothing recorded"
+
+
+def test_updating_an_unknown_tag_raises_key_error(db: Database) -> None:
+    with pytest.raises(KeyError):
+        update_tag(db, "NOSUCH1", TagUpdate(label="x"))
