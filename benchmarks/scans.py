@@ -7,6 +7,10 @@ for ``SECONDS`` each; the client is raw asyncio (no HTTP library) so it costs th
 CPUs as little as possible. A resolution looks the code up, checks it, records the scan
 in the database and renders the app's phone page, so the ratio is what the whole
 path costs against the framework's floor.
+
+Target: one server process resolves at least ``TARGET_PER_SECOND`` scans a second, so a
+lecture hall of 200 phones scanning the same code at the same moment all get their
+page within a second.
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ from webapp.testing import ServerProcess
 
 CONNECTIONS = 16
 SECONDS = 5.0
-TARGET_RATIO = 0.5
+TARGET_PER_SECOND = 200
 
 
 def app_with_hello() -> FastAPI:
@@ -134,8 +138,8 @@ def run() -> dict[str, Any]:
         "hello": hello,
         "resolve": resolve,
         "ratio": round(ratio, 3),
-        "target_ratio": TARGET_RATIO,
-        "meets_target": ratio >= TARGET_RATIO,
+        "target_per_second": TARGET_PER_SECOND,
+        "meets_target": resolve["per_second"] >= TARGET_PER_SECOND,
     }
 
 
@@ -143,6 +147,6 @@ def summary(result: dict[str, Any]) -> str:
     return (
         f"   hello {result['hello']['per_second']:.0f}/s, "
         f"resolve {result['resolve']['per_second']:.0f}/s "
-        f"(failed {result['resolve']['failed']}): ratio {result['ratio']:.2f} "
-        f"(target >= {result['target_ratio']})"
+        f"(failed {result['resolve']['failed']}, target >= {result['target_per_second']}/s); "
+        f"ratio {result['ratio']:.2f}"
     )

@@ -14,7 +14,7 @@ from webapp.apps import Scan
 from webapp.deps import ServicesDep
 from webapp.routes.pages import render
 from webapp.tags import find, payload_of, resolve_scan
-from webapp.visitors import visitor_of
+from webapp.visitors import Visitor, visitor_of
 
 router = APIRouter(include_in_schema=False)
 
@@ -56,17 +56,17 @@ async def resolve(code: str, request: Request, services: ServicesDep) -> Respons
         )
         response.headers["Retry-After"] = str(int(wait) + 1)
     else:
-        response = await _resolve(request, services, normalized, visitor.id, address)
+        response = await _resolve(request, services, normalized, visitor, address)
     visitor.remember(request, response, services.secret)
     return response
 
 
 async def _resolve(
-    request: Request, services: ServicesDep, code: str, visitor_id: str, address: str
+    request: Request, services: ServicesDep, code: str, visitor: Visitor, address: str
 ) -> Response:
     user_agent = request.headers.get("user-agent", "")[:MAX_USER_AGENT]
     resolution = await run_in_threadpool(
-        resolve_scan, services.db, code, visitor_id, address, user_agent
+        resolve_scan, services.db, code, visitor.id, address, user_agent
     )
     tag = resolution.tag
     if tag is None:
@@ -76,7 +76,6 @@ async def _resolve(
     if resolution.problem or wall is None or app is None:
         detail = resolution.problem or "This code belongs to a wall or app not running here."
         return problem_page(request, 410, "This code is no longer in use", detail, tag.wall_id)
-    visitor = visitor_of(request, services.secret)
     return await app.on_scan(Scan(request, services, wall, tag, visitor))
 
 

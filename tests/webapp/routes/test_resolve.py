@@ -3,11 +3,16 @@
 from datetime import UTC, datetime, timedelta
 
 import pytest
+from fastapi import Response
+from fastapi.responses import PlainTextResponse
 from fastapi.testclient import TestClient
+from itsdangerous import URLSafeSerializer
 
 from tests.conftest import operator_headers
+from wall_client.layout import Wall
+from webapp.apps import Scan
 from webapp.services import Services
-from webapp.tags import scans_of, wall_tags
+from webapp.tags import TagSpec, issue, scans_of, wall_tags
 from webapp.visitors import VISITOR_COOKIE
 
 PHONE = {"User-Agent": "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X)"}
@@ -42,6 +47,31 @@ def test_the_same_phone_is_the_same_visitor(client: TestClient) -> None:
     client.get(f"/T/{code.lower()}")  # what a phone opens from the upper-case payload
     first, second = scans_of(services(client).db, code)
     assert first.visitor_id == second.visitor_id
+
+
+class ProbeApp:
+    """An app that answers with the visitor id it was handed."""
+
+    name = "probe"
+    default_tag_set = None
+
+    def declare_tags(self, wall: Wall) -> list[TagSpec]:
+        return []
+
+    async def on_scan(self, scan: Scan) -> Response:
+        return PlainTextResponse(scan.visitor.id)
+
+
+def test_the_app_the_scan_and_the_cookie_agree_on_a_new_visitor(client: TestClient) -> None:
+    services(client).apps["probe"] = ProbeApp()
+    spec = TagSpec(app="probe", action="probe", anchor=(100.0, 100.0))
+    tag = issue(services(client).db, "demo", spec, "test")
+    response = client.get(f"/t/{tag.code}")
+    assert response.status_code == 200
+    serializer = URLSafeSerializer(services(client).secret, salt="tagwall.visitor")
+    cookie_id = serializer.loads(response.cookies[VISITOR_COOKIE])
+    (scan,) = scans_of(services(client).db, tag.code)
+    assert response.text == scan.visitor_id == cookie_id
 
 
 def test_a_forged_visitor_cookie_is_replaced(client: TestClient) -> None:
