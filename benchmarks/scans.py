@@ -8,9 +8,9 @@ CPUs as little as possible. A resolution looks the code up, checks it, records t
 in the database and renders the app's phone page, so the ratio is what the whole
 path costs against the framework's floor.
 
-Target: one server process resolves at least ``TARGET_PER_SECOND`` scans a second, so a
-lecture hall of 200 phones scanning the same code at the same moment all get their
-page within a second.
+The aim is a ratio of at least ``TARGET_RATIO``: the scan path should cost little more
+than the framework itself (the code cache and batched scan writes of
+:mod:`webapp.scanning` are what bring it there).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from webapp.testing import ServerProcess
 
 CONNECTIONS = 16
 SECONDS = 5.0
-TARGET_PER_SECOND = 200
+TARGET_RATIO = 0.5
 
 
 def app_with_hello() -> FastAPI:
@@ -138,8 +138,8 @@ def run() -> dict[str, Any]:
         "hello": hello,
         "resolve": resolve,
         "ratio": round(ratio, 3),
-        "target_per_second": TARGET_PER_SECOND,
-        "meets_target": resolve["per_second"] >= TARGET_PER_SECOND,
+        "target_ratio": TARGET_RATIO,
+        "meets_target": ratio >= TARGET_RATIO,
     }
 
 
@@ -147,6 +147,6 @@ def summary(result: dict[str, Any]) -> str:
     return (
         f"   hello {result['hello']['per_second']:.0f}/s, "
         f"resolve {result['resolve']['per_second']:.0f}/s "
-        f"(failed {result['resolve']['failed']}, target >= {result['target_per_second']}/s); "
-        f"ratio {result['ratio']:.2f}"
+        f"(failed {result['resolve']['failed']}): ratio {result['ratio']:.2f} "
+        f"(aim >= {result['target_ratio']})"
     )

@@ -9,6 +9,7 @@ from webapp.apps import WallApp
 from webapp.db import Database
 from webapp.hub import WallHub
 from webapp.ratelimit import RateLimiter
+from webapp.scanning import CodeDirectory, ScanLog
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 from webapp.urls import tile_url
@@ -22,8 +23,12 @@ class Services:
     walls: dict[str, Wall]
     apps: dict[str, WallApp]
     scan_limits: tuple[RateLimiter, RateLimiter] = field(init=False)
+    codes: CodeDirectory = field(init=False)
+    scan_log: ScanLog = field(init=False)
 
     def __post_init__(self) -> None:
+        self.codes = CodeDirectory(self.db)
+        self.scan_log = ScanLog(self.db)
         self.scan_limits = (
             RateLimiter(self.settings.scan_rate_per_minute),
             RateLimiter(self.settings.scan_rate_per_address_per_minute),

@@ -11,7 +11,6 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal
 
@@ -38,7 +37,7 @@ from tag_service.sizing import min_module_mm
 from wall_client.layout import Wall
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.models import ScanRecord, TagLayoutRecord, TagRecord, WallStateRecord
+from webapp.models import TagLayoutRecord, TagRecord, WallStateRecord
 from webapp.schemas import PlacedCode, TagUpdate, UnplacedCode
 from webapp.wall_state import Change, WallState, read_state
 
@@ -391,52 +390,6 @@ def get_layout(db: Database, wall_id: str, layout_id: int) -> TagLayoutRecord | 
     with db.session() as session:
         record = session.get(TagLayoutRecord, layout_id)
         return record if record is not None and record.wall_id == wall_id else None
-
-
-@dataclass(frozen=True)
-class Resolution:
-    """What a scanned code turned out to be: its tag, and why it does not work if not."""
-
-    tag: TagRecord | None
-    problem: str | None = None
-
-
-def resolve_scan(
-    db: Database, code: str, visitor_id: str, client_address: str, user_agent: str
-) -> Resolution:
-    """Look ``code`` up and, when it works now, record the scan (one transaction)."""
-    with db.session() as session:
-        tag = session.get(TagRecord, code)
-        if tag is None:
-            return Resolution(None)
-        state = session.get(WallStateRecord, tag.wall_id)
-        active_set = state.state.get("tag_set") if state else None
-        if not is_live(tag):
-            return Resolution(tag, "This code has been switched off or has expired.")
-        if not shown_in(tag, active_set):
-            return Resolution(
-                tag,
-                f"This code belongs to the {tag.tag_set!r} codes, which are not on the wall now.",
-            )
-        session.add(
-            ScanRecord(
-                code=tag.code,
-                wall_id=tag.wall_id,
-                visitor_id=visitor_id,
-                client_address=client_address[:64],
-                user_agent=user_agent[:400],
-            )
-        )
-        return Resolution(tag)
-
-
-def scans_of(db: Database, code: str) -> list[ScanRecord]:
-    with db.session() as session:
-        return list(
-            session.scalars(
-                select(ScanRecord).where(ScanRecord.code == code).order_by(ScanRecord.id)
-            )
-        )
 
 
 def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:

@@ -1,9 +1,8 @@
-"""The tag registry: issuing, declaring, layouts and scan resolution, on both backends."""
+"""The tag registry: issuing, declaring and layouts, on both backends."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from datetime import UTC, datetime, timedelta
 
 import pytest
 from pydantic import ValidationError
@@ -24,8 +23,6 @@ from webapp.tags import (
     issue,
     layout_for,
     payload_of,
-    resolve_scan,
-    scans_of,
     tag_sets,
     update_tag,
     wall_tags,
@@ -152,31 +149,6 @@ def test_unplaceable_tags_are_kept_with_the_reason(db: Database, demo: Wall) -> 
     assert layout is not None and layout.placed == []
     [problem] = layout.unplaced
     assert problem["label"] == "huge" and problem["reason"].startswith("display too small")
-
-
-def test_resolving_records_each_scan_of_a_live_code(db: Database) -> None:
-    tag = issue(db, "demo", spec(), "test")
-    resolution = resolve_scan(db, tag.code, "visitor-1", "10.0.0.7", "Phone/1.0 " + "x" * 500)
-    assert resolution.problem is None and resolution.tag is not None
-    [scan] = scans_of(db, tag.code)
-    assert (scan.visitor_id, scan.client_address, scan.wall_id) == ("visitor-1", "10.0.0.7", "demo")
-    assert scan.user_agent.startswith("Phone/1.0") and len(scan.user_agent) == 400
-    assert scan.scanned_at is not None
-
-
-def test_resolving_refuses_unknown_off_expired_and_hidden_codes(db: Database) -> None:
-    assert resolve_scan(db, "NOSUCH1", "v", "a", "ua").tag is None
-    off = issue(db, "demo", spec(active=False), "test")
-    past = datetime.now(UTC) - timedelta(minutes=1)
-    expired = issue(db, "demo", spec(expires_at=past), "test")
-    hidden = issue(db, "demo", spec(tag_set="k5"), "test")
-    for tag in (off, expired):
-        assert resolve_scan(db, tag.code, "v", "a", "ua").problem == (
-            "This code has been switched off or has expired."
-        )
-    problem = resolve_scan(db, hidden.code, "v", "a", "ua").problem
-    assert problem is not None and "'k5' codes, which are not on the wall now" in problem
-    assert all(scans_of(db, t.code) == [] for t in (off, expired, hidden)), "nothing recorded"
 
 
 def test_updating_an_unknown_tag_raises_key_error(db: Database) -> None:

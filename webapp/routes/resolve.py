@@ -13,13 +13,12 @@ from tag_service.codes import content_hash, make_symbol, normalize_code, render_
 from webapp.apps import Scan
 from webapp.deps import ServicesDep
 from webapp.routes.pages import render
-from webapp.tags import find, payload_of, resolve_scan
+from webapp.tags import find, payload_of
 from webapp.visitors import Visitor, visitor_of
 
 router = APIRouter(include_in_schema=False)
 
 IMMUTABLE = "public, max-age=31536000, immutable"
-MAX_USER_AGENT = 400
 
 
 def problem_page(
@@ -64,10 +63,7 @@ async def resolve(code: str, request: Request, services: ServicesDep) -> Respons
 async def _resolve(
     request: Request, services: ServicesDep, code: str, visitor: Visitor, address: str
 ) -> Response:
-    user_agent = request.headers.get("user-agent", "")[:MAX_USER_AGENT]
-    resolution = await run_in_threadpool(
-        resolve_scan, services.db, code, visitor.id, address, user_agent
-    )
+    resolution = await services.codes.resolve(code)
     tag = resolution.tag
     if tag is None:
         return problem_page(request, 404, "Unknown code", "This is not one of this wall's codes.")
@@ -76,6 +72,7 @@ async def _resolve(
     if resolution.problem or wall is None or app is None:
         detail = resolution.problem or "This code belongs to a wall or app not running here."
         return problem_page(request, 410, "This code is no longer in use", detail, tag.wall_id)
+    services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
     return await app.on_scan(Scan(request, services, wall, tag, visitor))
 
 

@@ -74,6 +74,7 @@ async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagI
     except PayloadError as error:  # pragma: no cover - TagSpec validation catches these first
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
     await refresh_tags(services.hub, wall, services.base_url)
+    services.codes.forget()
     return tag_info(tag, services)
 
 
@@ -98,6 +99,7 @@ async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> Tag
     wall = services.walls.get(tag.wall_id)
     if wall is not None:
         await refresh_tags(services.hub, wall, services.base_url)
+    services.codes.forget()
     return tag_info(tag, services)
 
 
@@ -127,6 +129,7 @@ async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: Services
             f"Wall {wall.id!r} has no tag set {choice.name!r} (sets: {known}).",
         )
     await show_tag_set(services.hub, wall, choice.name, services.base_url)
+    services.codes.forget()
     return await list_tag_sets(wall, services)
 
 

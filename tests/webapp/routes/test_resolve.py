@@ -11,8 +11,10 @@ from itsdangerous import URLSafeSerializer
 from tests.conftest import operator_headers
 from wall_client.layout import Wall
 from webapp.apps import Scan
+from webapp.models import ScanRecord
+from webapp.scanning import scans_of
 from webapp.services import Services
-from webapp.tags import TagSpec, issue, scans_of, wall_tags
+from webapp.tags import TagSpec, issue, wall_tags
 from webapp.visitors import VISITOR_COOKIE
 
 PHONE = {"User-Agent": "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X)"}
@@ -20,6 +22,12 @@ PHONE = {"User-Agent": "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X)"}
 
 def services(client: TestClient) -> Services:
     return client.app.state.services  # type: ignore[attr-defined,no-any-return]
+
+
+def recorded(client: TestClient, code: str) -> list[ScanRecord]:
+    """The scans of ``code`` once the app's queue is written (it flushes every 0.1 s)."""
+    services(client).scan_log.flush()
+    return scans_of(services(client).db, code)
 
 
 def code_named(client: TestClient, wall: str, name: str) -> str:
@@ -34,7 +42,7 @@ def test_student_registration_code_resolves_and_records_the_scan(client: TestCli
     assert VISITOR_COOKIE in response.cookies
     cookie = response.headers["set-cookie"].lower()
     assert "httponly" in cookie and "samesite=lax" in cookie
-    (scan,) = scans_of(services(client).db, code)
+    (scan,) = recorded(client, code)
     assert scan.wall_id == "demo"
     assert scan.user_agent == PHONE["User-Agent"]
     assert scan.client_address == "testclient"
@@ -45,7 +53,7 @@ def test_the_same_phone_is_the_same_visitor(client: TestClient) -> None:
     code = code_named(client, "demo", "register-student")
     client.get(f"/t/{code}")
     client.get(f"/T/{code.lower()}")  # what a phone opens from the upper-case payload
-    first, second = scans_of(services(client).db, code)
+    first, second = recorded(client, code)
     assert first.visitor_id == second.visitor_id
 
 
@@ -70,7 +78,7 @@ def test_the_app_the_scan_and_the_cookie_agree_on_a_new_visitor(client: TestClie
     assert response.status_code == 200
     serializer = URLSafeSerializer(services(client).secret, salt="tagwall.visitor")
     cookie_id = serializer.loads(response.cookies[VISITOR_COOKIE])
-    (scan,) = scans_of(services(client).db, tag.code)
+    (scan,) = recorded(client, tag.code)
     assert response.text == scan.visitor_id == cookie_id
 
 
@@ -79,7 +87,7 @@ def test_a_forged_visitor_cookie_is_replaced(client: TestClient) -> None:
     client.cookies.set(VISITOR_COOKIE, "someone-else")
     response = client.get(f"/t/{code}")
     assert response.status_code == 200
-    (scan,) = scans_of(services(client).db, code)
+    (scan,) = recorded(client, code)
     assert scan.visitor_id != "someone-else"
 
 
@@ -101,7 +109,7 @@ def test_a_switched_off_code_is_410_with_a_link_to_the_wall(client: TestClient) 
     response = client.get(f"/t/{code}")
     assert response.status_code == 410
     assert 'href="/wall/demo"' in response.text
-    assert scans_of(services(client).db, code) == []
+    assert recorded(client, code) == []
 
 
 def test_an_expired_code_is_410(client: TestClient) -> None:
@@ -146,7 +154,7 @@ def test_scans_are_rate_limited_per_visitor(client: TestClient) -> None:
     assert response.status_code == 429
     assert int(response.headers["Retry-After"]) >= 1
     assert "Try again" in response.text
-    assert len(scans_of(services(client).db, code)) == limit
+    assert len(recorded(client, code)) == limit
     client.cookies.clear()  # another phone is not held back
     assert client.get(f"/t/{code}").status_code == 200
 
