@@ -18,8 +18,10 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
 from webapp.app import create_app
+from webapp.db import Database
 from webapp.migrate import upgrade
 from webapp.settings import CONTENT_DIR, Settings
+from webapp.tags import TagSpec
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
@@ -56,6 +58,21 @@ def database_url(tmp_path: Path) -> Iterator[str]:
         with admin.connect() as connection:
             connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
         admin.dispose()
+
+
+@pytest.fixture
+def db(database_url: str) -> Iterator[Database]:
+    """A migrated database of its own, for tests below the HTTP layer."""
+    upgrade(database_url)
+    database = Database(database_url)
+    yield database
+    database.dispose()
+
+
+def tag_spec(**fields: object) -> TagSpec:
+    """An anchored tag of a made-up quiz app, with ``fields`` changed."""
+    base: dict[str, object] = {"app": "quiz", "action": "ask", "anchor": (300.0, 300.0)}
+    return TagSpec.model_validate({**base, **fields})
 
 
 @pytest.fixture

@@ -2,31 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from datetime import UTC, datetime, timedelta
 
 import pytest
 from sqlalchemy import update
 from sqlalchemy.exc import DBAPIError
 
+from tests.conftest import tag_spec
 from webapp.db import Database
 from webapp.migrate import upgrade
 from webapp.models import TagRecord, WallStateRecord
 from webapp.scanning import CodeDirectory, ScanLog, scans_of
-from webapp.tags import TagSpec, issue
-
-
-@pytest.fixture
-def db(database_url: str) -> Iterator[Database]:
-    upgrade(database_url)
-    database = Database(database_url)
-    yield database
-    database.dispose()
-
-
-def spec(**fields: object) -> TagSpec:
-    base: dict[str, object] = {"app": "quiz", "action": "ask", "anchor": (300.0, 300.0)}
-    return TagSpec.model_validate({**base, **fields})
+from webapp.tags import issue
 
 
 def switch_off(db: Database, code: str) -> None:
@@ -36,10 +23,12 @@ def switch_off(db: Database, code: str) -> None:
 
 async def test_live_codes_resolve_and_the_rest_say_why(db: Database) -> None:
     codes = CodeDirectory(db)
-    live = issue(db, "demo", spec(), "test")
-    off = issue(db, "demo", spec(active=False), "test")
-    expired = issue(db, "demo", spec(expires_at=datetime.now(UTC) - timedelta(minutes=1)), "test")
-    hidden = issue(db, "demo", spec(tag_set="k5"), "test")
+    live = issue(db, "demo", tag_spec(), "test")
+    off = issue(db, "demo", tag_spec(active=False), "test")
+    expired = issue(
+        db, "demo", tag_spec(expires_at=datetime.now(UTC) - timedelta(minutes=1)), "test"
+    )
+    hidden = issue(db, "demo", tag_spec(tag_set="k5"), "test")
 
     assert (await codes.resolve("NOSUCH1")).tag is None
     resolution = await codes.resolve(live.code)
@@ -55,7 +44,7 @@ async def test_live_codes_resolve_and_the_rest_say_why(db: Database) -> None:
 
 async def test_the_cache_holds_for_its_ttl_and_forget_drops_it(db: Database) -> None:
     codes = CodeDirectory(db, ttl_s=60.0)
-    tag = issue(db, "demo", spec(), "test")
+    tag = issue(db, "demo", tag_spec(), "test")
     assert (await codes.resolve(tag.code)).problem is None
     switch_off(db, tag.code)  # as another server process would
     assert (await codes.resolve(tag.code)).problem is None, "cached for the ttl"
@@ -65,7 +54,7 @@ async def test_the_cache_holds_for_its_ttl_and_forget_drops_it(db: Database) -> 
 
 async def test_a_changed_active_set_is_seen_after_the_ttl(db: Database) -> None:
     codes = CodeDirectory(db, ttl_s=0.0)
-    tag = issue(db, "demo", spec(tag_set="k5"), "test")
+    tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
     assert (await codes.resolve(tag.code)).problem is not None
     with db.session() as session:
         session.add(WallStateRecord(wall_id="demo", version=1, state={"tag_set": "k5"}))
@@ -75,7 +64,7 @@ async def test_a_changed_active_set_is_seen_after_the_ttl(db: Database) -> None:
 async def test_an_expiry_takes_effect_at_its_instant_even_when_cached(db: Database) -> None:
     codes = CodeDirectory(db, ttl_s=60.0)
     soon = datetime.now(UTC) + timedelta(milliseconds=300)
-    tag = issue(db, "demo", spec(expires_at=soon), "test")
+    tag = issue(db, "demo", tag_spec(expires_at=soon), "test")
     assert (await codes.resolve(tag.code)).problem is None
     while datetime.now(UTC) <= soon:
         pass
@@ -84,7 +73,7 @@ async def test_an_expiry_takes_effect_at_its_instant_even_when_cached(db: Databa
 
 async def test_the_cache_stays_bounded_forgetting_the_least_recent(db: Database) -> None:
     codes = CodeDirectory(db, ttl_s=60.0, max_codes=1)
-    first = issue(db, "demo", spec(), "test")
+    first = issue(db, "demo", tag_spec(), "test")
     assert (await codes.resolve(first.code)).problem is None
     switch_off(db, first.code)
     await codes.resolve("NOSUCH1")  # pushes the first code out
@@ -93,7 +82,7 @@ async def test_the_cache_stays_bounded_forgetting_the_least_recent(db: Database)
 
 def test_scans_are_written_in_one_batch_with_every_field(db: Database) -> None:
     log = ScanLog(db)
-    tag = issue(db, "demo", spec(), "test")
+    tag = issue(db, "demo", tag_spec(), "test")
     for index in range(5):
         log.record(tag, f"visitor-{index}", "10.0.0.7", "Phone/1.0 " + "x" * 500)
     assert scans_of(db, tag.code) == [], "queued, not yet written"
@@ -124,7 +113,7 @@ def test_a_failed_write_keeps_the_scans_for_the_next_flush(database_url: str) ->
 
 def test_the_queue_is_bounded(db: Database) -> None:
     log = ScanLog(db, max_pending=3)
-    tag = issue(db, "demo", spec(), "test")
+    tag = issue(db, "demo", tag_spec(), "test")
     for index in range(10):
         log.record(tag, f"v{index}", "a", "ua")
     assert log.flush() == 3

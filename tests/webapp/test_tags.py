@@ -2,21 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 from pydantic import ValidationError
 
 from tag_service.codes import ALPHABET
+from tests.conftest import tag_spec
 from wall_client.layout import Wall, load_wall
 from webapp.db import Database
-from webapp.migrate import upgrade
 from webapp.models import TagLayoutRecord
 from webapp.schemas import TagUpdate
 from webapp.settings import CONTENT_DIR
 from webapp.tags import (
     LAYOUTS_KEPT,
-    TagSpec,
     declare,
     find,
     get_layout,
@@ -31,26 +28,13 @@ from webapp.tags import (
 BASE = "http://192.168.1.20:8000"
 
 
-@pytest.fixture
-def db(database_url: str) -> Iterator[Database]:
-    upgrade(database_url)
-    database = Database(database_url)
-    yield database
-    database.dispose()
-
-
 @pytest.fixture(scope="module")
 def demo() -> Wall:
     return load_wall(CONTENT_DIR / "walls" / "demo.toml")
 
 
-def spec(**fields: object) -> TagSpec:
-    base: dict[str, object] = {"app": "quiz", "action": "ask", "anchor": (300.0, 300.0)}
-    return TagSpec.model_validate({**base, **fields})
-
-
 def test_issued_codes_are_random_short_and_upper_case(db: Database) -> None:
-    codes = [issue(db, "demo", spec(label=f"T{i}"), "test").code for i in range(50)]
+    codes = [issue(db, "demo", tag_spec(label=f"T{i}"), "test").code for i in range(50)]
     assert len(set(codes)) == 50
     assert all(len(code) == 7 and set(code) <= set(ALPHABET) for code in codes)
     assert codes != sorted(codes), "not sequential"
@@ -59,8 +43,8 @@ def test_issued_codes_are_random_short_and_upper_case(db: Database) -> None:
 
 
 def test_direct_payloads_are_encoded_as_given(db: Database) -> None:
-    text = issue(db, "demo", spec(kind="text", text="Room 101"), "test")
-    tel = issue(db, "demo", spec(kind="tel", number="+1 949 824 5011"), "test")
+    text = issue(db, "demo", tag_spec(kind="text", text="Room 101"), "test")
+    tel = issue(db, "demo", tag_spec(kind="tel", number="+1 949 824 5011"), "test")
     assert payload_of(text, BASE) == "Room 101"
     assert payload_of(tel, BASE) == "tel:+19498245011"
 
@@ -78,36 +62,36 @@ def test_direct_payloads_are_encoded_as_given(db: Database) -> None:
 )
 def test_malformed_specs_are_refused(fields: dict[str, object], message: str) -> None:
     with pytest.raises(ValidationError, match=message):
-        spec(**fields)
+        tag_spec(**fields)
 
 
 def test_declaring_keeps_codes_and_switches_off_what_is_gone(db: Database) -> None:
-    first = [spec(name="a", label="A"), spec(name="b", label="B")]
+    first = [tag_spec(name="a", label="A"), tag_spec(name="b", label="B")]
     declare(db, "demo", "quiz", first)
     codes = {t.name: t.code for t in wall_tags(db, "demo")}
 
-    declare(db, "demo", "quiz", [spec(name="a", label="A again")])
+    declare(db, "demo", "quiz", [tag_spec(name="a", label="A again")])
 
     tags = {t.name: t for t in wall_tags(db, "demo")}
     assert {name: t.code for name, t in tags.items()} == codes, "codes never change"
     assert tags["a"].label == "A again" and tags["a"].active
     assert not tags["b"].active, "switched off, history kept"
     with pytest.raises(ValueError, match="need a name and app 'quiz'"):
-        declare(db, "demo", "quiz", [spec(label="nameless")])
+        declare(db, "demo", "quiz", [tag_spec(label="nameless")])
 
 
 def test_tag_sets_are_the_named_sets(db: Database) -> None:
-    issue(db, "demo", spec(tag_set="k5"), "test")
-    issue(db, "demo", spec(tag_set="medical"), "test")
-    issue(db, "demo", spec(), "test")
-    issue(db, "other", spec(tag_set="elsewhere"), "test")
+    issue(db, "demo", tag_spec(tag_set="k5"), "test")
+    issue(db, "demo", tag_spec(tag_set="medical"), "test")
+    issue(db, "demo", tag_spec(), "test")
+    issue(db, "other", tag_spec(tag_set="elsewhere"), "test")
     assert tag_sets(db, "demo") == ["k5", "medical"]
 
 
 def test_layouts_place_the_set_and_the_tags_of_every_set(db: Database, demo: Wall) -> None:
-    always = issue(db, "demo", spec(screen="registration", anchor=None), "test")
-    k5 = issue(db, "demo", spec(tag_set="k5"), "test")
-    medical = issue(db, "demo", spec(tag_set="medical"), "test")
+    always = issue(db, "demo", tag_spec(screen="registration", anchor=None), "test")
+    k5 = issue(db, "demo", tag_spec(tag_set="k5"), "test")
+    medical = issue(db, "demo", tag_spec(tag_set="medical"), "test")
 
     layout = get_layout(db, "demo", layout_for(db, demo, "k5", BASE))
 
@@ -123,7 +107,7 @@ def test_layouts_place_the_set_and_the_tags_of_every_set(db: Database, demo: Wal
 def test_an_unchanged_set_reuses_its_layout_and_a_change_makes_a_new_one(
     db: Database, demo: Wall
 ) -> None:
-    tag = issue(db, "demo", spec(tag_set="k5"), "test")
+    tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
     first = layout_for(db, demo, "k5", BASE)
     assert layout_for(db, demo, "k5", BASE) == first
     update_tag(db, tag.code, TagUpdate(label="renamed"))
@@ -135,7 +119,7 @@ def test_an_unchanged_set_reuses_its_layout_and_a_change_makes_a_new_one(
 
 
 def test_old_layouts_are_pruned(db: Database, demo: Wall) -> None:
-    tag = issue(db, "demo", spec(tag_set="k5"), "test")
+    tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
     for index in range(LAYOUTS_KEPT + 5):
         update_tag(db, tag.code, TagUpdate(label=f"v{index}"))
         layout_for(db, demo, "k5", BASE)
@@ -144,7 +128,7 @@ def test_old_layouts_are_pruned(db: Database, demo: Wall) -> None:
 
 
 def test_unplaceable_tags_are_kept_with_the_reason(db: Database, demo: Wall) -> None:
-    issue(db, "demo", spec(label="huge", size_mm=2000.0), "test")
+    issue(db, "demo", tag_spec(label="huge", size_mm=2000.0), "test")
     layout = get_layout(db, "demo", layout_for(db, demo, None, BASE))
     assert layout is not None and layout.placed == []
     [problem] = layout.unplaced
