@@ -92,7 +92,10 @@ def test_switching_the_tag_set_changes_the_codes_on_every_tile_at_once(
     assert version > before_version and after.tag_set == "quiz"
     wait_until(lambda: all(version_of(p) == version for p in pages), what="tiles to switch sets")
     applied = [t["applied_at"] for t in server.status("demo")["tiles"] if t["version"] == version]
-    assert len(applied) == len(DEMO_TILES) and max(applied) - min(applied) < 20.0, applied
+    # One scheduled swap: without it each tile would switch when its layout arrived,
+    # hundreds of ms apart. (The millisecond bound is test_tiles' job: here six full-HD
+    # renderers share two cores.)
+    assert len(applied) == len(DEMO_TILES) and max(applied) - min(applied) < 50.0, applied
 
     quiz = {code.payload for code in after.placed if code.label.startswith("Quiz")}
     assert len(quiz) == 3
