@@ -50,9 +50,10 @@ def normalize_code(text: str) -> str | None:
     return upper if _CODE.fullmatch(upper) else None
 
 
-def url_payload(base_url: str, code: str) -> str:
-    """The URL a tag resolves through, upper-cased for alphanumeric mode."""
-    return _ascii(f"{base_url.rstrip('/')}/T/{code}".upper())
+def url_payload(base_url: str, code: str, route: str = "T") -> str:
+    """The URL a code resolves through (``/T/`` for tags, ``/P/`` for pairing),
+    upper-cased for alphanumeric mode."""
+    return _ascii(f"{base_url.rstrip('/')}/{route}/{code}".upper())
 
 
 def text_payload(text: str) -> str:

@@ -7,6 +7,7 @@ PostgreSQL database created from it; otherwise a SQLite file in its tmp_path.
 from __future__ import annotations
 
 import os
+import re
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,11 +18,13 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
+from webapp.accounts import add_account
 from webapp.app import create_app
 from webapp.db import Database
 from webapp.migrate import upgrade
+from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
-from webapp.tags import TagSpec
+from webapp.tags import TagSpec, wall_tags
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
@@ -104,3 +107,40 @@ def operator_headers(client: TestClient) -> dict[str, str]:
     """The operator's bearer token for ``client``'s app."""
     token = client.app.state.services.operator_token  # type: ignore[attr-defined]
     return {"Authorization": f"Bearer {token}"}
+
+
+TEST_PASSWORD = "correct-horse-battery"
+_CSRF = re.compile(r'name="csrf" value="([^"]+)"')
+
+
+def services_of(client: TestClient) -> Services:
+    services: Services = client.app.state.services  # type: ignore[attr-defined]
+    return services
+
+
+def csrf_of(client: TestClient, page: str = "/me") -> str:
+    """The CSRF token of ``client``'s session, read off a page as a browser would."""
+    match = _CSRF.search(client.get(page).text)
+    assert match, f"no csrf field on {page}"
+    return match.group(1)
+
+
+def sign_in(client: TestClient, role: str, username: str | None = None) -> str:
+    """Make an account of ``role`` and sign ``client`` in through the login form."""
+    name = username or f"{role}-one"
+    add_account(services_of(client).db, name, role, TEST_PASSWORD, actor="test")
+    response = client.post(
+        "/login",
+        data={"username": name, "password": TEST_PASSWORD, "csrf": csrf_of(client, "/login")},
+        follow_redirects=False,
+    )
+    assert response.status_code == 303, response.text
+    return name
+
+
+def register_student(client: TestClient, wall: str = "demo") -> None:
+    """Scan the wall's student registration code."""
+    code = next(
+        t.code for t in wall_tags(services_of(client).db, wall) if t.name == "register-student"
+    )
+    assert client.get(f"/t/{code}").status_code == 200

@@ -22,11 +22,24 @@ from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.routes import health, pages, resolve, scan, tags, walls, ws
+from webapp.routes import (
+    dashboard,
+    health,
+    pages,
+    pairing,
+    people,
+    public,
+    resolve,
+    scan,
+    tags,
+    walls,
+    ws,
+)
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
 from webapp.tags import declare, show_tag_set
+from webapp.visitors import SessionCookieMiddleware
 from webapp.wall_state import read_state
 
 log = logging.getLogger(__name__)
@@ -68,11 +81,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.services = services
     app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
+    app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     for router in (
         health.router,
         pages.router,
+        people.router,
+        pairing.router,
+        dashboard.router,
+        public.router,
         resolve.router,
         scan.router,
         tags.router,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ from pydantic import ValidationError
 
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
+from webapp.db import Database
 from webapp.settings import Settings
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
@@ -270,3 +272,88 @@ def db_upgrade(revision: str) -> None:
     settings = load_settings()
     upgrade(settings.resolved_database_url, revision)
     click.echo(f"database at {revision}")
+
+
+@main.group()
+def user() -> None:
+    """Instructor and admin accounts."""
+
+
+def _accounts_db(settings: Settings) -> Database:
+    from webapp.migrate import upgrade
+
+    upgrade(settings.resolved_database_url)
+    return Database(settings.resolved_database_url)
+
+
+def _account_action(action: Callable[[Database], str]) -> None:
+    """Run ``action`` on the database; its message on success, exit 1 with the reason
+    when the account request cannot be carried out."""
+    from webapp.accounts import AccountError
+
+    database = _accounts_db(load_settings())
+    try:
+        click.echo(action(database))
+    except AccountError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(1)
+    finally:
+        database.dispose()
+
+
+@user.command("add")
+@click.argument("name")
+@click.option(
+    "--role",
+    type=click.Choice(["instructor", "admin"]),
+    default="instructor",
+    show_default=True,
+    help="What the account may do.",
+)
+@click.password_option(help="The password (asked for when not given).")
+def user_add(name: str, role: str, password: str) -> None:
+    """Add an account (the password is asked for twice, never echoed)."""
+    from webapp.accounts import add_account
+
+    _account_action(
+        lambda db: f"added {add_account(db, name, role, password, actor='cli').username} ({role})"
+    )
+
+
+@user.command("list")
+def user_list() -> None:
+    """List the accounts: username, role, created."""
+    from webapp.accounts import list_accounts
+
+    def listing(db: Database) -> str:
+        rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
+        return "\n".join(rows) or "no accounts"
+
+    _account_action(listing)
+
+
+@user.command("remove")
+@click.argument("name")
+def user_remove(name: str) -> None:
+    """Remove an account; phones it signed in or paired become students."""
+    from webapp.accounts import remove_account
+
+    def remove(db: Database) -> str:
+        remove_account(db, name, actor="cli")
+        return f"removed {name}"
+
+    _account_action(remove)
+
+
+@user.command("passwd")
+@click.argument("name")
+@click.password_option(help="The new password (asked for when not given).")
+def user_passwd(name: str, password: str) -> None:
+    """Set a new password; phones signed in with the old one are signed out."""
+    from webapp.accounts import set_password
+
+    def change(db: Database) -> str:
+        set_password(db, name, password, actor="cli")
+        return f"password of {name} changed"
+
+    _account_action(change)

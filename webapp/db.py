@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -76,3 +77,9 @@ class Database:
 
     def dispose(self) -> None:
         self.engine.dispose()
+
+
+def as_utc(value: datetime) -> datetime:
+    """``value`` as an aware UTC time: SQLite hands back naive datetimes, and naive
+    input means UTC here."""
+    return value.replace(tzinfo=UTC) if value.tzinfo is None else value

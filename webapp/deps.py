@@ -7,13 +7,18 @@ the thread pool, a hop that cost more than the work itself on every request.
 from __future__ import annotations
 
 from typing import Annotated
+from urllib.parse import quote
 
-from fastapi import Depends, HTTPException, Query, Request, status
+from fastapi import Depends, Header, HTTPException, Query, Request, status
+from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-from webapp.security import token_matches
+from webapp.addresses import client_address
+from webapp.people import Person, load_person
+from webapp.security import csrf_token, token_matches
 from webapp.services import Services
+from webapp.visitors import adopt, visitor_of
 
 
 async def get_services(request: Request) -> Services:
@@ -60,35 +65,113 @@ async def require_tile_token(
 TileTokenDep = Depends(require_tile_token)
 
 _bearer = HTTPBearer(auto_error=False)
+BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 
 
-async def require_operator(
+async def get_client_address(request: Request, services: ServicesDep) -> str:
+    """The client's address (``X-Forwarded-For`` only from trusted proxies)."""
+    peer = request.client.host if request.client else ""
+    forwarded = request.headers.get("x-forwarded-for")
+    return client_address(peer, forwarded, services.settings.trusted_proxies)
+
+
+ClientAddressDep = Annotated[str, Depends(get_client_address)]
+
+
+def remember_person(request: Request, person: Person) -> None:
+    """Make ``person`` the request's person; a new or rotated session cookie follows."""
+    adopt(request, person.visitor)
+    request.state.person = person
+
+
+async def get_person(request: Request, services: ServicesDep, address: ClientAddressDep) -> Person:
+    known: Person | None = getattr(request.state, "person", None)
+    if known is not None:
+        return known
+    visitor = visitor_of(request, services.secret)
+    person = await run_in_threadpool(load_person, services.db, visitor, address, services.settings)
+    remember_person(request, person)
+    return person
+
+
+PersonDep = Annotated[Person, Depends(get_person)]
+
+
+async def require_csrf(
+    request: Request,
+    person: PersonDep,
     services: ServicesDep,
-    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
+    x_csrf_token: Annotated[str | None, Header()] = None,
 ) -> None:
-    """State-changing API calls need the operator token as a bearer token."""
-    given = credentials.credentials if credentials else None
-    if not token_matches(services.operator_token, given):
-        raise HTTPException(
-            status.HTTP_401_UNAUTHORIZED,
-            "This needs the operator token (Authorization: Bearer ...).",
-            headers={"WWW-Authenticate": "Bearer"},
-        )
-
-
-OperatorDep = Depends(require_operator)
-
-
-async def require_operator_page(
-    services: ServicesDep, token: Annotated[str | None, Query()] = None
-) -> str:
-    """The dashboard page carries the operator token in its URL, like tile URLs."""
-    if not token_matches(services.operator_token, token):
+    """State-changing requests of a session carry its CSRF token (form field or header)."""
+    given = x_csrf_token
+    if given is None and request.headers.get("content-type", "").startswith(
+        ("application/x-www-form-urlencoded", "multipart/form-data")
+    ):
+        value = (await request.form()).get("csrf")
+        given = value if isinstance(value, str) else None
+    if not token_matches(csrf_token(services.secret, person.visitor.session_id), given):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
-            "The dashboard URL needs the operator token; `tagwall urls` prints it.",
+            "This form has expired or did not come from this site. Reload the page and try again.",
         )
-    return services.operator_token
 
 
-OperatorPageDep = Annotated[str, Depends(require_operator_page)]
+CsrfDep = Depends(require_csrf)
+
+
+async def require_staff_page(request: Request, person: PersonDep) -> Person:
+    """Instructor pages: anyone else is sent to sign in (and brought back after)."""
+    if not person.is_staff:
+        target = quote(request.url.path + (f"?{request.url.query}" if request.url.query else ""))
+        raise HTTPException(
+            status.HTTP_303_SEE_OTHER,
+            "Sign in as an instructor to open this page.",
+            headers={"Location": f"/login?next={target}"},
+        )
+    return person
+
+
+StaffPageDep = Annotated[Person, Depends(require_staff_page)]
+
+
+async def require_admin_page(person: StaffPageDep) -> Person:
+    if not person.at_least("admin"):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "This page is for administrators.")
+    return person
+
+
+AdminPageDep = Annotated[Person, Depends(require_admin_page)]
+
+
+async def require_staff(request: Request, services: ServicesDep, credentials: BearerDep) -> str:
+    """API calls of instructors: the operator token as a bearer token (scripts), or an
+    instructor's session with its CSRF token in ``X-CSRF-Token`` (the dashboard).
+
+    Returns who acts, for the audit log and publications.
+    """
+    if credentials is not None:
+        if token_matches(services.operator_token, credentials.credentials):
+            return "operator"
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "The bearer token is not the operator token.",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    person = await get_person(request, services, await get_client_address(request, services))
+    if not person.stored:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "Sign in as an instructor, or send the operator token (Authorization: Bearer ...).",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    if not person.is_staff:
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "This needs an instructor.")
+    if request.method not in SAFE_METHODS:
+        await require_csrf(request, person, services, request.headers.get("x-csrf-token"))
+    return person.authority or person.role
+
+
+StaffDep = Annotated[str, Depends(require_staff)]
+StaffOnly = Depends(require_staff)

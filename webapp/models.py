@@ -5,7 +5,16 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import JSON, DateTime, Float, ForeignKey, Integer, String, UniqueConstraint
+from sqlalchemy import (
+    JSON,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    String,
+    Text,
+    UniqueConstraint,
+)
 from sqlalchemy.orm import Mapped, mapped_column
 
 from webapp.db import Base
@@ -112,3 +121,113 @@ class TagLayoutRecord(Base):
     created_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, nullable=False
     )
+
+
+class AccountRecord(Base):
+    """An instructor or admin who signs in with a password (argon2 hash, never the text)."""
+
+    __tablename__ = "accounts"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    username: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    role: Mapped[str] = mapped_column(String(16), nullable=False)
+    password_hash: Mapped[str] = mapped_column(String(200), nullable=False)
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
+class VisitorRecord(Base):
+    """A phone (or browser) that has been given something: a role, a group, a name.
+
+    ``id`` is stable for the life of the cookie; ``session_id`` rotates on every
+    privilege change, so a session id seen before the change is worthless after it.
+    ``authority`` says what allows a role above student (``login:NAME``,
+    ``pairing:NAME``, ``operator``, ``address:CIDR``) and ``authorized_role`` how
+    far; both outlive a step down to student, so the phone can step up again
+    without signing in again.
+    """
+
+    __tablename__ = "visitors"
+
+    id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    session_id: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    role: Mapped[str] = mapped_column(String(16), nullable=False, default="student")
+    authority: Mapped[str | None] = mapped_column(String(120), index=True)
+    authorized_role: Mapped[str] = mapped_column(String(16), nullable=False, default="student")
+    user_group: Mapped[str | None] = mapped_column(String(16))
+    info_class: Mapped[int | None] = mapped_column(Integer)
+    display_name: Mapped[str] = mapped_column(String(60), nullable=False, default="")
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+    updated_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, onupdate=_utcnow, nullable=False
+    )
+
+
+class AddressRuleRecord(Base):
+    """Defaults (and, when enabled, a role) for phones whose address is in ``network``."""
+
+    __tablename__ = "address_rules"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    network: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    role: Mapped[str | None] = mapped_column(String(16))
+    user_group: Mapped[str | None] = mapped_column(String(16))
+    info_class: Mapped[int | None] = mapped_column(Integer)
+    note: Mapped[str] = mapped_column(String(200), nullable=False, default="")
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
+class PairingRecord(Base):
+    """A single-use pairing code shown on a dashboard; only its hash is stored."""
+
+    __tablename__ = "pairings"
+
+    token_hash: Mapped[str] = mapped_column(String(64), primary_key=True)
+    granted_by: Mapped[str] = mapped_column(String(120), nullable=False)
+    expires_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), nullable=False)
+    used_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    used_by: Mapped[str | None] = mapped_column(String(64))
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
+class AuditRecord(Base):
+    """Who signed in, failed to, or changed whose privileges: kept for the admin."""
+
+    __tablename__ = "audit_log"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, index=True, nullable=False
+    )
+    action: Mapped[str] = mapped_column(String(32), index=True, nullable=False)
+    actor: Mapped[str] = mapped_column(String(120), nullable=False, default="")
+    visitor_id: Mapped[str] = mapped_column(String(64), nullable=False, default="")
+    client_address: Mapped[str] = mapped_column(String(64), nullable=False, default="")
+    detail: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False, default=dict)
+
+
+class PublicationRecord(Base):
+    """Something a visitor published to a wall's public screen, and what became of it."""
+
+    __tablename__ = "publications"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    wall_id: Mapped[str] = mapped_column(String(64), index=True, nullable=False)
+    visitor_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    author: Mapped[str] = mapped_column(String(100), nullable=False)
+    title: Mapped[str] = mapped_column(String(200), nullable=False)
+    html: Mapped[str] = mapped_column(Text, nullable=False)
+    source: Mapped[str] = mapped_column(String(200), nullable=False, default="")
+    status: Mapped[str] = mapped_column(String(16), index=True, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+    decided_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
+    decided_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")

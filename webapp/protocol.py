@@ -121,6 +121,26 @@ class Pong(Message):
     t2: float
 
 
+class DashboardStatus(Message):
+    """To dashboards, every second: the wall's status and the moderation queue."""
+
+    type: Literal["status"] = "status"
+    status: dict[str, Any]  # version, state and tiles, as GET /api/walls/{wall}/status
+    waiting: list[dict[str, Any]]  # publications waiting for approval, oldest first
+
+
+class ScanSeen(Message):
+    """To dashboards, as it happens: a code of the wall was scanned."""
+
+    type: Literal["scan"] = "scan"
+    wall: str
+    code: str
+    label: str
+    app: str
+    visitor: str  # a short pseudonym of the visitor, stable per visitor
+    at: int  # server ms
+
+
 ServerMessage = Snapshot | Event | Prepare | Swap | Pong
 
 # Close codes (RFC 6455 and the registered 4xxx private range).

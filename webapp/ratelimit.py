@@ -35,3 +35,38 @@ class RateLimiter:
             return hits[0] + self.window_s - now
         hits.append(now)
         return None
+
+
+class Backoff:
+    """Growing delays after failures (sign-in attempts): ``free`` failures cost
+    nothing, each further one doubles the wait, up to ``max_s``; success forgets.
+    """
+
+    def __init__(
+        self, free: int, base_s: float = 1.0, max_s: float = 300.0, max_keys: int = 100_000
+    ) -> None:
+        self.free = free
+        self.base_s = base_s
+        self.max_s = max_s
+        self.max_keys = max_keys
+        self._failures: OrderedDict[str, tuple[int, float]] = OrderedDict()
+
+    def wait(self, key: str, now: float | None = None) -> float | None:
+        """None when ``key`` may try now, else the seconds until it may."""
+        now = time.monotonic() if now is None else now
+        count, last = self._failures.get(key, (0, now))
+        if count < self.free:
+            return None
+        delay = min(self.base_s * 2 ** (count - self.free), self.max_s)
+        remaining = last + delay - now
+        return remaining if remaining > 0 else None
+
+    def failed(self, key: str, now: float | None = None) -> None:
+        now = time.monotonic() if now is None else now
+        count, _ = self._failures.pop(key, (0, now))
+        self._failures[key] = (count + 1, now)
+        if len(self._failures) > self.max_keys:
+            self._failures.popitem(last=False)
+
+    def succeeded(self, key: str) -> None:
+        self._failures.pop(key, None)

@@ -14,10 +14,13 @@ hard (not stopped) are lost, at most ``interval_s`` worth.
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import logging
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
@@ -27,6 +30,7 @@ from sqlalchemy import insert, select
 
 from webapp.db import Database
 from webapp.models import ScanRecord, TagRecord, WallStateRecord
+from webapp.protocol import ScanSeen
 from webapp.tags import is_live, shown_in
 
 log = logging.getLogger(__name__)
@@ -155,3 +159,40 @@ def scans_of(db: Database, code: str) -> list[ScanRecord]:
                 select(ScanRecord).where(ScanRecord.code == code).order_by(ScanRecord.id)
             )
         )
+
+
+class ScanFeed:
+    """Scans as they happen, for the dashboards connected to this process.
+
+    Each dashboard has a bounded queue; a dashboard that does not keep up misses
+    notices rather than slowing the scan path down.
+    """
+
+    def __init__(self, maxsize: int = 100) -> None:
+        self.maxsize = maxsize
+        self._queues: dict[str, set[asyncio.Queue[ScanSeen]]] = {}
+
+    def publish(self, tag: TagRecord, visitor_id: str) -> None:
+        queues = self._queues.get(tag.wall_id)
+        if not queues:
+            return
+        notice = ScanSeen(
+            wall=tag.wall_id,
+            code=tag.code,
+            label=tag.label,
+            app=tag.app,
+            visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
+            at=time.time_ns() // 1_000_000,
+        )
+        for queue in queues:
+            if queue.qsize() < self.maxsize:
+                queue.put_nowait(notice)
+
+    @contextmanager
+    def subscribe(self, wall_id: str) -> Iterator[asyncio.Queue[ScanSeen]]:
+        queue: asyncio.Queue[ScanSeen] = asyncio.Queue()
+        self._queues.setdefault(wall_id, set()).add(queue)
+        try:
+            yield queue
+        finally:
+            self._queues[wall_id].discard(queue)

@@ -9,6 +9,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from wall_client.layout import Wall
 from webapp.hub import TileStatus
+from webapp.models import PublicationRecord
+from webapp.wall_state import PublicItem, PublicPolicy
 
 
 class DisplayInfo(BaseModel):
@@ -174,3 +176,31 @@ class TagSetsInfo(BaseModel):
     layout: int
     placed: int
     unplaced: list[UnplacedCode]
+
+
+class PublicationInfo(BaseModel):
+    """A publication as the dashboard's moderation queue lists it."""
+
+    id: int
+    author: str
+    title: str
+    html: str
+    status: str
+    created_at: datetime
+
+    @classmethod
+    def of(cls, record: PublicationRecord) -> PublicationInfo:
+        return cls(
+            id=record.id,
+            author=record.author,
+            title=record.title,
+            html=record.html,
+            status=record.status,
+            created_at=record.created_at,
+        )
+
+
+class PublicScreenInfo(BaseModel):
+    shown: PublicItem | None
+    policy: PublicPolicy
+    waiting: list[PublicationInfo]

@@ -26,3 +26,8 @@ def operator_token(secret: str) -> str:
 def token_matches(expected: str, given: str | None) -> bool:
     """Constant-time comparison, so timing reveals nothing about the token."""
     return given is not None and hmac.compare_digest(expected.encode(), given.encode())
+
+
+def csrf_token(secret: str, session_id: str) -> str:
+    """The token every state-changing form of a session carries (rotates with it)."""
+    return derive_token(secret, f"csrf:{session_id}")

@@ -8,8 +8,8 @@ from wall_client.layout import Wall
 from webapp.apps import WallApp
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.ratelimit import RateLimiter
-from webapp.scanning import CodeDirectory, ScanLog
+from webapp.ratelimit import Backoff, RateLimiter
+from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 from webapp.urls import tile_url
@@ -25,14 +25,23 @@ class Services:
     scan_limits: tuple[RateLimiter, RateLimiter] = field(init=False)
     codes: CodeDirectory = field(init=False)
     scan_log: ScanLog = field(init=False)
+    scan_feed: ScanFeed = field(init=False)
+    login_backoff: Backoff = field(init=False)
+    publish_limit: RateLimiter = field(init=False)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)
         self.scan_log = ScanLog(self.db)
+        self.scan_feed = ScanFeed()
         self.scan_limits = (
             RateLimiter(self.settings.scan_rate_per_minute),
             RateLimiter(self.settings.scan_rate_per_address_per_minute),
         )
+        # Keyed by "account:NAME" and by "client:ADDRESS": both must be allowed.
+        self.login_backoff = Backoff(
+            self.settings.login_free_attempts, max_s=self.settings.login_max_delay_s
+        )
+        self.publish_limit = RateLimiter(self.settings.publish_rate_per_minute)
 
     def scan_allowed(self, visitor_id: str, client_address: str) -> float | None:
         """None when this visitor (and its address) may scan now, else seconds to wait."""

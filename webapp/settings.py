@@ -9,8 +9,16 @@ from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, IPvAnyNetwork, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
+
+Role = Literal["student", "instructor", "admin"]
+ROLES: tuple[Role, ...] = ("student", "instructor", "admin")  # in rising order of privilege
+UserGroup = Literal["k5", "undergraduate", "medical", "research"]
+USER_GROUPS: tuple[UserGroup, ...] = ("k5", "undergraduate", "medical", "research")
+InfoClass = Annotated[int, Field(ge=1, le=5)]
+MAX_INFO_CLASS: dict[Role, int] = {"student": 3, "instructor": 5, "admin": 5}
+DEFAULT_INFO_CLASS: dict[Role, int] = {"student": 1, "instructor": 5, "admin": 5}
 
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 CONTENT_DIR = PROJECT_ROOT / "content"
@@ -51,6 +59,17 @@ class Settings(BaseSettings):
     scan_rate_per_minute: int = Field(default=30, ge=1)
     scan_rate_per_address_per_minute: int = Field(default=600, ge=1)
     scan_upload_max_bytes: int = Field(default=10_000_000, ge=10_000)
+    trusted_proxies: Annotated[list[IPvAnyNetwork], NoDecode] = Field(default_factory=list)
+    address_rules_grant_roles: bool = False
+    default_user_group: UserGroup = "undergraduate"
+    info_class_max: dict[Role, InfoClass] = Field(default_factory=lambda: dict(MAX_INFO_CLASS))
+    info_class_default: dict[Role, InfoClass] = Field(
+        default_factory=lambda: dict(DEFAULT_INFO_CLASS)
+    )
+    pairing_ttl_s: int = Field(default=60, ge=10, le=3_600)
+    login_free_attempts: int = Field(default=3, ge=1)
+    login_max_delay_s: float = Field(default=300.0, ge=1)
+    publish_rate_per_minute: int = Field(default=3, ge=1)
 
     @field_validator("wall_configs", mode="before")
     @classmethod
@@ -58,6 +77,22 @@ class Settings(BaseSettings):
         """Accept ``a.toml:walls/`` like PATH, as well as a list."""
         if isinstance(value, str):
             return [part for part in value.split(os.pathsep) if part]
+        return value
+
+    @field_validator("trusted_proxies", mode="before")
+    @classmethod
+    def _split_networks(cls, value: object) -> object:
+        """Accept ``10.0.0.1, 10.1.0.0/16`` as well as a list."""
+        if isinstance(value, str):
+            return [part.strip() for part in value.split(",") if part.strip()]
+        return value
+
+    @field_validator("info_class_max", "info_class_default", mode="after")
+    @classmethod
+    def _every_role(cls, value: dict[Role, int]) -> dict[Role, int]:
+        missing = set(ROLES) - value.keys()
+        if missing:
+            raise ValueError(f"give a class for every role; missing: {', '.join(sorted(missing))}")
         return value
 
     @model_validator(mode="after")

@@ -35,7 +35,7 @@ from tag_service.codes import (
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm
 from wall_client.layout import Wall
-from webapp.db import Database
+from webapp.db import Database, as_utc
 from webapp.hub import WallHub
 from webapp.models import TagLayoutRecord, TagRecord, WallStateRecord
 from webapp.schemas import PlacedCode, TagUpdate, UnplacedCode
@@ -86,8 +86,8 @@ class TagSpec(BaseModel):
         if (self.anchor is None) == (self.screen is None):
             raise ValueError("give a tag either an anchor (wall mm) or a screen slot")
         content_payload(self.kind, self.content())  # raises PayloadError with the reason
-        if self.expires_at is not None and self.expires_at.tzinfo is None:
-            self.expires_at = self.expires_at.replace(tzinfo=UTC)
+        if self.expires_at is not None:
+            self.expires_at = as_utc(self.expires_at)
         return self
 
     def content(self) -> dict[str, Any]:
@@ -248,9 +248,7 @@ def is_live(tag: TagRecord, now: datetime | None = None) -> bool:
     """Active and not expired: the one rule for whether a tag still works."""
     now = now or datetime.now(UTC)
     expires = tag.expires_at
-    if expires is not None and expires.tzinfo is None:
-        expires = expires.replace(tzinfo=UTC)  # SQLite returns naive datetimes
-    return tag.active and (expires is None or expires > now)
+    return tag.active and (expires is None or as_utc(expires) > now)
 
 
 def shown_in(tag: TagRecord, tag_set: str | None) -> bool:
@@ -404,8 +402,5 @@ def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:
         if "active" in given and update.active is not None:
             tag.active = update.active
         if "expires_at" in given:
-            expires = update.expires_at
-            tag.expires_at = (
-                expires.replace(tzinfo=UTC) if expires and not expires.tzinfo else expires
-            )
+            tag.expires_at = as_utc(update.expires_at) if update.expires_at else None
         return tag

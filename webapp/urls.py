@@ -21,7 +21,10 @@ def overview_url(settings: Settings, wall_id: str) -> str:
 
 
 def dashboard_url(settings: Settings) -> str:
-    return f"{settings.server_url}/dashboard?token={operator_token(settings.resolved_secret_key)}"
+    """The operator's sign-in link: it signs the browser in as admin and opens the
+    dashboard (for a new installation, before any account exists)."""
+    token = operator_token(settings.resolved_secret_key)
+    return f"{settings.server_url}/login/operator?token={token}"
 
 
 def code_image_path(code: str, payload: str, extension: str) -> str:

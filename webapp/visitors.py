@@ -1,48 +1,110 @@
-"""Who a phone is: an anonymous visitor id in a signed cookie, created at first scan."""
+"""Who a phone is: a stable visitor id and a session id, in one signed cookie.
+
+The cookie carries no privilege by itself: roles live in the database under the
+visitor id and count only while the cookie's session id matches the stored one
+(see :mod:`webapp.people`). A request's visitor is kept in ``request.state``;
+:class:`SessionCookieMiddleware` writes the cookie whenever it is new or rotated,
+so no route has to remember to.
+"""
 
 from __future__ import annotations
 
 import secrets
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from fastapi import Request, Response
 from itsdangerous import BadSignature, URLSafeSerializer
+from starlette.datastructures import MutableHeaders
+from starlette.requests import HTTPConnection
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-VISITOR_COOKIE = "tagwall_visitor"
-VISITOR_MAX_AGE_S = 365 * 24 * 3600
+SESSION_COOKIE = "tagwall_session"
+SESSION_MAX_AGE_S = 365 * 24 * 3600
+_MAX_ID_LENGTH = 64
+
+
+def new_id() -> str:
+    return secrets.token_urlsafe(16)
 
 
 @dataclass(frozen=True)
 class Visitor:
     id: str
-    is_new: bool
+    session_id: str
+    changed: bool = False  # the cookie must be (re)written
 
-    def remember(self, request: Request, response: Response, secret: str) -> None:
-        """Set the cookie on a first visit (HttpOnly, SameSite=Lax, Secure under https)."""
-        if not self.is_new:
-            return
-        response.set_cookie(
-            VISITOR_COOKIE,
-            _serializer(secret).dumps(self.id),
-            max_age=VISITOR_MAX_AGE_S,
-            httponly=True,
-            samesite="lax",
-            secure=request.url.scheme == "https",
-        )
+    @classmethod
+    def fresh(cls) -> Visitor:
+        return cls(new_id(), new_id(), changed=True)
+
+    def rotated(self) -> Visitor:
+        """The same visitor under a new session id (after any privilege change)."""
+        return replace(self, session_id=new_id(), changed=True)
 
 
 def _serializer(secret: str) -> URLSafeSerializer:
-    return URLSafeSerializer(secret, salt="tagwall.visitor")
+    return URLSafeSerializer(secret, salt="tagwall.session")
 
 
-def visitor_of(request: Request, secret: str) -> Visitor:
-    """The visitor the request's cookie names; a new one when it has none or a forged one."""
-    cookie = request.cookies.get(VISITOR_COOKIE)
-    if cookie:
-        try:
-            visitor_id = _serializer(secret).loads(cookie)
-        except BadSignature:
-            visitor_id = None
-        if isinstance(visitor_id, str) and 0 < len(visitor_id) <= 64:
-            return Visitor(visitor_id, is_new=False)
-    return Visitor(secrets.token_urlsafe(12), is_new=True)
+def visitor_of(request: HTTPConnection, secret: str) -> Visitor:
+    """The request's visitor: from ``request.state``, else the cookie, else a new one.
+
+    A forged, foreign or malformed cookie makes a new visitor.
+    """
+    known: Visitor | None = getattr(request.state, "visitor", None)
+    if known is not None:
+        return known
+    visitor = _from_cookie(request.cookies.get(SESSION_COOKIE), secret) or Visitor.fresh()
+    request.state.visitor = visitor
+    return visitor
+
+
+def _from_cookie(cookie: str | None, secret: str) -> Visitor | None:
+    if not cookie or len(cookie) > 400:
+        return None
+    try:
+        value = _serializer(secret).loads(cookie)
+    except BadSignature:
+        return None
+    if (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(part, str) and 0 < len(part) <= _MAX_ID_LENGTH for part in value)
+    ):
+        return Visitor(value[0], value[1])
+    return None
+
+
+def adopt(request: HTTPConnection, visitor: Visitor) -> None:
+    """Make ``visitor`` the request's visitor (its cookie is written with the response)."""
+    request.state.visitor = visitor
+
+
+class SessionCookieMiddleware:
+    """Writes the session cookie of a new or rotated visitor (HttpOnly, SameSite=Lax,
+    Secure under https)."""
+
+    def __init__(self, app: ASGIApp, secret: str) -> None:
+        self.app = app
+        self.secret = secret
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def send_with_cookie(message: Message) -> None:
+            visitor = scope.get("state", {}).get("visitor")
+            if message["type"] == "http.response.start" and visitor and visitor.changed:
+                headers = MutableHeaders(scope=message)
+                headers.append("set-cookie", self.cookie(visitor, https=scope["scheme"] == "https"))
+            await send(message)
+
+        await self.app(scope, receive, send_with_cookie)
+
+    def cookie(self, visitor: Visitor, *, https: bool) -> str:
+        value = _serializer(self.secret).dumps([visitor.id, visitor.session_id])
+        secure = "; Secure" if https else ""
+        return (
+            f"{SESSION_COOKIE}={value}; Max-Age={SESSION_MAX_AGE_S}; Path=/; "
+            f"HttpOnly; SameSite=Lax{secure}"
+        )

@@ -44,14 +44,25 @@ class Balloon(BaseModel):
 
 
 class PublicItem(BaseModel):
-    """What the public screen shows: server-rendered, already sanitised HTML."""
+    """What the public screen shows: server-rendered, already escaped HTML
+    (see ``webapp.publishing``)."""
 
     model_config = ConfigDict(extra="forbid")
 
+    id: int = Field(default=0, ge=0)  # the publication's id (0: not a stored one)
     title: str = Field(max_length=200)
     html: str = Field(max_length=100_000)
     author: str = Field(max_length=100)
     published_at: int  # server ms
+
+
+class PublicPolicy(BaseModel):
+    """How the public screen takes publications: held for approval, or locked."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    moderated: bool = False  # students' publications wait for an instructor
+    locked: bool = False  # only instructors may publish
 
 
 class WallState(BaseModel):
@@ -65,6 +76,7 @@ class WallState(BaseModel):
     layers: dict[str, bool] = Field(default_factory=dict)
     balloons: list[Balloon] = Field(default_factory=list, max_length=100)
     public: PublicItem | None = None
+    public_policy: PublicPolicy = Field(default_factory=PublicPolicy)
     tag_set: str | None = Field(default=None, max_length=64)
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
 
@@ -79,7 +91,8 @@ class StatePatch(BaseModel):
     view: View | None = None
     layers: dict[str, bool] | None = None
     balloons: list[Balloon] | None = Field(default=None, max_length=100)
-    public: PublicItem | None = None
+    # ``public`` changes only through ``webapp.publishing``, which renders it safely.
+    public_policy: PublicPolicy | None = None
 
     def apply_to(self, state: WallState) -> WallState:
         """The state with this patch's fields replaced (``layers`` merge key by key)."""

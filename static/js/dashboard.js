@@ -1,21 +1,10 @@
-// Setup dashboard: tile status and test-pattern controls, through the walls API.
-const token = document.body.dataset.token;
-const select = document.getElementById("wall");
-let state = null;
+// The instructor dashboard: live status and scans over its own socket, actions through
+// the JSON API. App panels listen for the STATUS_EVENT this page dispatches.
+import {STATUS_EVENT, api, changeState, wallId} from "./api.js";
+import {socketUrl} from "./wallsocket.js";
 
-async function api(path, options = {}) {
-  const response = await fetch(path, {
-    ...options,
-    headers: {"Authorization": `Bearer ${token}`, "Content-Type": "application/json"},
-  });
-  if (!response.ok) throw new Error(`${path}: ${response.status}`);
-  return response.json();
-}
-
-function change(patch) {
-  return api(`/api/walls/${select.value}/state`, {method: "POST", body: JSON.stringify(patch)})
-    .then(refresh);
-}
+const $ = (id) => document.getElementById(id);
+const MAX_FEED = 50;
 
 function cell(text, className) {
   const td = document.createElement("td");
@@ -23,8 +12,6 @@ function cell(text, className) {
   if (className) td.className = className;
   return td;
 }
-
-const tagSetSelect = document.getElementById("tag-set");
 
 function option(value, text, selected) {
   const element = document.createElement("option");
@@ -34,46 +21,55 @@ function option(value, text, selected) {
   return element;
 }
 
-// The wall's tag sets, the active one selected, and every code placement could not place.
-async function refreshCodes() {
-  const info = await api(`/api/walls/${select.value}/tag-sets`);
-  if (document.activeElement !== tagSetSelect) {
-    tagSetSelect.replaceChildren(
-      option("", "(permanent codes only)", info.active === null),
-      ...info.sets.map((name) => option(name, name, name === info.active)),
-    );
-  }
-  document.getElementById("codes-placed").textContent = info.placed;
-  document.getElementById("codes-layout").textContent = info.layout;
-  document.getElementById("codes-unplaced").replaceChildren(...info.unplaced.map((code) => {
+function button(text, onClick) {
+  const element = document.createElement("button");
+  element.textContent = text;
+  element.addEventListener("click", onClick);
+  return element;
+}
+
+// --- live status -----------------------------------------------------------------------
+
+function showStatus(status, waiting) {
+  const state = status.state;
+  $("version").textContent = status.version;
+  $("app").textContent = state.app;
+  $("mode").textContent = state.mode;
+  if (document.activeElement !== $("mode-choice")) $("mode-choice").value = state.mode;
+  if (document.activeElement !== $("app-choice")) $("app-choice").value = state.app;
+  $("public-shown").textContent = state.public
+    ? `${state.public.title} (by ${state.public.author})` : "nothing";
+  $("public-moderated").checked = state.public_policy.moderated;
+  $("public-locked").checked = state.public_policy.locked;
+  showWaiting(waiting);
+  showTiles(status);
+  document.dispatchEvent(new CustomEvent(STATUS_EVENT, {detail: {status, waiting}}));
+}
+
+function showWaiting(waiting) {
+  $("waiting-count").textContent = waiting.length;
+  const ids = waiting.map((item) => item.id).join(",");
+  if ($("waiting").dataset.ids === ids) return;  // keep buttons stable under the pointer
+  $("waiting").dataset.ids = ids;
+  $("waiting").replaceChildren(...waiting.map((item) => {
     const li = document.createElement("li");
-    li.className = "down";
-    li.textContent = `not placed: ${code.label || code.code} (${code.code}): ${code.reason}`;
+    li.dataset.publication = item.id;
+    const text = document.createElement("span");
+    text.textContent = `${item.title} — ${item.author} `;
+    li.append(
+      text,
+      button("Approve", () => moderate(item.id, "approve")),
+      button("Reject", () => moderate(item.id, "reject")),
+    );
     return li;
   }));
 }
 
-tagSetSelect.addEventListener("change", () => {
-  const name = tagSetSelect.value || null;
-  api(`/api/walls/${select.value}/tag-set`, {method: "PUT", body: JSON.stringify({name})})
-    .then(refresh);
-});
-
-async function refresh() {
-  refreshCodes();
-  const status = await api(`/api/walls/${select.value}/status`);
-  state = status.state;
-  document.getElementById("version").textContent = status.version;
-  document.getElementById("app").textContent = state.app;
-  document.getElementById("mode").textContent = state.mode;
-  document.getElementById("overview-link").href = `/wall/${select.value}/overview`;
-  for (const box of document.querySelectorAll("[data-layer]")) {
-    box.checked = state.layers[box.dataset.layer] ?? true;
-  }
-  // Apply times relative to the earliest tile at the wall's version: how in step they are.
+// Apply times relative to the earliest tile at the wall's version: how in step they are.
+function showTiles(status) {
   const current = status.tiles.filter((t) => t.version === status.version && t.applied_at);
   const first = Math.min(...current.map((t) => t.applied_at));
-  const rows = status.tiles.map((tile) => {
+  $("tiles").replaceChildren(...status.tiles.map((tile) => {
     const tr = document.createElement("tr");
     const seen = tile.last_seen ? new Date(tile.last_seen).toLocaleTimeString() : "never";
     tr.append(
@@ -85,29 +81,101 @@ async function refresh() {
       cell(tile.address ?? ""),
     );
     return tr;
-  });
-  document.getElementById("tiles").replaceChildren(...rows);
+  }));
 }
 
-for (const box of document.querySelectorAll("[data-layer]")) {
-  box.addEventListener("change", () => change({layers: {[box.dataset.layer]: box.checked}}));
+function showScan(scan) {
+  const li = document.createElement("li");
+  li.textContent = `${new Date(scan.at).toLocaleTimeString()} · ${scan.label || scan.code}`
+    + ` (${scan.app}) · visitor ${scan.visitor}`;
+  $("scans").prepend(li);
+  while ($("scans").children.length > MAX_FEED) $("scans").lastChild.remove();
 }
-for (const button of document.querySelectorAll("[data-pan]")) {
-  button.addEventListener("click", () => {
-    const [dx, dy] = button.dataset.pan.split(",").map(Number);
-    const view = state.view;
-    const step = 1 / view.zoom;
-    change({view: {...view, center: [view.center[0] + dx * step, view.center[1] + dy * step]}});
-  });
+
+function connect(attempt = 0) {
+  const ws = new WebSocket(socketUrl(`/ws/dashboard/${wallId}`));
+  ws.onopen = () => { attempt = 0; $("live").textContent = "live"; $("live").className = "up"; };
+  ws.onmessage = (frame) => {
+    const message = JSON.parse(frame.data);
+    if (message.type === "status") showStatus(message.status, message.waiting);
+    else if (message.type === "scan") showScan(message);
+  };
+  ws.onclose = (close) => {
+    $("live").textContent = `offline (${close.reason || close.code})`;
+    $("live").className = "down";
+    const delay = Math.min(15000, 500 * 2 ** attempt) * (0.5 + Math.random() / 2);
+    setTimeout(() => connect(attempt + 1), delay);
+  };
 }
-for (const button of document.querySelectorAll("[data-zoom]")) {
-  button.addEventListener("click", () => {
-    change({view: {...state.view, zoom: state.view.zoom * Number(button.dataset.zoom)}});
-  });
+
+// --- actions ---------------------------------------------------------------------------
+
+function moderate(id, decision) {
+  return api(`/api/walls/${wallId}/public/${id}/${decision}`, {method: "POST"});
 }
-document.getElementById("reset-view").addEventListener("click", () => {
-  change({view: {center: [0.5, 0.5], zoom: 1, yaw: 0, pitch: 0}});
+
+function setPolicy() {
+  const policy = {moderated: $("public-moderated").checked, locked: $("public-locked").checked};
+  return api(`/api/walls/${wallId}/public/policy`, {method: "PUT", body: JSON.stringify(policy)});
+}
+
+$("public-moderated").addEventListener("change", setPolicy);
+$("public-locked").addEventListener("change", setPolicy);
+$("public-clear").addEventListener("click", () =>
+  api(`/api/walls/${wallId}/public/clear`, {method: "POST"}));
+$("apply-app").addEventListener("click", () =>
+  changeState({app: $("app-choice").value, mode: $("mode-choice").value || "default"}));
+
+let pairingTimer = null;
+
+async function showPairingCode() {
+  const code = await api("/api/pairing", {method: "POST"});
+  $("pairing-code").src = code.image;
+  $("pairing").hidden = false;
+  const expires = new Date(code.expires_at).getTime();
+  clearInterval(pairingTimer);
+  const tick = () => {
+    const left = Math.round((expires - Date.now()) / 1000);
+    $("pairing-left").textContent = Math.max(0, left);
+    if (left <= 0) { clearInterval(pairingTimer); $("pairing").hidden = true; }
+  };
+  tick();
+  pairingTimer = setInterval(tick, 1000);
+}
+$("pair-start").addEventListener("click", showPairingCode);
+
+// --- codes -----------------------------------------------------------------------------
+
+const tagSetSelect = $("tag-set");
+
+async function refreshCodes() {
+  const info = await api(`/api/walls/${wallId}/tag-sets`);
+  if (document.activeElement !== tagSetSelect) {
+    tagSetSelect.replaceChildren(
+      option("", "(permanent codes only)", info.active === null),
+      ...info.sets.map((name) => option(name, name, name === info.active)),
+    );
+  }
+  $("codes-placed").textContent = info.placed;
+  $("codes-layout").textContent = info.layout;
+  $("codes-unplaced").replaceChildren(...info.unplaced.map((code) => {
+    const li = document.createElement("li");
+    li.className = "down";
+    li.textContent = `not placed: ${code.label || code.code} (${code.code}): ${code.reason}`;
+    return li;
+  }));
+}
+
+tagSetSelect.addEventListener("change", () => {
+  const name = tagSetSelect.value || null;
+  api(`/api/walls/${wallId}/tag-set`, {method: "PUT", body: JSON.stringify({name})})
+    .then(refreshCodes);
 });
-select.addEventListener("change", refresh);
-refresh();
-setInterval(refresh, 2000);
+document.addEventListener(STATUS_EVENT, (event) => {
+  if (tagSetSelect.dataset.layout !== String(event.detail.status.state.tag_layout)) {
+    tagSetSelect.dataset.layout = event.detail.status.state.tag_layout;
+    refreshCodes();
+  }
+});
+
+connect();

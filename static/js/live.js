@@ -8,8 +8,12 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
  * @param {function} drawer state -> (ctx, width, height) => void
  * @param {boolean} reports whether this page reports ready/applied (tiles only)
  * @param {function} prepare changes -> Promise: load what the changed state needs
+ * @param {function} overlay state -> show(): ready page content beside the scene now,
+ *   show it with the frame
  */
-export function showLive(path, drawer, {reports = false, prepare = () => undefined} = {}) {
+export function showLive(
+  path, drawer, {reports = false, prepare = () => undefined, overlay = () => () => {}} = {},
+) {
   const body = document.body;
   const frames = new Frames(document.getElementById("scene"));
   const marker = document.getElementById("offline");
@@ -18,8 +22,10 @@ export function showLive(path, drawer, {reports = false, prepare = () => undefin
     reports,
     render(state, version) {
       const show = frames.prepare(drawer(state));
+      const showOverlay = overlay(state);
       return () => {
         show();
+        showOverlay();
         current = state;
         body.dataset.version = String(version);
       };

@@ -8,6 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from tests.conftest import TEST_SECRET
+from webapp.accounts import authenticate
 from webapp.cli import main
 from webapp.db import Database
 from webapp.settings import CONTENT_DIR
@@ -47,7 +48,7 @@ def test_tiles_unknown_wall_exits_2(env: dict[str, str]) -> None:
 def test_urls_prints_dashboard_overview_and_tiles(env: dict[str, str]) -> None:
     code, out, _ = run(env, "urls")
     assert code == 0
-    assert "dashboard: http://127.0.0.1:8111/dashboard?token=" in out
+    assert "dashboard: http://127.0.0.1:8111/login/operator?token=" in out
     assert "overview:  http://127.0.0.1:8111/wall/demo/overview" in out
     assert out.count("/tile/") == 6
 
@@ -146,3 +147,61 @@ def test_codes_size_defaults_to_the_walls_design_distance(env: dict[str, str]) -
 def test_codes_size_rejects_bad_options(env: dict[str, str], args: tuple[str, str]) -> None:
     code, _, err = run(env, "codes", "size", "--wall", "demo", *args)
     assert code == 2 and "Invalid value" in err
+
+
+def test_user_add_asks_for_the_password_twice_and_the_account_signs_in(
+    env: dict[str, str], database_url: str
+) -> None:
+    result = CliRunner().invoke(
+        main,
+        ["user", "add", "Alice", "--role", "instructor"],
+        env=env,
+        input="pw-123456\npw-123456\n",
+    )
+    assert result.exit_code == 0, result.output
+    assert "added alice (instructor)" in result.stdout
+    assert "pw-123456" not in result.stdout
+    database = Database(database_url)
+    try:
+        assert authenticate(database, "ALICE", "pw-123456") is not None
+        assert authenticate(database, "alice", "wrong-password") is None
+    finally:
+        database.dispose()
+
+
+def test_user_list_remove_and_passwd(env: dict[str, str], database_url: str) -> None:
+    run(env, "user", "add", "bob", "--role", "admin", "--password", "first-pass")
+    code, out, _ = run(env, "user", "list")
+    assert code == 0 and out.startswith("bob\tadmin\t")
+    code, out, _ = run(env, "user", "passwd", "bob", "--password", "second-pass")
+    assert code == 0 and "password of bob changed" in out
+    database = Database(database_url)
+    try:
+        assert authenticate(database, "bob", "first-pass") is None
+        assert authenticate(database, "bob", "second-pass") is not None
+    finally:
+        database.dispose()
+    assert run(env, "user", "remove", "bob")[:2] == (0, "removed bob\n")
+    assert run(env, "user", "list")[1] == "no accounts\n"
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["user", "add", "x", "--password", "long-enough"], "not a valid username"),
+        (["user", "add", "carol", "--password", "short"], "at least 8 characters"),
+        (["user", "remove", "nobody"], "no account called 'nobody'"),
+        (["user", "passwd", "nobody", "--password", "long-enough"], "no account called"),
+    ],
+)
+def test_user_commands_refuse_bad_requests_with_exit_1(
+    env: dict[str, str], args: list[str], message: str
+) -> None:
+    code, _, err = run(env, *args)
+    assert code == 1 and message in err
+
+
+def test_user_add_refuses_a_taken_name(env: dict[str, str]) -> None:
+    assert run(env, "user", "add", "dave", "--password", "long-enough")[0] == 0
+    code, _, err = run(env, "user", "add", "DAVE", "--password", "long-enough")
+    assert code == 1 and "already an account called 'dave'" in err

@@ -3,7 +3,8 @@
 An app is a small plug-in: the core resolves a scanned code to its tag and hands the
 scan to the app named on the tag, which returns the phone page. Adding an app means
 adding a module here and listing it in :func:`builtin_apps`; the core knows nothing
-app-specific.
+app-specific. An app extends the dashboard with a panel (``dashboard_panel``) and
+the public screen with what its pages publish (``publication``).
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from fastapi import Request, Response
 
 from wall_client.layout import Wall
 from webapp.models import TagRecord
+from webapp.people import Person
+from webapp.publishing import Publication
 from webapp.tags import TagSpec
 from webapp.visitors import Visitor
 
@@ -31,6 +34,13 @@ class Scan:
     wall: Wall
     tag: TagRecord
     visitor: Visitor
+    address: str
+
+    async def person(self) -> Person:
+        """Who scanned: role, user group, information class (loaded when an app asks)."""
+        from webapp.deps import get_person
+
+        return await get_person(self.request, self.services, self.address)
 
 
 class WallApp(Protocol):
@@ -43,6 +53,22 @@ class WallApp(Protocol):
 
     async def on_scan(self, scan: Scan) -> Response:
         """The phone page for a scan of one of the app's tags."""
+        ...
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        """What the page of ``scan`` publishes to the public screen (None: nothing).
+
+        Called when the phone presses the Publish button at the bottom of that page;
+        the content is built again on the server, never taken from the phone.
+        """
+        ...
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        """The template of the app's dashboard panel (None: no panel).
+
+        The dashboard includes it inside its own page with ``wall`` in the context;
+        panel scripts are plain modules under ``static/js/`` listed in the template.
+        """
         ...
 
 

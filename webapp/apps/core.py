@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
-from fastapi import Response
+from urllib.parse import quote
+
+from fastapi import Response, status
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
 from webapp.apps import Scan
+from webapp.deps import remember_person
+from webapp.people import Person, address_grant, assume, grant
+from webapp.publishing import Publication
 from webapp.routes.pages import render
+from webapp.settings import Role
 from webapp.tags import TagSpec
 
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
@@ -32,13 +40,30 @@ class CoreApp:
         ]
 
     async def on_scan(self, scan: Scan) -> Response:
-        role = scan.tag.params.get("role")
-        if role == "student":
-            return render(scan.request, "registered.html", wall=scan.wall, role="student")
-        return render(
-            scan.request,
-            "registered.html",
-            wall=scan.wall,
-            role=None,
-            status_code=403,
+        """Student: always. Instructor: only a phone already authorised (signed in,
+        paired, or by an address rule where those are on); others go to sign in and
+        come back to this code."""
+        person = await scan.person()
+        services = scan.services
+        if scan.tag.params.get("role") == "instructor" and not person.may_assume("instructor"):
+            authority = await run_in_threadpool(
+                address_grant, services.db, scan.address, services.settings
+            )
+            if authority is None:
+                back = quote(f"/t/{scan.tag.code}")
+                return RedirectResponse(f"/login?next={back}", status.HTTP_303_SEE_OTHER)
+            person = await run_in_threadpool(
+                grant, services.db, person, "instructor", authority, services.settings, scan.address
+            )
+        role: Role = "instructor" if scan.tag.params.get("role") == "instructor" else "student"
+        registered: Person = await run_in_threadpool(
+            assume, services.db, person, role, services.settings, scan.address
         )
+        remember_person(scan.request, registered)
+        return render(scan.request, "registered.html", wall=scan.wall)
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        return None  # registration is not content
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        return None

@@ -10,11 +10,14 @@ unplaceable instead, which the dashboard shows).
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import Response
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import ROLES, Display, Wall
 from webapp.apps import Scan
+from webapp.publishing import Block, Publication
 from webapp.routes.pages import render
 from webapp.tags import TagSpec, get_layout
 from webapp.wall_state import read_state
@@ -44,13 +47,7 @@ class PatternApp:
         )
 
     async def on_scan(self, scan: Scan) -> Response:
-        db = scan.services.db
-        _, state = await run_in_threadpool(read_state, db, scan.wall.id)
-        layout = await run_in_threadpool(get_layout, db, scan.wall.id, state.tag_layout)
-        placed = next(
-            (p for p in (layout.placed if layout else []) if p["code"] == scan.tag.code), None
-        )
-        display = scan.wall.display(placed["display"]) if placed else None
+        placed, display = await _placement_of(scan)
         return render(
             scan.request,
             "locate.html",
@@ -59,6 +56,40 @@ class PatternApp:
             placed=placed,
             display=display,
         )
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        """Where this code stands, for everyone at the wall to check."""
+        placed, display = await _placement_of(scan)
+        if placed is None or display is None:
+            return None
+        x, y, size, _ = placed["rect"]
+        return Publication(
+            title=scan.tag.label,
+            blocks=[
+                Block(
+                    kind="facts",
+                    rows=[
+                        ("Display", f"{display.id} (node {display.node}, output {display.index})"),
+                        ("Code at", f"{x:.0f}, {y:.0f} mm from the top-left corner"),
+                        ("Code size", f"{size:.0f} mm, {placed['px_per_module']} px per module"),
+                    ],
+                )
+            ],
+        )
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        return "panels/pattern.html"
+
+
+async def _placement_of(scan: Scan) -> tuple[dict[str, Any] | None, Display | None]:
+    """Where the scanned code stands in the wall's current layout (None: not placed)."""
+    db = scan.services.db
+    _, state = await run_in_threadpool(read_state, db, scan.wall.id)
+    layout = await run_in_threadpool(get_layout, db, scan.wall.id, state.tag_layout)
+    placed = next(
+        (p for p in (layout.placed if layout else []) if p["code"] == scan.tag.code), None
+    )
+    return placed, scan.wall.display(placed["display"]) if placed else None
 
 
 def _side_by_side(displays: list[Display]) -> list[tuple[Display, Display]]:

@@ -1,13 +1,14 @@
-"""HTML pages: the start page, tiles, the wall overview and the setup dashboard."""
+"""HTML pages: the start page, tiles and the wall overview; ``render`` for every page."""
 
 from __future__ import annotations
 
 from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 
-from webapp.deps import OperatorPageDep, ServicesDep, TileDep, TileTokenDep, WallDep
+from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
 from webapp.protocol import ViewportInfo
 from webapp.schemas import WallInfo
+from webapp.security import csrf_token
 
 router = APIRouter(include_in_schema=False)
 
@@ -15,6 +16,12 @@ router = APIRouter(include_in_schema=False)
 def render(
     request: Request, template: str, status_code: int = 200, **context: object
 ) -> HTMLResponse:
+    """A page; forms on it get the session's CSRF token as ``csrf``."""
+    visitor = getattr(request.state, "visitor", None)
+    if visitor is not None:
+        secret = request.app.state.services.secret
+        context.setdefault("csrf", csrf_token(secret, visitor.session_id))
+    context.setdefault("person", getattr(request.state, "person", None))
     response: HTMLResponse = request.app.state.templates.TemplateResponse(
         request, template, context, status_code=status_code
     )
@@ -53,17 +60,4 @@ def tile_page(
 def overview_page(request: Request, wall: WallDep) -> HTMLResponse:
     return render(
         request, "overview.html", wall=wall, wall_json=WallInfo.of(wall).model_dump_json()
-    )
-
-
-@router.get("/dashboard")
-def dashboard_page(request: Request, services: ServicesDep, token: OperatorPageDep) -> HTMLResponse:
-    walls = list(services.walls.values())
-    return render(
-        request,
-        "dashboard.html",
-        walls=walls,
-        token=token,
-        walls_json="[" + ",".join(WallInfo.of(w).model_dump_json() for w in walls) + "]",
-        tile_urls={w.id: {d.id: services.tile_url(w.id, d.id) for d in w.displays} for w in walls},
     )

@@ -11,7 +11,7 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
 from webapp.apps import Scan
-from webapp.deps import ServicesDep
+from webapp.deps import ClientAddressDep, ServicesDep
 from webapp.routes.pages import render
 from webapp.tags import find, payload_of
 from webapp.visitors import Visitor, visitor_of
@@ -37,10 +37,11 @@ def problem_page(
 
 @router.get("/t/{code}")
 @router.get("/T/{code}")
-async def resolve(code: str, request: Request, services: ServicesDep) -> Response:
+async def resolve(
+    code: str, request: Request, services: ServicesDep, address: ClientAddressDep
+) -> Response:
     """A scanned code: look it up, check it works now, record the scan, hand it to its app."""
     visitor = visitor_of(request, services.secret)
-    address = request.client.host if request.client else ""
     normalized = normalize_code(code)
     if normalized is None:
         response: Response = problem_page(
@@ -56,7 +57,6 @@ async def resolve(code: str, request: Request, services: ServicesDep) -> Respons
         response.headers["Retry-After"] = str(int(wait) + 1)
     else:
         response = await _resolve(request, services, normalized, visitor, address)
-    visitor.remember(request, response, services.secret)
     return response
 
 
@@ -73,7 +73,8 @@ async def _resolve(
         detail = resolution.problem or "This code belongs to a wall or app not running here."
         return problem_page(request, 410, "This code is no longer in use", detail, tag.wall_id)
     services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
-    return await app.on_scan(Scan(request, services, wall, tag, visitor))
+    services.scan_feed.publish(tag, visitor.id)
+    return await app.on_scan(Scan(request, services, wall, tag, visitor, address))
 
 
 @lru_cache(maxsize=1024)

@@ -9,7 +9,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
-from webapp.deps import OperatorDep, ServicesDep, WallDep
+from webapp.deps import ServicesDep, StaffOnly, WallDep
 from webapp.models import TagRecord
 from webapp.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate
 from webapp.services import Services
@@ -60,13 +60,13 @@ def tag_info(tag: TagRecord, services: Services) -> TagInfo:
     )
 
 
-@router.get("/walls/{wall_id}/tags", dependencies=[OperatorDep])
+@router.get("/walls/{wall_id}/tags", dependencies=[StaffOnly])
 async def list_tags(wall: WallDep, services: ServicesDep) -> list[TagInfo]:
     tags = await run_in_threadpool(wall_tags, services.db, wall.id)
     return [tag_info(tag, services) for tag in tags]
 
 
-@router.post("/walls/{wall_id}/tags", dependencies=[OperatorDep], status_code=201)
+@router.post("/walls/{wall_id}/tags", dependencies=[StaffOnly], status_code=201)
 async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagInfo:
     """Register a tag (any payload kind); when it belongs on the wall now, it is placed."""
     try:
@@ -86,12 +86,12 @@ async def _tag(code: str, services: Services) -> TagRecord:
     return tag
 
 
-@router.get("/tags/{code}", dependencies=[OperatorDep])
+@router.get("/tags/{code}", dependencies=[StaffOnly])
 async def get_tag(code: str, services: ServicesDep) -> TagInfo:
     return tag_info(await _tag(code, services), services)
 
 
-@router.patch("/tags/{code}", dependencies=[OperatorDep])
+@router.patch("/tags/{code}", dependencies=[StaffOnly])
 async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> TagInfo:
     """Relabel, switch off or set an expiry; the wall re-places when that changes it."""
     tag = await _tag(code, services)
@@ -103,7 +103,7 @@ async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> Tag
     return tag_info(tag, services)
 
 
-@router.get("/walls/{wall_id}/tag-sets", dependencies=[OperatorDep])
+@router.get("/walls/{wall_id}/tag-sets", dependencies=[StaffOnly])
 async def list_tag_sets(wall: WallDep, services: ServicesDep) -> TagSetsInfo:
     sets = await run_in_threadpool(tag_sets, services.db, wall.id)
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
@@ -118,7 +118,7 @@ async def list_tag_sets(wall: WallDep, services: ServicesDep) -> TagSetsInfo:
     )
 
 
-@router.put("/walls/{wall_id}/tag-set", dependencies=[OperatorDep])
+@router.put("/walls/{wall_id}/tag-set", dependencies=[StaffOnly])
 async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: ServicesDep) -> TagSetsInfo:
     """Switch the wall's codes to another set: placed, then shown by every tile at once."""
     sets = await run_in_threadpool(tag_sets, services.db, wall.id)

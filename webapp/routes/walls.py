@@ -5,9 +5,11 @@ from __future__ import annotations
 from fastapi import APIRouter
 from fastapi.concurrency import run_in_threadpool
 
-from webapp.deps import OperatorDep, ServicesDep, WallDep
+from wall_client.layout import Wall
+from webapp.deps import ServicesDep, StaffOnly, WallDep
 from webapp.hub import TileStatus
 from webapp.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
+from webapp.services import Services
 from webapp.wall_state import StatePatch, read_state
 
 router = APIRouter(prefix="/api/walls", tags=["walls"])
@@ -23,8 +25,13 @@ def get_wall(wall: WallDep) -> WallInfo:
     return WallInfo.of(wall)
 
 
-@router.get("/{wall_id}/status", dependencies=[OperatorDep])
+@router.get("/{wall_id}/status", dependencies=[StaffOnly])
 async def wall_status(wall: WallDep, services: ServicesDep) -> WallStatus:
+    return await status_of(services, wall)
+
+
+async def status_of(services: Services, wall: Wall) -> WallStatus:
+    """The wall's version and state, and what each tile last reported."""
     version, state = await run_in_threadpool(read_state, services.db, wall.id)
     statuses = services.hub.tile_statuses(wall.id)
     tiles = [TileStatusInfo.of(statuses.get(d.id) or TileStatus(d.id)) for d in wall.displays]
@@ -33,7 +40,7 @@ async def wall_status(wall: WallDep, services: ServicesDep) -> WallStatus:
     )
 
 
-@router.post("/{wall_id}/state", dependencies=[OperatorDep])
+@router.post("/{wall_id}/state", dependencies=[StaffOnly])
 async def change_wall_state(
     wall: WallDep, patch: StatePatch, services: ServicesDep
 ) -> ChangeResult:

@@ -55,11 +55,20 @@ def test_overview_page_carries_the_layout(client: TestClient) -> None:
     assert "overview.js" in page.text and "data-wall-info" in page.text
 
 
-def test_dashboard_needs_the_operator_token(client: TestClient) -> None:
-    assert client.get("/dashboard").status_code == 403
+def test_the_operator_link_signs_in_as_admin_and_opens_the_dashboard(
+    client: TestClient,
+) -> None:
+    assert client.get("/dashboard", follow_redirects=False).status_code == 303
     token = client.app.state.services.operator_token  # type: ignore[attr-defined]
-    page = client.get(f"/dashboard?token={token}")
+    page = client.get(f"/login/operator?token={token}")
     assert page.status_code == 200 and "dashboard.js" in page.text
+    assert "Accounts and address rules" in page.text
+
+
+def test_a_wrong_operator_link_is_refused(client: TestClient) -> None:
+    page = client.get("/login/operator?token=guess")
+    assert page.status_code == 403
+    assert client.get("/dashboard", follow_redirects=False).status_code == 303
 
 
 def test_security_headers_on_every_page(client: TestClient) -> None:
@@ -72,7 +81,9 @@ def test_security_headers_on_every_page(client: TestClient) -> None:
 
 def test_pages_have_no_inline_script(client: TestClient) -> None:
     token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
-    for url in ("/", "/wall/demo/overview", f"/wall/demo/tile/r1c1?token={token}"):
+    operator = client.app.state.services.operator_token  # type: ignore[attr-defined]
+    pages = ("/", "/wall/demo/overview", f"/wall/demo/tile/r1c1?token={token}", "/login", "/me")
+    for url in (*pages, f"/login/operator?token={operator}", "/dashboard/admin"):
         text_ = client.get(url).text
         assert "<script>" not in text_ and "onclick=" not in text_
 

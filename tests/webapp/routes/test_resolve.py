@@ -15,7 +15,7 @@ from webapp.models import ScanRecord
 from webapp.scanning import scans_of
 from webapp.services import Services
 from webapp.tags import TagSpec, issue, wall_tags
-from webapp.visitors import VISITOR_COOKIE
+from webapp.visitors import SESSION_COOKIE
 
 PHONE = {"User-Agent": "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X)"}
 
@@ -39,7 +39,7 @@ def test_student_registration_code_resolves_and_records_the_scan(client: TestCli
     response = client.get(f"/t/{code}", headers=PHONE)
     assert response.status_code == 200
     assert "student" in response.text
-    assert VISITOR_COOKIE in response.cookies
+    assert SESSION_COOKIE in response.cookies
     cookie = response.headers["set-cookie"].lower()
     assert "httponly" in cookie and "samesite=lax" in cookie
     (scan,) = recorded(client, code)
@@ -76,15 +76,15 @@ def test_the_app_the_scan_and_the_cookie_agree_on_a_new_visitor(client: TestClie
     tag = issue(services(client).db, "demo", spec, "test")
     response = client.get(f"/t/{tag.code}")
     assert response.status_code == 200
-    serializer = URLSafeSerializer(services(client).secret, salt="tagwall.visitor")
-    cookie_id = serializer.loads(response.cookies[VISITOR_COOKIE])
+    serializer = URLSafeSerializer(services(client).secret, salt="tagwall.session")
+    cookie_id, _session_id = serializer.loads(response.cookies[SESSION_COOKIE])
     (scan,) = recorded(client, tag.code)
     assert response.text == scan.visitor_id == cookie_id
 
 
 def test_a_forged_visitor_cookie_is_replaced(client: TestClient) -> None:
     code = code_named(client, "demo", "register-student")
-    client.cookies.set(VISITOR_COOKIE, "someone-else")
+    client.cookies.set(SESSION_COOKIE, "someone-else")
     response = client.get(f"/t/{code}")
     assert response.status_code == 200
     (scan,) = recorded(client, code)
@@ -133,10 +133,13 @@ def test_a_code_of_a_set_not_on_the_wall_is_410(client: TestClient) -> None:
     assert client.get(f"/t/{code_named(client, 'demo', 'register-student')}").status_code == 200
 
 
-def test_instructor_code_refuses_a_phone_that_is_not_authorised(client: TestClient) -> None:
-    response = client.get(f"/t/{code_named(client, 'demo', 'register-instructor')}")
-    assert response.status_code == 403
-    assert "not authorised" in response.text
+def test_instructor_code_sends_a_phone_that_is_not_authorised_to_sign_in(
+    client: TestClient,
+) -> None:
+    code = code_named(client, "demo", "register-instructor")
+    response = client.get(f"/t/{code}", follow_redirects=False)
+    assert response.status_code == 303
+    assert response.headers["location"] == f"/login?next=/t/{code}"
 
 
 def test_setup_code_tells_the_installer_where_it_stands(client: TestClient) -> None:

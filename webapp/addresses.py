@@ -1,0 +1,70 @@
+"""Where a request comes from, and which address rule covers it.
+
+An address is a weak identity (a whole school may share one NAT address), so rules
+give defaults freely but grant a role only when the deployment switches that on
+(``TAGWALL_ADDRESS_RULES_GRANT_ROLES``).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+from collections.abc import Sequence
+from ipaddress import IPv4Address, IPv4Network, IPv6Address, IPv6Network
+
+from webapp.models import AddressRuleRecord
+
+Network = IPv4Network | IPv6Network
+Address = IPv4Address | IPv6Address
+
+
+def _address(text: str) -> Address | None:
+    try:
+        return ipaddress.ip_address(text.strip())
+    except ValueError:
+        return None
+
+
+def client_address(peer: str, forwarded_for: str | None, trusted: Sequence[Network]) -> str:
+    """The client's address: the peer's, unless the peer is a trusted proxy.
+
+    Behind trusted proxies, ``X-Forwarded-For`` is read from the right (the entries
+    our own proxies appended) to the first address that is not a trusted proxy;
+    anything left of it was written by the client and proves nothing.
+    """
+    peer_address = _address(peer)
+    if not trusted or peer_address is None or not _is_trusted(peer_address, trusted):
+        return peer
+    hops = [hop for hop in (forwarded_for or "").split(",") if hop.strip()]
+    for hop in reversed(hops):
+        address = _address(hop)
+        if address is None:
+            return peer  # a garbled header: fall back to what we know
+        if not _is_trusted(address, trusted):
+            return str(address)
+    return peer
+
+
+def _is_trusted(address: Address, trusted: Sequence[Network]) -> bool:
+    return any(address in network for network in trusted if network.version == address.version)
+
+
+def parse_network(text: str) -> Network:
+    """A CIDR network (``10.1.0.0/16``; a bare address is a /32 or /128)."""
+    try:
+        return ipaddress.ip_network(text.strip(), strict=False)
+    except ValueError:
+        raise ValueError(f"{text!r} is not an address or network like 10.1.0.0/16") from None
+
+
+def matching_rule(address: str, rules: Sequence[AddressRuleRecord]) -> AddressRuleRecord | None:
+    """The most specific rule whose network holds ``address`` (None when none does)."""
+    parsed = _address(address)
+    if parsed is None:
+        return None
+    best: tuple[int, AddressRuleRecord] | None = None
+    for rule in rules:
+        network = parse_network(rule.network)
+        inside = network.version == parsed.version and parsed in network
+        if inside and (best is None or network.prefixlen > best[0]):
+            best = (network.prefixlen, rule)
+    return best[1] if best else None

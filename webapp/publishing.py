@@ -1,0 +1,181 @@
+"""Publishing to the public screen: what a phone shows, shown on the wall for everyone.
+
+Apps describe content as a :class:`Publication` (a title and plain blocks), never
+as HTML; the server renders it with an autoescaping template, so nothing anyone
+typed can become markup or script on the wall. Every publication is stored, so
+the queue and the screen survive a restart, and each decision (shown, waiting,
+approved, rejected, cleared) is one function here.
+"""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime
+from typing import Literal
+
+from fastapi.concurrency import run_in_threadpool
+from jinja2 import Environment
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from webapp.db import Database
+from webapp.hub import WallHub
+from webapp.models import PublicationRecord
+from webapp.people import Person
+from webapp.wall_state import PublicItem, PublicPolicy, WallState, now_ms
+
+Status = Literal["shown", "pending", "rejected", "cleared"]
+
+
+class Block(BaseModel):
+    """One part of a publication: a paragraph, a table of facts, or a site image."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    kind: Literal["text", "facts", "image"]
+    text: str = Field(default="", max_length=5_000)
+    rows: list[tuple[str, str]] = Field(default_factory=list, max_length=100)
+    src: str = Field(default="", max_length=500)
+
+    @field_validator("src")
+    @classmethod
+    def _same_site(cls, value: str) -> str:
+        if value and (not value.startswith("/") or value.startswith("//")):
+            raise ValueError("images come from this site only (a path starting with /)")
+        return value
+
+
+class Publication(BaseModel):
+    """What a phone content page offers to the public screen."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    title: str = Field(min_length=1, max_length=200)
+    blocks: list[Block] = Field(default_factory=list, max_length=50)
+
+
+class PublishRefused(Exception):
+    """Publishing is not possible now (the screen is locked); the message says why."""
+
+
+def render_item(templates: Environment, publication: Publication, author: str, at_ms: int) -> str:
+    """The publication as the public screen shows it: escaped, server-rendered HTML."""
+    when = datetime.fromtimestamp(at_ms / 1000, UTC)
+    return templates.get_template("public_item.html").render(
+        item=publication, author=author, when=when.strftime("%H:%M UTC, %d %b %Y")
+    )
+
+
+def _show(record: PublicationRecord) -> PublicItem:
+    return PublicItem(
+        id=record.id,
+        title=record.title,
+        html=record.html,
+        author=record.author,
+        published_at=int(record.created_at.timestamp() * 1000),
+    )
+
+
+async def _put_on_screen(hub: WallHub, wall_id: str, item: PublicItem | None) -> None:
+    await hub.change_state(wall_id, lambda state: state.model_copy(update={"public": item}))
+
+
+async def submit(
+    db: Database,
+    hub: WallHub,
+    state: WallState,
+    templates: Environment,
+    person: Person,
+    wall_id: str,
+    publication: Publication,
+    source: str,
+) -> PublicationRecord:
+    """Publish for ``person``: shown at once, or queued when moderation holds students."""
+    policy = state.public_policy
+    if policy.locked and not person.is_staff:
+        raise PublishRefused("The instructor has locked the public screen for now.")
+    status: Status = "pending" if policy.moderated and not person.is_staff else "shown"
+    now = now_ms()
+    record = PublicationRecord(
+        wall_id=wall_id,
+        visitor_id=person.visitor.id,
+        author=person.public_name[:100],
+        title=publication.title,
+        html=render_item(templates, publication, person.public_name, now),
+        source=source[:200],
+        status=status,
+        created_at=datetime.fromtimestamp(now / 1000, UTC),
+    )
+
+    def store() -> None:
+        with db.session() as session:
+            if status == "shown":
+                _retire_shown(session, wall_id)
+            session.add(record)
+
+    await run_in_threadpool(store)
+    if status == "shown":
+        await _put_on_screen(hub, wall_id, _show(record))
+    return record
+
+
+def _retire_shown(session: Session, wall_id: str) -> None:
+    """What the screen showed before is no longer shown (one item at a time)."""
+    for shown in session.scalars(
+        select(PublicationRecord).where(
+            PublicationRecord.wall_id == wall_id, PublicationRecord.status == "shown"
+        )
+    ):
+        shown.status = "cleared"
+
+
+async def decide(
+    db: Database, hub: WallHub, wall_id: str, publication_id: int, approve: bool, actor: str
+) -> PublicationRecord:
+    """Approve (show) or reject a waiting publication; KeyError if none is waiting."""
+
+    def store() -> PublicationRecord:
+        with db.session() as session:
+            record = session.get(PublicationRecord, publication_id)
+            if record is None or record.wall_id != wall_id or record.status != "pending":
+                raise KeyError(publication_id)
+            if approve:
+                _retire_shown(session, wall_id)
+            record.status = "shown" if approve else "rejected"
+            record.decided_at = datetime.now(UTC)
+            record.decided_by = actor[:120]
+            return record
+
+    record = await run_in_threadpool(store)
+    if approve:
+        await _put_on_screen(hub, wall_id, _show(record))
+    return record
+
+
+async def clear(db: Database, hub: WallHub, wall_id: str) -> None:
+    """Empty the public screen."""
+
+    def store() -> None:
+        with db.session() as session:
+            _retire_shown(session, wall_id)
+
+    await run_in_threadpool(store)
+    await _put_on_screen(hub, wall_id, None)
+
+
+async def set_policy(hub: WallHub, wall_id: str, policy: PublicPolicy) -> None:
+    await hub.change_state(
+        wall_id, lambda state: state.model_copy(update={"public_policy": policy})
+    )
+
+
+def waiting(db: Database, wall_id: str) -> list[PublicationRecord]:
+    """The moderation queue, oldest first."""
+    with db.session() as session:
+        return list(
+            session.scalars(
+                select(PublicationRecord)
+                .where(PublicationRecord.wall_id == wall_id, PublicationRecord.status == "pending")
+                .order_by(PublicationRecord.id)
+            )
+        )

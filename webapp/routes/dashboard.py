@@ -1,0 +1,211 @@
+"""The instructor dashboard, its live socket, and the admin's accounts and rules."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from typing import Annotated
+from urllib.parse import urlsplit
+
+from fastapi import APIRouter, Form, Query, Request, WebSocket, status
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+from starlette.websockets import WebSocketDisconnect
+
+from webapp.accounts import AccountError, add_account, list_accounts, remove_account
+from webapp.address_rules import RuleError, add_rule, list_rules, remove_rule
+from webapp.addresses import client_address
+from webapp.audit import recent_entries
+from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep
+from webapp.people import GROUP_LABELS, load_person
+from webapp.protocol import CLOSE_POLICY, CLOSE_UNKNOWN, DashboardStatus, ScanSeen
+from webapp.publishing import waiting
+from webapp.routes.pages import render
+from webapp.routes.walls import status_of
+from webapp.schemas import PublicationInfo, WallInfo
+from webapp.services import Services
+from webapp.visitors import visitor_of
+
+router = APIRouter(include_in_schema=False)
+
+STATUS_INTERVAL_S = 1.0
+
+
+@router.get("/dashboard")
+def dashboard_page(
+    request: Request,
+    person: StaffPageDep,
+    services: ServicesDep,
+    wall: Annotated[str | None, Query(max_length=64)] = None,
+) -> HTMLResponse:
+    walls = list(services.walls.values())
+    current = services.walls.get(wall or "") or services.walls.get(services.settings.default_wall)
+    current = current or walls[0]
+    apps = [app for app in services.apps.values() if app.name != "core"]
+    panels = [panel for app in apps if (panel := app.dashboard_panel(current))]
+    return render(
+        request,
+        "dashboard.html",
+        walls=walls,
+        wall=current,
+        apps=apps,
+        panels=panels,
+        wall_json=WallInfo.of(current).model_dump_json(),
+        tile_urls={d.id: services.tile_url(current.id, d.id) for d in current.displays},
+    )
+
+
+@router.websocket("/ws/dashboard/{wall_id}")
+async def dashboard_socket(websocket: WebSocket, wall_id: str) -> None:
+    """Live status and scans for one wall's dashboard: instructors only, same site only."""
+    services: Services = websocket.app.state.services
+    await websocket.accept()
+    wall = services.walls.get(wall_id)
+    if wall is None:
+        await websocket.close(CLOSE_UNKNOWN, "unknown wall")
+        return
+    if not _same_origin(websocket):
+        await websocket.close(CLOSE_POLICY, "cross-site connection refused")
+        return
+    peer = websocket.client.host if websocket.client else ""
+    address = client_address(
+        peer, websocket.headers.get("x-forwarded-for"), services.settings.trusted_proxies
+    )
+    visitor = visitor_of(websocket, services.secret)
+    person = await run_in_threadpool(load_person, services.db, visitor, address, services.settings)
+    if not person.is_staff:
+        await websocket.close(CLOSE_POLICY, "instructors only")
+        return
+    with services.scan_feed.subscribe(wall.id) as scans:
+        sender = asyncio.create_task(_send_updates(websocket, services, wall.id, scans))
+        try:
+            while True:  # dashboards only listen; reading notices the close
+                await websocket.receive_text()
+        except WebSocketDisconnect:
+            pass
+        finally:
+            sender.cancel()
+            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+                await sender
+
+
+def _same_origin(websocket: WebSocket) -> bool:
+    """Browsers send Origin on websockets; another site's page must not ride our cookie."""
+    origin = websocket.headers.get("origin")
+    return origin is None or urlsplit(origin).netloc == websocket.headers.get("host")
+
+
+async def _send_updates(
+    websocket: WebSocket, services: Services, wall_id: str, scans: asyncio.Queue[ScanSeen]
+) -> None:
+    wall = services.walls[wall_id]
+    next_status = 0.0
+    while True:
+        try:
+            notice = await asyncio.wait_for(scans.get(), max(0.0, next_status - time.monotonic()))
+            await websocket.send_text(notice.model_dump_json())
+        except TimeoutError:
+            status_now = await status_of(services, wall)
+            queue = await run_in_threadpool(waiting, services.db, wall_id)
+            message = DashboardStatus(
+                status=status_now.model_dump(mode="json"),
+                waiting=[PublicationInfo.of(r).model_dump(mode="json") for r in queue],
+            )
+            await websocket.send_text(message.model_dump_json())
+            next_status = time.monotonic() + STATUS_INTERVAL_S
+
+
+@router.get("/dashboard/admin")
+def admin_page(request: Request, person: AdminPageDep, services: ServicesDep) -> HTMLResponse:
+    return _admin(request, services, None)
+
+
+def _admin(request: Request, services: Services, error: str | None) -> HTMLResponse:
+    """The admin page, with what went wrong when a form could not be carried out."""
+    return render(
+        request,
+        "admin.html",
+        status.HTTP_400_BAD_REQUEST if error else status.HTTP_200_OK,
+        accounts=list_accounts(services.db),
+        rules=list_rules(services.db),
+        audit=recent_entries(services.db),
+        groups=GROUP_LABELS,
+        error=error,
+        grants_roles=services.settings.address_rules_grant_roles,
+    )
+
+
+def _back_to_admin() -> RedirectResponse:
+    return RedirectResponse("/dashboard/admin", status.HTTP_303_SEE_OTHER)
+
+
+@router.post("/dashboard/admin/accounts", dependencies=[CsrfDep])
+def create_account(
+    request: Request,
+    person: AdminPageDep,
+    services: ServicesDep,
+    username: Annotated[str, Form(max_length=64)],
+    role: Annotated[str, Form(max_length=16)],
+    password: Annotated[str, Form(max_length=1_000)],
+) -> Response:
+    try:
+        add_account(services.db, username, role, password, actor=person.authority or "admin")
+    except AccountError as error:
+        return _admin(request, services, str(error))
+    return _back_to_admin()
+
+
+@router.post("/dashboard/admin/accounts/{username}/remove", dependencies=[CsrfDep])
+def delete_account(
+    request: Request, username: str, person: AdminPageDep, services: ServicesDep
+) -> Response:
+    try:
+        remove_account(services.db, username, actor=person.authority or "admin")
+    except AccountError as error:
+        return _admin(request, services, str(error))
+    return _back_to_admin()
+
+
+def _optional(value: str | None) -> str | None:
+    return value.strip() or None if value is not None else None
+
+
+@router.post("/dashboard/admin/rules", dependencies=[CsrfDep])
+def create_rule(
+    request: Request,
+    person: AdminPageDep,
+    services: ServicesDep,
+    network: Annotated[str, Form(max_length=64)],
+    role: Annotated[str | None, Form(max_length=16)] = None,
+    user_group: Annotated[str | None, Form(max_length=16)] = None,
+    info_class: Annotated[str | None, Form(max_length=2)] = None,
+    note: Annotated[str, Form(max_length=200)] = "",
+) -> Response:
+    try:
+        level_text = _optional(info_class)
+        level = int(level_text) if level_text else None
+        add_rule(
+            services.db,
+            network,
+            role=_optional(role),
+            user_group=_optional(user_group),
+            info_class=level,
+            note=note,
+            actor=person.authority or "admin",
+        )
+    except ValueError as error:  # RuleError, or a class that is not a number
+        message = str(error) if isinstance(error, RuleError) else "the class is a number 1-5"
+        return _admin(request, services, message)
+    return _back_to_admin()
+
+
+@router.post("/dashboard/admin/rules/{rule_id}/remove", dependencies=[CsrfDep])
+def delete_rule(
+    request: Request, rule_id: int, person: AdminPageDep, services: ServicesDep
+) -> Response:
+    try:
+        remove_rule(services.db, rule_id, actor=person.authority or "admin")
+    except RuleError as error:
+        return _admin(request, services, str(error))
+    return _back_to_admin()

@@ -1,0 +1,185 @@
+"""Signing in and out, the operator's sign-in link, and a visitor's own profile."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Form, Query, Request, status
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+
+from webapp.accounts import authenticate
+from webapp.audit import audit
+from webapp.deps import (
+    ClientAddressDep,
+    CsrfDep,
+    PersonDep,
+    ServicesDep,
+    remember_person,
+)
+from webapp.people import GROUP_LABELS, grant, sign_out, update_profile
+from webapp.routes.pages import render
+from webapp.security import token_matches
+from webapp.services import Services
+from webapp.settings import USER_GROUPS
+
+router = APIRouter(include_in_schema=False)
+
+
+def safe_next(target: str | None, default: str = "/dashboard") -> str:
+    """Only a path on this site: never an open redirect to somewhere else."""
+    if target and target.startswith("/") and not target.startswith("//") and "\\" not in target:
+        return target
+    return default
+
+
+@router.get("/login")
+async def login_page(
+    request: Request, person: PersonDep, next: Annotated[str | None, Query()] = None
+) -> HTMLResponse:
+    return render(request, "login.html", next=safe_next(next), error=None)
+
+
+def _login_wait(services: Services, username: str, address: str) -> float | None:
+    """Seconds until this account and this client may try again (None: now)."""
+    waits = [
+        services.login_backoff.wait(f"account:{username.strip().lower()}"),
+        services.login_backoff.wait(f"client:{address}"),
+    ]
+    known = [w for w in waits if w is not None]
+    return max(known) if known else None
+
+
+def _failed_login(services: Services, username: str, address: str) -> None:
+    services.login_backoff.failed(f"account:{username.strip().lower()}")
+    services.login_backoff.failed(f"client:{address}")
+    with services.db.session() as session:
+        audit(session, "login_failed", actor=username[:64], address=address)
+
+
+@router.post("/login", dependencies=[CsrfDep])
+async def login(
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    address: ClientAddressDep,
+    username: Annotated[str, Form(max_length=200)],
+    password: Annotated[str, Form(max_length=1_000)],
+    next: Annotated[str | None, Form()] = None,
+) -> Response:
+    target = safe_next(next)
+    wait = _login_wait(services, username, address)
+    if wait is not None:
+        seconds = int(wait) + 1
+        response = render(
+            request,
+            "login.html",
+            status.HTTP_429_TOO_MANY_REQUESTS,
+            next=target,
+            error=f"Too many failed sign-ins. Try again in {seconds} seconds.",
+        )
+        response.headers["Retry-After"] = str(seconds)
+        return response
+    account = await run_in_threadpool(authenticate, services.db, username, password)
+    if account is None:
+        await run_in_threadpool(_failed_login, services, username, address)
+        return render(
+            request,
+            "login.html",
+            status.HTTP_401_UNAUTHORIZED,
+            next=target,
+            error="Wrong username or password.",
+        )
+    services.login_backoff.succeeded(f"account:{account.username}")
+    services.login_backoff.succeeded(f"client:{address}")
+    signed_in = await run_in_threadpool(
+        grant,
+        services.db,
+        person,
+        account.role,  # type: ignore[arg-type]  # validated when the account was made
+        f"login:{account.username}",
+        services.settings,
+        address,
+    )
+    remember_person(request, signed_in)
+    return RedirectResponse(target, status.HTTP_303_SEE_OTHER)
+
+
+@router.get("/login/operator")
+async def operator_sign_in(
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    address: ClientAddressDep,
+    token: Annotated[str | None, Query()] = None,
+) -> Response:
+    """The link `tagwall urls` prints: signs this browser in as administrator, so a new
+    installation can reach the dashboard and make the first accounts."""
+    wait = services.login_backoff.wait(f"client:{address}")
+    if wait is not None:
+        return render(
+            request,
+            "error.html",
+            status.HTTP_429_TOO_MANY_REQUESTS,
+            status=429,
+            detail=f"Too many failed sign-ins. Try again in {int(wait) + 1} seconds.",
+        )
+    if not token_matches(services.operator_token, token):
+        await run_in_threadpool(_failed_login, services, "operator", address)
+        return render(
+            request,
+            "error.html",
+            status.HTTP_403_FORBIDDEN,
+            status=403,
+            detail="This operator link is wrong or out of date; `tagwall urls` prints it.",
+        )
+    signed_in = await run_in_threadpool(
+        grant, services.db, person, "admin", "operator", services.settings, address
+    )
+    remember_person(request, signed_in)
+    return RedirectResponse("/dashboard", status.HTTP_303_SEE_OTHER)
+
+
+@router.post("/logout", dependencies=[CsrfDep])
+async def logout(
+    request: Request, person: PersonDep, services: ServicesDep, address: ClientAddressDep
+) -> Response:
+    signed_out = await run_in_threadpool(sign_out, services.db, person, services.settings, address)
+    remember_person(request, signed_out)
+    return RedirectResponse("/", status.HTTP_303_SEE_OTHER)
+
+
+@router.get("/me")
+async def profile_page(request: Request, person: PersonDep) -> HTMLResponse:
+    return render(request, "me.html", groups=GROUP_LABELS, saved=False)
+
+
+@router.post("/me", dependencies=[CsrfDep])
+async def change_profile(
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    user_group: Annotated[str, Form()],
+    info_class: Annotated[int, Form(ge=1, le=5)],
+    display_name: Annotated[str, Form(max_length=60)] = "",
+) -> HTMLResponse:
+    if user_group not in USER_GROUPS:
+        return render(
+            request,
+            "error.html",
+            status.HTTP_400_BAD_REQUEST,
+            status=400,
+            detail=f"{user_group!r} is not a user group.",
+        )
+    changed = await run_in_threadpool(
+        lambda: update_profile(
+            services.db,
+            person,
+            services.settings,
+            user_group=user_group,
+            info_class=info_class,
+            display_name=display_name,
+        )
+    )
+    remember_person(request, changed)
+    return render(request, "me.html", groups=GROUP_LABELS, saved=True)

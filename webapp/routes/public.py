@@ -1,0 +1,123 @@
+"""The public screen: phones publish to it; instructors moderate, clear and lock it."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Form, HTTPException, Request, status
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import HTMLResponse
+
+from tag_service.codes import normalize_code
+from webapp.apps import Scan
+from webapp.deps import (
+    ClientAddressDep,
+    CsrfDep,
+    PersonDep,
+    ServicesDep,
+    StaffDep,
+    StaffOnly,
+    WallDep,
+)
+from webapp.publishing import PublishRefused, clear, decide, set_policy, submit, waiting
+from webapp.routes.pages import render
+from webapp.schemas import PublicationInfo, PublicScreenInfo
+from webapp.tags import find, is_live
+from webapp.wall_state import PublicPolicy, read_state
+
+router = APIRouter()
+
+
+@router.post("/publish", include_in_schema=False, dependencies=[CsrfDep])
+async def publish(
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    address: ClientAddressDep,
+    code: Annotated[str, Form(max_length=32)],
+) -> HTMLResponse:
+    """The Publish button of a phone page: the page's content goes to the public screen."""
+    normalized = normalize_code(code)
+    tag = await run_in_threadpool(find, services.db, normalized) if normalized else None
+    wall = services.walls.get(tag.wall_id) if tag else None
+    app = services.apps.get(tag.app) if tag else None
+    if tag is None or wall is None or app is None or not is_live(tag):
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "There is nothing to publish for that code.")
+    wait = services.publish_limit.hit(person.visitor.id)
+    if wait is not None:
+        response = render(
+            request,
+            "published.html",
+            status.HTTP_429_TOO_MANY_REQUESTS,
+            wall=wall,
+            outcome="slow",
+            wait=int(wait) + 1,
+        )
+        response.headers["Retry-After"] = str(int(wait) + 1)
+        return response
+    publication = await app.publication(Scan(request, services, wall, tag, person.visitor, address))
+    if publication is None:
+        raise HTTPException(status.HTTP_400_BAD_REQUEST, "This page has nothing to publish.")
+    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    try:
+        record = await submit(
+            services.db,
+            services.hub,
+            state,
+            request.app.state.templates.env,
+            person,
+            wall.id,
+            publication,
+            source=f"{tag.app}:{tag.code}",
+        )
+    except PublishRefused as refused:
+        return render(
+            request,
+            "published.html",
+            status.HTTP_403_FORBIDDEN,
+            wall=wall,
+            outcome="locked",
+            detail=str(refused),
+        )
+    return render(request, "published.html", wall=wall, outcome=record.status)
+
+
+@router.get("/api/walls/{wall_id}/public", tags=["public"], dependencies=[StaffOnly])
+async def public_screen(wall: WallDep, services: ServicesDep) -> PublicScreenInfo:
+    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    queue = await run_in_threadpool(waiting, services.db, wall.id)
+    return PublicScreenInfo(
+        shown=state.public,
+        policy=state.public_policy,
+        waiting=[PublicationInfo.of(record) for record in queue],
+    )
+
+
+@router.post("/api/walls/{wall_id}/public/{publication_id}/{decision}", tags=["public"])
+async def moderate(
+    wall: WallDep, publication_id: int, decision: str, services: ServicesDep, actor: StaffDep
+) -> PublicationInfo:
+    """``approve`` (show it now) or ``reject`` a waiting publication."""
+    if decision not in ("approve", "reject"):
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "Decide with approve or reject.")
+    try:
+        record = await decide(
+            services.db, services.hub, wall.id, publication_id, decision == "approve", actor
+        )
+    except KeyError:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, "No publication with that id is waiting."
+        ) from None
+    return PublicationInfo.of(record)
+
+
+@router.post("/api/walls/{wall_id}/public/clear", tags=["public"], dependencies=[StaffOnly])
+async def clear_screen(wall: WallDep, services: ServicesDep) -> dict[str, bool]:
+    await clear(services.db, services.hub, wall.id)
+    return {"cleared": True}
+
+
+@router.put("/api/walls/{wall_id}/public/policy", tags=["public"], dependencies=[StaffOnly])
+async def change_policy(wall: WallDep, policy: PublicPolicy, services: ServicesDep) -> PublicPolicy:
+    await set_policy(services.hub, wall.id, policy)
+    return policy
