@@ -1,4 +1,4 @@
-"""The setup dashboard in Chromium: what the operator sees and switches."""
+"""The dashboard in Chromium: what the operator sees and switches."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ def test_switching_a_layer_on_the_dashboard_changes_the_tiles(
     start = server.version("demo")
     wait_until(lambda: version_of(tile) == start, what="the tile to start")
     page = browser.new_page()
-    page.goto(f"{server.url}/dashboard?token={operator_token(server.secret)}")
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
     row = page.locator("#tiles tr", has_text="r1c1")
     expect(row).to_contain_text("yes")
 
@@ -30,9 +30,9 @@ def test_switching_a_layer_on_the_dashboard_changes_the_tiles(
     page.close()
 
 
-def test_the_dashboard_refuses_a_wrong_token(browser: Browser, server: ServerProcess) -> None:
+def test_the_operator_link_refuses_a_wrong_token(browser: Browser, server: ServerProcess) -> None:
     page = browser.new_page()
-    response = page.goto(f"{server.url}/dashboard?token=wrong")
+    response = page.goto(f"{server.url}/login/operator?token=wrong")
     assert response is not None and response.status == 403
     expect(page.locator("body")).not_to_contain_text("Traceback")
     page.close()

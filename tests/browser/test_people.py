@@ -1,0 +1,160 @@
+"""People at the wall, in Chromium: a student registers from a code photographed off a
+tile, an instructor pairs a phone from a code photographed off the dashboard, and
+publications reach the public tile, at once or after approval."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterator
+
+import pytest
+from PIL import Image
+from playwright.sync_api import Browser, BrowserContext, Locator, Page, expect
+
+from tag_service.verify import decode_image
+from tests.browser.conftest import open_tiles
+from tests.conftest import TEST_PASSWORD
+from webapp.accounts import add_account
+from webapp.check import fetch_layout
+from webapp.db import Database
+from webapp.security import operator_token
+from webapp.testing import ServerProcess
+
+PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
+
+
+def decoded(target: Page | Locator) -> set[str]:
+    """The payloads of every code in a screenshot of ``target``, as a camera reads them."""
+    image = Image.open(io.BytesIO(target.screenshot(type="png")))
+    return {code.payload for code in decode_image(image)}
+
+
+@pytest.fixture
+def contexts(browser: Browser) -> Iterator[list[BrowserContext]]:
+    """Contexts a test opens, closed whatever happens."""
+    opened: list[BrowserContext] = []
+    yield opened
+    for context in opened:
+        context.close()
+
+
+def new_page(browser: Browser, contexts: list[BrowserContext], **options: object) -> Page:
+    context = browser.new_context(**options)  # type: ignore[arg-type]
+    contexts.append(context)
+    return context.new_page()
+
+
+def registration_payload(server: ServerProcess, tile: Page, label: str) -> str:
+    """The payload of the registration code ``label``, read off the tile's screenshot."""
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    [placed] = [code for code in layout.placed if code.label == label]
+    shown = decoded(tile)
+    assert placed.payload in shown, (label, shown)
+    return placed.payload
+
+
+def sign_in_on_dashboard(page: Page, server: ServerProcess, username: str) -> None:
+    page.goto(f"{server.url}/dashboard")
+    expect(page.locator("h1")).to_have_text("Sign in")
+    page.get_by_label("Username").fill(username)
+    page.get_by_label("Password").fill(TEST_PASSWORD)
+    page.get_by_role("button", name="Sign in").click()
+    expect(page.locator("h1")).to_have_text("Dashboard")
+    expect(page.locator("#live")).to_have_text("live")
+
+
+def test_students_register_instructors_pair_and_publications_reach_the_public_tile(
+    browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
+) -> None:
+    database = Database(server.database_url)
+    add_account(database, "ines", "instructor", TEST_PASSWORD, actor="test")
+    database.dispose()
+    registration, public = open_tiles(browser, server, "demo", ["r2c1", "r1c2"], native=True)
+    contexts.extend([registration.context, public.context])
+    expect(registration.locator("body")).to_have_attribute(
+        "data-version", str(server.version("demo"))
+    )
+
+    # A student scans the Student code photographed off the registration tile.
+    student = new_page(browser, contexts, **PHONE)
+    student.goto(registration_payload(server, registration, "Student"))
+    expect(student.locator("#role")).to_have_text("student")
+
+    # An unpaired phone scanning the Instructor code is sent to sign in.
+    phone = new_page(browser, contexts, **PHONE)
+    phone.goto(registration_payload(server, registration, "Instructor"))
+    expect(phone.locator("h1")).to_have_text("Sign in")
+
+    # The instructor signs in on the dashboard and shows a pairing code; the phone scans it.
+    dashboard = new_page(browser, contexts, viewport={"width": 1280, "height": 1600})
+    sign_in_on_dashboard(dashboard, server, "ines")
+    dashboard.get_by_role("button", name="Show a pairing code").click()
+    code_image = dashboard.locator("#pairing-code")
+    expect(code_image).to_be_visible()
+    [pairing] = decoded(code_image)
+    assert "/P/" in pairing
+    phone.goto(pairing)
+    phone.get_by_role("button", name="Become instructor").click()
+    expect(phone.locator("#role")).to_have_text("instructor")
+    # the code works once: a second phone is refused
+    late = new_page(browser, contexts, **PHONE)
+    late.goto(pairing)
+    expect(late.locator("h1")).to_have_text("Pairing did not work")
+    expect(late.locator("body")).to_contain_text("already used")
+    # the paired phone, scanning the Instructor code now, is an instructor at the wall
+    phone.goto(registration_payload(server, registration, "Instructor"))
+    expect(phone.locator("#role")).to_have_text("instructor")
+
+    # The student publishes a setup code's page; the public tile shows it.
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    setup = {code.label: code.payload for code in layout.placed}
+    student.goto(setup["Display r2c2"])
+    student.get_by_role("button", name="Publish to the public screen").click()
+    expect(student.locator("#outcome")).to_contain_text("on the public screen")
+    screen = public.locator("#public")
+    shown = screen.locator(".public-view:not([hidden]) h1")  # the next one is built off screen
+    expect(screen).to_be_visible()
+    expect(shown).to_have_text("Display r2c2")
+    expect(screen).to_contain_text("Published by a student")
+    expect(dashboard.locator("#public-shown")).to_contain_text("Display r2c2")
+
+    # With moderation on, the next one waits for the instructor's approval.
+    dashboard.get_by_label("hold students' publications for approval").check()
+    expect(dashboard.locator("#public-moderated")).to_be_checked()
+    student.goto(setup["Display r2c3"])
+    student.get_by_role("button", name="Publish to the public screen").click()
+    expect(student.locator("#outcome")).to_contain_text("instructor will look at it")
+    waiting = dashboard.locator("#waiting li", has_text="Display r2c3")
+    expect(waiting).to_be_visible()
+    expect(shown).to_have_text("Display r2c2")  # not shown yet
+    waiting.get_by_role("button", name="Approve").click()
+    expect(shown).to_have_text("Display r2c3")
+    expect(dashboard.locator("#waiting li")).to_have_count(0)
+
+    # Clearing empties the public tile.
+    dashboard.get_by_role("button", name="Clear the public screen").click()
+    expect(screen).to_be_hidden()
+
+
+def test_the_dashboard_feed_shows_scans_as_they_happen(
+    browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
+) -> None:
+    database = Database(server.database_url)
+    add_account(database, "ines", "instructor", TEST_PASSWORD, actor="test")
+    database.dispose()
+    dashboard = new_page(browser, contexts)
+    sign_in_on_dashboard(dashboard, server, "ines")
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    phone = new_page(browser, contexts, **PHONE)
+    phone.goto({code.label: code.payload for code in layout.placed}["Display r1c1"])
+    expect(dashboard.locator("#scans li").first).to_contain_text("Display r1c1 (pattern)")
+
+
+def test_a_student_cannot_open_the_dashboard(
+    browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
+) -> None:
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    student = new_page(browser, contexts, **PHONE)
+    student.goto({code.label: code.payload for code in layout.placed}["Student"])
+    student.goto(f"{server.url}/dashboard")
+    expect(student.locator("h1")).to_have_text("Sign in")

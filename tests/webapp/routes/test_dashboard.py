@@ -1,0 +1,94 @@
+"""The dashboard pages: app panels, the admin's forms and their errors."""
+
+from __future__ import annotations
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.conftest import TEST_PASSWORD, csrf_of, services_of, sign_in
+from webapp.accounts import authenticate, list_accounts
+from webapp.address_rules import list_rules
+
+
+def test_the_dashboard_includes_each_apps_panel(client: TestClient) -> None:
+    sign_in(client, "instructor")
+    page = client.get("/dashboard").text
+    assert "Test pattern" in page and "/static/js/panels/pattern.js" in page
+    assert "Pair a phone" in page and "Public screen" in page
+    assert "Accounts and address rules" not in page  # instructors are not admins
+
+
+def test_admins_add_and_remove_accounts(client: TestClient) -> None:
+    sign_in(client, "admin")
+    form = {"username": "Tom", "role": "instructor", "password": TEST_PASSWORD}
+    added = client.post("/dashboard/admin/accounts", data={**form, "csrf": csrf_of(client)})
+    assert added.status_code == 200 and "tom" in added.text
+    assert authenticate(services_of(client).db, "tom", TEST_PASSWORD) is not None
+    client.post("/dashboard/admin/accounts/tom/remove", data={"csrf": csrf_of(client)})
+    assert "tom" not in [a.username for a in list_accounts(services_of(client).db)]
+    assert "account_removed" in client.get("/dashboard/admin").text
+
+
+@pytest.mark.parametrize(
+    "form,message",
+    [
+        (
+            {"username": "t", "role": "instructor", "password": TEST_PASSWORD},
+            "not a valid username",
+        ),
+        ({"username": "tom", "role": "student", "password": TEST_PASSWORD}, "role must be one of"),
+        ({"username": "tom", "role": "instructor", "password": "short"}, "at least 8"),
+    ],
+)
+def test_bad_account_forms_are_clear_400s(
+    client: TestClient, form: dict[str, str], message: str
+) -> None:
+    sign_in(client, "admin")
+    response = client.post("/dashboard/admin/accounts", data={**form, "csrf": csrf_of(client)})
+    assert response.status_code == 400 and message in response.text
+
+
+def test_admins_add_and_remove_address_rules(client: TestClient) -> None:
+    sign_in(client, "admin")
+    form = {"network": "10.1.2.3/16", "role": "instructor", "user_group": "medical"}
+    client.post("/dashboard/admin/rules", data={**form, "info_class": "4", "csrf": csrf_of(client)})
+    [rule] = list_rules(services_of(client).db)
+    assert (rule.network, rule.role, rule.user_group, rule.info_class) == (
+        "10.1.0.0/16",
+        "instructor",
+        "medical",
+        4,
+    )
+    page = client.get("/dashboard/admin").text
+    assert "weak identity" not in page  # roles by address are off here, and the page says so
+    assert "do not grant roles" in page
+    client.post(f"/dashboard/admin/rules/{rule.id}/remove", data={"csrf": csrf_of(client)})
+    assert list_rules(services_of(client).db) == []
+
+
+@pytest.mark.parametrize(
+    "form,message",
+    [
+        ({"network": "not-a-network"}, "not an address or network"),
+        ({"network": "10.0.0.0/8", "role": "admin"}, "only the instructor role"),
+        ({"network": "10.0.0.0/8", "user_group": "aliens"}, "not a user group"),
+        ({"network": "10.0.0.0/8", "info_class": "x"}, "a number 1-5"),
+        ({"network": "10.0.0.0/8", "info_class": "9"}, "1 to 5"),
+    ],
+)
+def test_bad_rule_forms_are_clear_400s(
+    client: TestClient, form: dict[str, str], message: str
+) -> None:
+    sign_in(client, "admin")
+    response = client.post("/dashboard/admin/rules", data={**form, "csrf": csrf_of(client)})
+    assert response.status_code == 400 and message in response.text
+    assert list_rules(services_of(client).db) == []
+
+
+def test_a_duplicate_rule_is_refused(client: TestClient) -> None:
+    sign_in(client, "admin")
+    for _ in range(2):
+        response = client.post(
+            "/dashboard/admin/rules", data={"network": "10.0.0.0/8", "csrf": csrf_of(client)}
+        )
+    assert response.status_code == 400 and "already a rule" in response.text
