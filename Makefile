@@ -7,10 +7,12 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 SYSTEM_STAMP := var/.system-packages
 SYSTEM_PACKAGES := chromium libzbar0
+MNI := content/brain_atlas/mni_icbm152_t1_tal_nlin_sym_09a.nii.gz
+DEMO_VOLUME := var/volumes/mni152
 
 .PHONY: run test lint bench system clean
 
-run: $(STAMP)
+run: $(STAMP) $(DEMO_VOLUME)/volume.json
 	$(BIN)/tagwall serve
 
 test: $(STAMP) $(SYSTEM_STAMP) lint
@@ -28,6 +30,10 @@ $(STAMP): pyproject.toml $(SYSTEM_STAMP)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e '.[dev]'
 	touch $@
+
+# The demo's volume: the MNI brain template as a brick store (seconds to build).
+$(DEMO_VOLUME)/volume.json: $(MNI) $(STAMP)
+	$(BIN)/tagwall volume build $(MNI) $(DEMO_VOLUME)
 
 # Debian packages: the browser for tests and kiosks, and zbar for decoding QR codes.
 system $(SYSTEM_STAMP):

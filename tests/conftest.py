@@ -12,6 +12,7 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+import numpy as np
 import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
@@ -25,6 +26,7 @@ from webapp.migrate import upgrade
 from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
 from webapp.tags import TagSpec, wall_tags
+from webapp.volume.build import build_store, open_source
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
@@ -144,3 +146,29 @@ def register_student(client: TestClient, wall: str = "demo") -> None:
         t.code for t in wall_tags(services_of(client).db, wall) if t.name == "register-student"
     )
     assert client.get(f"/t/{code}").status_code == 200
+
+
+def blob_volume(shape: tuple[int, int, int] = (40, 36, 28), seed: int = 7) -> np.ndarray:
+    """A smooth uint8 volume: a few Gaussian blobs on an empty background."""
+    rng = np.random.default_rng(seed)
+    grid = np.indices(shape).astype(np.float64)
+    volume = np.zeros(shape)
+    for _ in range(5):
+        centre = rng.uniform(0.25, 0.75, 3) * np.array(shape)
+        width = rng.uniform(0.08, 0.2) * min(shape)
+        squared = sum((grid[a] - centre[a]) ** 2 for a in range(3))
+        volume += rng.uniform(0.5, 1.0) * np.exp(-squared / (2 * width**2))
+    volume = volume / volume.max() * 255
+    volume[volume < 12] = 0
+    return volume.astype(np.uint8)
+
+
+def build_test_volume(settings: Settings, name: str = "blobs") -> str:
+    """A small volume store in the settings' volume directory; its name."""
+    path = settings.resolved_volume_dir / name
+    if not (path / "volume.json").exists():
+        source = settings.var_dir / f"{name}.npy"
+        source.parent.mkdir(parents=True, exist_ok=True)
+        np.save(source, blob_volume())
+        build_store(open_source(source), path, name=name, brick=8)
+    return name

@@ -32,6 +32,7 @@ from webapp.routes import (
     resolve,
     scan,
     tags,
+    volume,
     walls,
     ws,
 )
@@ -95,6 +96,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         scan.router,
         tags.router,
         walls.router,
+        volume.router,
         ws.router,
     ):
         app.include_router(router)

@@ -357,3 +357,89 @@ def user_passwd(name: str, password: str) -> None:
         return f"password of {name} changed"
 
     _account_action(change)
+
+
+@main.group()
+def volume() -> None:
+    """Volumes shown across the wall (brick stores)."""
+
+
+def _spacing(_: click.Context, __: click.Parameter, value: str | None) -> Any:
+    if value is None:
+        return None
+    try:
+        numbers = tuple(float(part) for part in value.split(","))
+    except ValueError:
+        numbers = ()
+    if len(numbers) != 3 or min(numbers) <= 0:
+        raise click.BadParameter("give three positive numbers like 1,1,1.5")
+    return numbers
+
+
+@volume.command("build")
+@click.argument("source", type=click.Path(path_type=Path))
+@click.argument("out", required=False, type=click.Path(path_type=Path))
+@click.option("--name", help="The volume's name (default: OUT's name, else the file's).")
+@click.option("--brick", type=int, default=32, show_default=True, help="Brick side, voxels.")
+@click.option("--depth", type=int, help="Octree depth instead (2**depth bricks across).")
+@click.option("--empty-below", type=float, help="Drop bricks whose values are all below this.")
+@click.option("--spacing", callback=_spacing, help="Voxel size in mm as X,Y,Z (.npy input).")
+def volume_build(
+    source: Path,
+    out: Path | None,
+    name: str | None,
+    brick: int,
+    depth: int | None,
+    empty_below: float | None,
+    spacing: tuple[float, float, float] | None,
+) -> None:
+    """Build SOURCE (.nii, .nii.gz or .npy) into the brick store OUT
+    (default: TAGWALL_VOLUME_DIR/NAME), a slab at a time."""
+    from webapp.volume.build import VolumeBuildError, build_store, open_source
+
+    stem = source.name.removesuffix(".gz").removesuffix(".nii").removesuffix(".npy")
+    name = name or (out.name if out else stem)
+    out = out or load_settings().resolved_volume_dir / name
+    try:
+        meta = build_store(
+            open_source(source, spacing),
+            out,
+            name=name,
+            brick=brick,
+            depth=depth,
+            empty_below=empty_below,
+            progress=lambda done, total: click.echo(f"\rslab {done}/{total}", nl=False),
+        )
+    except VolumeBuildError as error:
+        click.echo(f"error: {error}", err=True)
+        sys.exit(EXIT_USAGE)
+    size = sum(p.stat().st_size for p in out.iterdir())
+    click.echo(
+        f"\n{out}: {meta.name}, {meta.shape[0]} x {meta.shape[1]} x {meta.shape[2]} voxels, "
+        f"bricks of {meta.brick}: {meta.stored_bricks} stored, {meta.empty_bricks} empty; "
+        f"{size / 1e6:.1f} MB"
+    )
+
+
+@volume.command("list")
+def volume_list() -> None:
+    """The volumes in TAGWALL_VOLUME_DIR."""
+    from webapp.volume.catalog import VolumeCatalog
+    from webapp.volume.store import VolumeStoreError
+
+    settings = load_settings()
+    catalog = VolumeCatalog(settings.resolved_volume_dir, cache_voxels=0)
+    names = catalog.names()
+    if not names:
+        click.echo(f"no volumes in {catalog.directory}; build one with `tagwall volume build`")
+    for name in names:
+        try:
+            meta = catalog.get(name).meta
+        except VolumeStoreError as error:
+            click.echo(f"{name}: unreadable: {error}")
+            continue
+        x, y, z = meta.shape
+        click.echo(
+            f"{name}: {x} x {y} x {z} voxels of {meta.spacing[0]:g} mm, from {meta.source}; "
+            f"{meta.stored_bricks} bricks of {meta.brick}, {meta.levels} levels"
+        )

@@ -172,4 +172,26 @@ async def require_staff(request: Request, services: ServicesDep, credentials: Be
 
 
 StaffDep = Annotated[str, Depends(require_staff)]
+
+
+async def require_tile_or_staff_for_detail(
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    token: Annotated[str | None, Query()] = None,
+    detail: Annotated[str, Query()] = "refined",
+) -> None:
+    """Detailed renders cost a second of CPU: only the wall's tiles (their token) and
+    instructors get them; the instant fallback is for everyone (the overview)."""
+    if detail == "fallback" or token_matches(services.tile_token(wall.id), token):
+        return
+    person = await get_person(request, services, await get_client_address(request, services))
+    if not person.is_staff:
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN,
+            "Only the wall's tiles (with their token) and instructors may ask for this.",
+        )
+
+
+DetailedRenderAccess = Depends(require_tile_or_staff_for_detail)
 StaffOnly = Depends(require_staff)

@@ -10,7 +10,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from wall_client.layout import Wall
 from webapp.hub import TileStatus
 from webapp.models import PublicationRecord
-from webapp.wall_state import PublicItem, PublicPolicy
+from webapp.volume.layer import VolumeLayer
+from webapp.wall_state import PublicItem, PublicPolicy, View
 
 
 class DisplayInfo(BaseModel):
@@ -23,6 +24,7 @@ class DisplayInfo(BaseModel):
     roles: list[str]
     scene_rect: tuple[float, float, float, float]
     to_wall: tuple[float, float, float, float, float, float]
+    to_pixels: tuple[float, float, float, float, float, float]  # scene mm -> native px
 
 
 class WallInfo(BaseModel):
@@ -55,6 +57,7 @@ class WallInfo(BaseModel):
                     roles=roles[display.id],
                     scene_rect=viewport.scene_rect.xywh,
                     to_wall=viewport.to_wall,
+                    to_pixels=viewport.to_pixels,
                 )
             )
         return cls(
@@ -204,3 +207,46 @@ class PublicScreenInfo(BaseModel):
     shown: PublicItem | None
     policy: PublicPolicy
     waiting: list[PublicationInfo]
+
+
+class VolumeInfo(BaseModel):
+    """A built volume the wall can show."""
+
+    name: str
+    source: str
+    shape: tuple[int, int, int]
+    spacing: tuple[float, float, float]
+    brick: int
+    levels: int
+    stored_bricks: int
+    empty_bricks: int
+    fallback_level: int
+
+
+class VolumeScene(BaseModel):
+    """What a tile asks the server to render: the wall's view and its volume layer."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    view: View
+    volume: VolumeLayer
+
+
+class TileDetail(BaseModel):
+    """The level of detail one tile shows (the dashboard's level-of-detail map)."""
+
+    tile_id: str
+    level: int
+    bricks: int
+    voxels: int
+    pixel_scale: int  # tile pixels per rendered pixel
+
+
+class VolumeDetail(BaseModel):
+    wall: str
+    version: int
+    volume: str
+    budget: int
+    levels: int
+    fallback_level: int
+    tiles: list[TileDetail]

@@ -13,6 +13,7 @@ from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 from webapp.urls import tile_url
+from webapp.volume.catalog import VolumeCatalog
 
 
 @dataclass
@@ -28,6 +29,7 @@ class Services:
     scan_feed: ScanFeed = field(init=False)
     login_backoff: Backoff = field(init=False)
     publish_limit: RateLimiter = field(init=False)
+    volumes: VolumeCatalog = field(init=False)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)
@@ -42,6 +44,9 @@ class Services:
             self.settings.login_free_attempts, max_s=self.settings.login_max_delay_s
         )
         self.publish_limit = RateLimiter(self.settings.publish_rate_per_minute)
+        self.volumes = VolumeCatalog(
+            self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
+        )
 
     def scan_allowed(self, visitor_id: str, client_address: str) -> float | None:
         """None when this visitor (and its address) may scan now, else seconds to wait."""

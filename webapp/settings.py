@@ -70,6 +70,9 @@ class Settings(BaseSettings):
     login_free_attempts: int = Field(default=3, ge=1)
     login_max_delay_s: float = Field(default=300.0, ge=1)
     publish_rate_per_minute: int = Field(default=3, ge=1)
+    volume_dir: Path | None = None
+    volume_budget_voxels: int = Field(default=1 << 24, ge=4_096)
+    volume_cache_voxels: int = Field(default=1 << 26, ge=0)
 
     @field_validator("wall_configs", mode="before")
     @classmethod
@@ -110,6 +113,11 @@ class Settings(BaseSettings):
     def resolved_database_url(self) -> str:
         """The database URL, defaulting to SQLite under ``var_dir``."""
         return self.database_url or f"sqlite:///{self.var_dir / 'tagwall.db'}"
+
+    @property
+    def resolved_volume_dir(self) -> Path:
+        """Where built volume stores live: configured, else ``var_dir/volumes``."""
+        return self.volume_dir or self.var_dir / "volumes"
 
     @cached_property
     def server_url(self) -> str:

@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session
 
 from webapp.db import Database
 from webapp.models import WallEventRecord, WallStateRecord
+from webapp.volume.layer import VolumeLayer
 
 
 class View(BaseModel):
@@ -79,6 +80,7 @@ class WallState(BaseModel):
     public_policy: PublicPolicy = Field(default_factory=PublicPolicy)
     tag_set: str | None = Field(default=None, max_length=64)
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
+    volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
 
 
 class StatePatch(BaseModel):
@@ -93,6 +95,7 @@ class StatePatch(BaseModel):
     balloons: list[Balloon] | None = Field(default=None, max_length=100)
     # ``public`` changes only through ``webapp.publishing``, which renders it safely.
     public_policy: PublicPolicy | None = None
+    volume: VolumeLayer | None = None  # null takes the volume off the wall
 
     def apply_to(self, state: WallState) -> WallState:
         """The state with this patch's fields replaced (``layers`` merge key by key)."""
@@ -111,7 +114,7 @@ class Change(BaseModel):
     heavy: bool
 
 
-HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout"})
+HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume"})
 """Fields whose change makes tiles fetch something (renders, code layouts) first:
 applied by prepare -> ready -> swap."""
 

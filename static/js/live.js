@@ -7,13 +7,16 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
  * @param {string} path websocket path
  * @param {function} drawer state -> (ctx, width, height) => void
  * @param {boolean} reports whether this page reports ready/applied (tiles only)
- * @param {function} prepare changes -> Promise: load what the changed state needs
+ * @param {function} prepare (changes, state) -> Promise: load what the changed state needs
  * @param {function} overlay state -> show(): ready page content beside the scene now,
  *   show it with the frame
+ * @param {function} shown (state, redraw) after a frame is shown: redraw() draws the
+ *   state again in place if it is still the one shown (a refinement arrived) and says
+ *   whether it was
  */
-export function showLive(
-  path, drawer, {reports = false, prepare = () => undefined, overlay = () => () => {}} = {},
-) {
+export function showLive(path, drawer, {
+  reports = false, prepare = () => undefined, overlay = () => () => {}, shown = () => {},
+} = {}) {
   const body = document.body;
   const frames = new Frames(document.getElementById("scene"));
   const marker = document.getElementById("offline");
@@ -28,10 +31,15 @@ export function showLive(
         showOverlay();
         current = state;
         body.dataset.version = String(version);
+        shown(state, () => {
+          if (current !== state) return false;
+          frames.redraw(drawer(state));
+          return true;
+        });
       };
     },
-    onPrepare(changes) {
-      return prepare(changes);
+    onPrepare(changes, state) {
+      return prepare(changes, state);
     },
     onOnline(online, reason) {
       marker.hidden = online;

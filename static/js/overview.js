@@ -2,9 +2,17 @@
 import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
 import {drawPattern} from "./scene.js";
+import {VolumeImages, drawVolume} from "./volume.js";
 
 const wall = JSON.parse(document.body.dataset.wallInfo);
 const layouts = new CodeLayouts(wall.id);
+// Without a tile token the overview gets each display's quick fallback image.
+const volumes = new Map(wall.displays.map((d) => [d.id, new VolumeImages(wall.id, d.id)]));
+
+function inverse([a, b, c, d, e, f]) {
+  const det = a * d - b * c;
+  return [d / det, -b / det, -c / det, a / det, (c * f - d * e) / det, (b * e - a * f) / det];
+}
 
 function drawer(state) {
   return (ctx, width, height) => {
@@ -21,7 +29,15 @@ function drawer(state) {
       // to_wall places this display's part of the scene at its physical position.
       const [a, b, c, d, e, f] = display.to_wall;
       ctx.transform(a, b, c, d, e, f);
-      drawPattern(ctx, wall, state, scale * Math.hypot(a, b));
+      const volume = volumes.get(display.id).get(state);
+      if (volume) {
+        ctx.save();
+        ctx.transform(...inverse(display.to_pixels));
+        drawVolume(ctx, volume);
+        ctx.restore();
+      } else {
+        drawPattern(ctx, wall, state, scale * Math.hypot(a, b));
+      }
       const matrix = [a * scale, b * scale, c * scale, d * scale, e * scale, f * scale];
       drawCodes(ctx, layouts.get(state.tag_layout), matrix);
       ctx.restore();
@@ -30,5 +46,8 @@ function drawer(state) {
 }
 
 showLive(`/ws/wall/${wall.id}/view`, drawer, {
-  prepare: (changes) => layouts.load(changes.tag_layout),
+  prepare: (changes, state) => Promise.all([
+    layouts.load(changes.tag_layout),
+    ...[...volumes.values()].map((images) => images.load(state)),
+  ]),
 });

@@ -12,13 +12,15 @@ export class WallSocket {
    * @param {string} url websocket URL
    * @param {object} hooks render(state, version) -> show(): draw the frame off screen
    *   now and return the function that shows it at the scheduled instant;
-   *   onPrepare(changes) -> Promise: load what a heavy change (or a snapshot) needs;
+   *   onPrepare(changes, state) -> Promise: load what a heavy change (or a snapshot)
+   *   needs; state is the whole state that change leads to;
    *   onOnline(bool, reason); reports: whether to send ready/applied (tiles only)
    */
   constructor(url, hooks) {
     this.url = url;
     this.hooks = hooks;
     this.state = null;
+    this.latest = null;       // the state after the last accepted version
     this.version = null;      // last applied version
     this.queued = null;       // last version accepted into the apply chain
     this.generation = 0;      // bumps on resync: stale chain steps do nothing
@@ -95,25 +97,28 @@ export class WallSocket {
         this.attempt = 0;
         this.hooks.onOnline?.(true, "");
         this.queued = message.version;
+        this.latest = message.state;
         // Load what the state needs (renders, code layouts) before showing it; events
         // that arrive meanwhile queue behind it on the chain.
         const generation = this.generation;
-        this.chain = Promise.resolve(this.hooks.onPrepare?.(message.state))
+        this.chain = Promise.resolve(this.hooks.onPrepare?.(message.state, message.state))
           .catch(() => undefined)
           .then(() => this.apply(message.state, message.version, generation));
         break;
       }
       case "event":
         if (this.accept(message.version)) {
+          this.latest = {...this.latest, ...message.changes};
           this.enqueue(message.version, message.changes, Promise.resolve(message.apply_at));
         }
         break;
       case "prepare":
         if (this.accept(message.version)) {
+          this.latest = {...this.latest, ...message.changes};
           const swapped = new Promise((resolve) => this.swaps.set(message.version, resolve));
           // A failed load still answers ready: the tile draws what it has rather than
           // holding the whole wall back until the swap timeout.
-          const ready = Promise.resolve(this.hooks.onPrepare?.(message.changes))
+          const ready = Promise.resolve(this.hooks.onPrepare?.(message.changes, this.latest))
             .catch(() => undefined);
           ready.then(() => {
             if (this.hooks.reports) this.send({type: "ready", version: message.version});
@@ -191,6 +196,7 @@ export class WallSocket {
     this.chain = Promise.resolve();
     this.swaps.clear();
     this.queued = this.version;
+    this.latest = this.state;
     clearTimeout(this.gapTimer);
     this.gapTimer = null;
   }

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+from fastapi import APIRouter, HTTPException, status
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
@@ -44,6 +44,12 @@ async def status_of(services: Services, wall: Wall) -> WallStatus:
 async def change_wall_state(
     wall: WallDep, patch: StatePatch, services: ServicesDep
 ) -> ChangeResult:
+    if patch.volume is not None and patch.volume.volume not in services.volumes:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT,
+            f"There is no volume called {patch.volume.volume!r}; "
+            "build one with `tagwall volume build`.",
+        )
     change = await services.hub.change_state(wall.id, patch.apply_to)
     if change is None:
         version, _ = await run_in_threadpool(read_state, services.db, wall.id)

@@ -7,8 +7,10 @@ CSRF has its own tests. A route added without a row here fails
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from typing import Any
+from urllib.parse import urlencode
 
 import pytest
 from fastapi import FastAPI
@@ -16,11 +18,19 @@ from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
-from tests.conftest import TEST_PASSWORD, csrf_of, register_student, services_of, sign_in
+from tests.conftest import (
+    TEST_PASSWORD,
+    build_test_volume,
+    csrf_of,
+    register_student,
+    services_of,
+    sign_in,
+)
 from webapp.accounts import add_account
 from webapp.address_rules import add_rule
 from webapp.tags import wall_tags
-from webapp.wall_state import read_state
+from webapp.volume.layer import VolumeLayer
+from webapp.wall_state import commit_change, read_state
 
 ROLES = ("anonymous", "student", "instructor", "admin")
 OK, LOGIN = "ok", "login"  # any success (2xx, or a redirect not to sign in); sent to sign in
@@ -51,6 +61,10 @@ def matrix(client: TestClient) -> list[Row]:
         db, "10.200.0.0/16", role=None, user_group="k5", info_class=None, note="", actor="test"
     )
     tag = {"app": "pattern", "action": "locate", "anchor": [100.0, 100.0]}
+    volume = VolumeLayer(volume=build_test_volume(services_of(client).settings))
+    commit_change(db, "demo", lambda s: s.model_copy(update={"volume": volume}), keep_events=100)
+    scene = json.dumps({"view": {}, "volume": volume.model_dump()})
+    tile_volume = "/api/walls/demo/tiles/r1c1/volume"
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -158,6 +172,22 @@ def matrix(client: TestClient) -> list[Row]:
             json={},
         ),
         Row("POST", "/api/pairing", "/api/pairing", STAFF_API, json={}),
+        Row("GET", "/api/volumes", "/api/volumes", PUBLIC),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/volume",
+            f"{tile_volume}?{urlencode({'scene': scene})}",
+            (403, 403, OK, OK),
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/volume",
+            f"{tile_volume}?{urlencode({'scene': scene, 'detail': 'fallback'})}",
+            PUBLIC,
+        ),
+        Row(
+            "GET", "/api/walls/{wall_id}/volume/detail", "/api/walls/demo/volume/detail", STAFF_API
+        ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]
 
