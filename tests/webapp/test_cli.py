@@ -4,14 +4,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, blob_volume
 from webapp.accounts import authenticate
 from webapp.cli import main
 from webapp.db import Database
 from webapp.settings import CONTENT_DIR
+from webapp.volume.store import VolumeStore
 from webapp.wall_state import read_state
 
 
@@ -205,3 +207,56 @@ def test_user_add_refuses_a_taken_name(env: dict[str, str]) -> None:
     assert run(env, "user", "add", "dave", "--password", "long-enough")[0] == 0
     code, _, err = run(env, "user", "add", "DAVE", "--password", "long-enough")
     assert code == 1 and "already an account called 'dave'" in err
+
+
+def test_volume_build_writes_a_store_that_volume_list_shows(
+    env: dict[str, str], tmp_path: Path
+) -> None:
+    source = tmp_path / "blobs.npy"
+    np.save(source, blob_volume())
+    code, out, err = run(env, "volume", "build", str(source), "--brick", "8", "--spacing", "1,1,2")
+    assert code == 0, err
+    store = tmp_path / "var" / "volumes" / "blobs"
+    assert (store / "volume.json").is_file()
+    assert "40 x 36 x 28 voxels, bricks of 8" in out
+    code, out, _ = run(env, "volume", "list")
+    assert code == 0
+    assert out.startswith("blobs: 40 x 36 x 28 voxels of 1 mm, from blobs.npy")
+    assert VolumeStore(store).meta.spacing == (1.0, 1.0, 2.0)
+
+
+def test_volume_build_into_a_named_directory(env: dict[str, str], tmp_path: Path) -> None:
+    source = tmp_path / "blobs.npy"
+    np.save(source, blob_volume())
+    code, _, err = run(env, "volume", "build", str(source), str(tmp_path / "brain"))
+    assert code == 0, err
+    assert VolumeStore(tmp_path / "brain").meta.name == "brain"
+
+
+def test_volume_list_says_when_there_are_none(env: dict[str, str]) -> None:
+    code, out, _ = run(env, "volume", "list")
+    assert code == 0 and out.startswith("no volumes in ")
+
+
+@pytest.mark.parametrize(
+    "arguments,message",
+    [
+        (["missing.npy"], "no such file"),
+        (["flat.npy"], "a 3-D volume is needed"),
+        (["blobs.npy", "--brick", "12"], "the brick side must be a power of two"),
+        (["blobs.npy", "--spacing", "1,1"], "three positive numbers"),
+    ],
+)
+def test_volume_build_refuses_bad_input_with_a_message(
+    env: dict[str, str], tmp_path: Path, arguments: list[str], message: str
+) -> None:
+    np.save(tmp_path / "blobs.npy", blob_volume())
+    np.save(tmp_path / "flat.npy", np.zeros((4, 4), dtype=np.uint8))
+    arguments = [str(tmp_path / arguments[0]), *arguments[1:]]
+    code, out, err = run(env, "volume", "build", *arguments)
+    assert code == 2
+    assert message in out + err
+    assert "Traceback" not in out + err
+    assert not (tmp_path / "var" / "volumes").exists() or not any(
+        (tmp_path / "var" / "volumes").iterdir()
+    )

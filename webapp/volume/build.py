@@ -43,20 +43,24 @@ class VolumeBuildError(ValueError):
 
 @dataclass(frozen=True)
 class Source:
-    """A volume on disk, read slab by slab (never whole)."""
+    """A volume on disk, read a slab at a time with plain file reads (never whole, and
+    never memory-mapped: mapped pages would stay resident).
+
+    Slabs are cut across the axis the file stores outermost, so each is one contiguous
+    read: x for C-ordered arrays, z for Fortran-ordered ones (NIfTI).
+    """
 
     path: Path
     shape: tuple[int, int, int]
     spacing: tuple[float, float, float]
     dtype: np.dtype[Any]
-    _data: Any  # a nibabel array proxy or a memory-mapped array
-
-    def slab(self, z0: int, z1: int) -> npt.NDArray[Any]:
-        return np.asarray(self._data[:, :, z0:z1])
+    axis: int  # the slab axis
+    read: Callable[[int, int], npt.NDArray[Any]]  # (start, stop) along axis -> x, y, z array
 
     def slabs(self, depth: int) -> Iterator[tuple[int, npt.NDArray[Any]]]:
-        for z0 in range(0, self.shape[2], depth):
-            yield z0, self.slab(z0, min(z0 + depth, self.shape[2]))
+        length = self.shape[self.axis]
+        for start in range(0, length, depth):
+            yield start, self.read(start, min(start + depth, length))
 
 
 def open_source(path: Path, spacing: tuple[float, float, float] | None = None) -> Source:
@@ -66,28 +70,16 @@ def open_source(path: Path, spacing: tuple[float, float, float] | None = None) -
         raise VolumeBuildError(f"{path}: no such file")
     try:
         if name.endswith((".nii", ".nii.gz")):
-            import nibabel
-
-            image: Any = nibabel.load(path, keep_file_open=True)
-            data: Any = image.dataobj
-            zooms = tuple(float(z) for z in image.header.get_zooms()[:3])
-            dtype = np.dtype(image.get_data_dtype())
-            if (getattr(data, "slope", 1.0), getattr(data, "inter", 0.0)) != (1.0, 0.0):
-                dtype = np.dtype(np.float64)  # scaled on read
+            shape, zooms, dtype, axis, read = _nifti(path)
         elif name.endswith(".npy"):
-            data = np.load(path, mmap_mode="r")
+            shape, dtype, axis, read = _npy(path)
             zooms = (1.0, 1.0, 1.0)
-            dtype = data.dtype
         else:
             raise VolumeBuildError(f"{path}: give a .nii, .nii.gz or .npy file")
     except VolumeBuildError:
         raise
     except Exception as error:  # nibabel and numpy raise many kinds on a bad file
         raise VolumeBuildError(f"{path}: cannot read it as a volume ({error})") from error
-    shape = tuple(int(n) for n in data.shape)
-    while len(shape) > 3 and shape[-1] == 1:
-        shape = shape[:-1]
-        data = data[..., 0]
     if len(shape) != 3 or min(shape) < 1:
         raise VolumeBuildError(f"{path}: a 3-D volume is needed, this one has shape {shape}")
     if dtype.kind not in "biuf":
@@ -95,7 +87,67 @@ def open_source(path: Path, spacing: tuple[float, float, float] | None = None) -
     given = spacing or zooms
     if len(given) != 3 or min(given) <= 0:
         raise VolumeBuildError(f"{path}: voxel spacing must be three positive numbers")
-    return Source(path, (shape[0], shape[1], shape[2]), (given[0], given[1], given[2]), dtype, data)
+    return Source(
+        path, (shape[0], shape[1], shape[2]), (given[0], given[1], given[2]), dtype, axis, read
+    )
+
+
+Reader = Callable[[int, int], npt.NDArray[Any]]
+
+
+def _three_d(shape: tuple[int, ...]) -> tuple[int, ...]:
+    """Trailing axes of length one (a 4-D file of one volume) do not count."""
+    while len(shape) > 3 and shape[-1] == 1:
+        shape = shape[:-1]
+    return shape
+
+
+def _nifti(path: Path) -> tuple[tuple[int, ...], tuple[float, ...], np.dtype[Any], int, Reader]:
+    import nibabel  # only the build needs it
+
+    image: Any = nibabel.load(path, mmap=False, keep_file_open=True)
+    proxy: Any = image.dataobj
+    full = tuple(int(n) for n in proxy.shape)
+    shape = _three_d(full)
+    extra = (0,) * (len(full) - len(shape))
+    zooms = tuple(float(z) for z in image.header.get_zooms()[:3])
+    dtype = np.dtype(image.get_data_dtype())
+    if (getattr(proxy, "slope", 1.0), getattr(proxy, "inter", 0.0)) != (1.0, 0.0):
+        dtype = np.dtype(np.float64)  # scaled on read
+    axis = 2 if getattr(proxy, "order", "F") == "F" else 0
+
+    def read(start: int, stop: int) -> npt.NDArray[Any]:
+        index: list[Any] = [slice(None)] * 3
+        index[axis] = slice(start, stop)
+        return np.asarray(proxy[(*index, *extra)])
+
+    return shape, zooms, dtype, axis, read
+
+
+def _npy(path: Path) -> tuple[tuple[int, ...], np.dtype[Any], int, Reader]:
+    with open(path, "rb") as file:
+        version = np.lib.format.read_magic(file)
+        if version == (1, 0):
+            full, fortran, dtype = np.lib.format.read_array_header_1_0(file)
+        else:
+            full, fortran, dtype = np.lib.format.read_array_header_2_0(file)
+        offset = file.tell()
+    shape = _three_d(tuple(int(n) for n in full))
+    if dtype.hasobject:
+        raise VolumeBuildError(f"{path}: values of type {dtype} are not supported")
+    axis = 2 if fortran else 0
+    plane = int(np.prod([n for a, n in enumerate(shape) if a != axis])) if shape else 0
+
+    def read(start: int, stop: int) -> npt.NDArray[Any]:
+        count = (stop - start) * plane
+        values = np.fromfile(path, dtype, count, offset=offset + start * plane * dtype.itemsize)
+        if values.size != count:
+            raise VolumeBuildError(f"{path}: the file ends before its data does")
+        slab_shape = list(shape)
+        slab_shape[axis] = stop - start
+        return values.reshape(slab_shape, order="F" if fortran else "C")
+
+    return shape, dtype, axis, read
 
 
 @dataclass(frozen=True)
@@ -163,11 +215,18 @@ def build_store(
         written = 0
         empty = 0
         with open(staging / COEFFICIENTS_FILE, "wb") as coefficients:
+            across = [a for a in range(3) if a != source.axis]
             for slab_index, (_, slab) in enumerate(source.slabs(brick)):
-                k = slab_index
-                for i in range(grid[0]):
-                    for j in range(grid[1]):
-                        block = _brick_of(slab, i, j, brick, low, scale, offset)
+                for p in range(grid[across[0]]):
+                    for q in range(grid[across[1]]):
+                        position = [0, 0, 0]
+                        position[source.axis], position[across[0]], position[across[1]] = (
+                            slab_index,
+                            p,
+                            q,
+                        )
+                        i, j, k = position
+                        block = _brick_of(slab, position, source.axis, brick, low, scale, offset)
                         block_low, block_high = int(block.min()), int(block.max())
                         if block_high < threshold:
                             empty += 1
@@ -192,7 +251,7 @@ def build_store(
                             k * fallback_side : (k + 1) * fallback_side,
                         ] = coarse
                 if progress is not None:
-                    progress(slab_index + 1, grid[2])
+                    progress(slab_index + 1, grid[source.axis])
         meta = VolumeMeta(
             name=name,
             source=source.path.name,
@@ -238,10 +297,21 @@ def _scan(source: Source, depth: int) -> _Stats:
 
 
 def _brick_of(
-    slab: npt.NDArray[Any], i: int, j: int, side: int, pad: int, scale: float, offset: float
+    slab: npt.NDArray[Any],
+    position: list[int],
+    axis: int,
+    side: int,
+    pad: int,
+    scale: float,
+    offset: float,
 ) -> npt.NDArray[Any]:
-    """Brick (i, j) of a slab as stored integers, padded to a full cube with ``pad``."""
-    part = slab[i * side : (i + 1) * side, j * side : (j + 1) * side]
+    """The brick at grid ``position`` of a slab across ``axis``, as stored integers,
+    padded to a full cube with ``pad``."""
+    index = tuple(
+        slice(None) if a == axis else slice(n * side, (n + 1) * side)
+        for a, n in enumerate(position)
+    )
+    part = slab[index]
     if scale == 1.0 and offset == 0.0:
         values = part.astype(np.int64)
     else:
