@@ -26,7 +26,8 @@ def volume(client: TestClient) -> str:
 def image_url(client: TestClient, scene: Any, **query: str) -> str:
     token = services_of(client).tile_token("demo")
     text = scene if isinstance(scene, str) else json.dumps(scene)
-    return f"/api/walls/demo/tiles/r1c2/volume?{urlencode({'scene': text, 'token': token, **query})}"
+    query = {"scene": text, "token": token, **query}
+    return f"/api/walls/demo/tiles/r1c2/volume?{urlencode(query)}"
 
 
 def scene_of(volume: str, **layer: Any) -> dict[str, Any]:
