@@ -12,7 +12,15 @@ from webapp.deps import DetailedRenderAccess, ServicesDep, StaffOnly, TileDep, W
 from webapp.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene
 from webapp.services import Services
 from webapp.volume.store import VolumeStore, VolumeStoreError
-from webapp.volume.tiles import MEDIA_TYPES, Detail, ImageFormat, encode, tile_image, tile_plan
+from webapp.volume.tiles import (
+    MEDIA_TYPES,
+    Detail,
+    EncodedTile,
+    ImageFormat,
+    encode,
+    tile_image,
+    tile_plan,
+)
 from webapp.wall_state import read_state
 
 router = APIRouter(tags=["volumes"])
@@ -61,23 +69,23 @@ async def tile_volume_image(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"scene: {error.errors()[0]['msg']}"
         ) from None
     store = open_volume(services, asked.volume.volume)
-    result = await run_in_threadpool(
-        tile_image,
-        store,
-        wall,
-        tile.id,
-        asked.view,
-        asked.volume,
-        detail=detail,
-        budget=services.settings.volume_budget_voxels,
-    )
-    body = await run_in_threadpool(encode, result.image, image_format)
+    budget = services.settings.volume_budget_voxels
+    scene_key = asked.model_dump_json()
+    key = (store.name, store.stamp, wall.id, tile.id, scene_key, detail, budget, image_format)
+    encoded = services.volumes.renders.get(key)
+    if encoded is None:
+        result = await run_in_threadpool(
+            tile_image, store, wall, tile.id, asked.view, asked.volume, detail=detail, budget=budget
+        )
+        body = await run_in_threadpool(encode, result.image, image_format)
+        encoded = EncodedTile(body, result.plan.level, result.plan.scale)
+        services.volumes.renders.put(key, encoded)
     return Response(
-        body,
+        encoded.body,
         media_type=MEDIA_TYPES[image_format],
         headers={
-            "X-Pixel-Scale": str(result.plan.scale),
-            "X-Volume-Level": str(result.plan.level),
+            "X-Pixel-Scale": str(encoded.scale),
+            "X-Volume-Level": str(encoded.level),
             "Cache-Control": "private, max-age=300",
         },
     )

@@ -5,6 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from webapp.volume.store import META_FILE, VolumeStore
+from webapp.volume.tiles import RenderCache
+
+RENDER_CACHE_BYTES = 64 * 1024 * 1024
 
 
 class VolumeCatalog:
@@ -15,6 +18,7 @@ class VolumeCatalog:
         self.directory = directory
         self.cache_voxels = cache_voxels
         self._open: dict[str, VolumeStore] = {}
+        self.renders = RenderCache(RENDER_CACHE_BYTES)
 
     def names(self) -> list[str]:
         """The stores present now (a store built while running appears at once)."""

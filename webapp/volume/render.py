@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -220,18 +220,72 @@ def slice_depth(layer: VolumeLayer, meta: VolumeMeta) -> float:
 
 @dataclass(frozen=True)
 class Voxels:
-    """Voxels at one level in memory, with the level index of their first corner."""
+    """Voxels at one level in memory, as float32 wrapped in one voxel of background,
+    with the level index of the first unwrapped corner.
 
-    values: npt.NDArray[Any]
+    The store keeps the last few for the next renders of the same bricks (a turned
+    view often needs them all again), with what sampling derives from them.
+    """
+
+    wrapped: npt.NDArray[Any]
     origin: tuple[int, int, int]
     level: int
+    _cells: dict[float, tuple[npt.NDArray[Any], npt.NDArray[Any]]] = field(
+        default_factory=dict, compare=False, repr=False
+    )
+
+    @classmethod
+    def wrap(
+        cls, values: npt.NDArray[Any], origin: tuple[int, int, int], level: int, background: int
+    ) -> Voxels:
+        return cls(np.pad(values.astype(np.float32), 1, constant_values=background), origin, level)
 
     @classmethod
     def of(cls, store: VolumeStore, plan: TilePlan) -> Voxels:
+        background = store.meta.background
         if plan.selection is None:
-            return cls(store.fallback.astype(np.int32, copy=False), (0, 0, 0), plan.level)
-        values, origin = store.assemble(plan.selection)
-        return cls(values, origin, plan.level)
+            return store.memo(
+                ("fallback",),
+                lambda: cls.wrap(store.fallback, (0, 0, 0), plan.level, background),
+            )
+        selection = plan.selection
+
+        def assemble() -> Voxels:
+            values, origin = store.assemble(selection)
+            return cls.wrap(values, origin, selection.level, background)
+
+        return store.memo(("bricks", selection.level, selection.rows.tobytes()), assemble)
+
+    @property
+    def values(self) -> npt.NDArray[Any]:
+        """The voxels themselves (a view without the wrapping)."""
+        return self.wrapped[1:-1, 1:-1, 1:-1]
+
+    def cells(self, threshold: float) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+        """Per CELL^3 block of :attr:`wrapped`: whether it, or a voxel one beyond, reaches
+        ``threshold``; and the same widened by one block in every direction."""
+        if threshold not in self._cells:
+            self._cells[threshold] = _visible_cells(self.wrapped, threshold)
+        return self._cells[threshold]
+
+
+def _visible_cells(
+    values: npt.NDArray[Any], threshold: float
+) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+    reach = values.copy()
+    for axis in range(3):
+        ahead: list[slice] = [slice(None)] * 3
+        behind: list[slice] = [slice(None)] * 3
+        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
+        np.maximum(reach[tuple(behind)], reach[tuple(ahead)], out=reach[tuple(behind)])
+    reach = np.pad(reach, [(0, -n % CELL) for n in reach.shape], mode="edge")
+    x, y, z = (n // CELL for n in reach.shape)
+    cells = reach.reshape(x, CELL, y, CELL, z, CELL).max(axis=5).max(axis=3).max(axis=1)
+    visible = cells >= threshold
+    near = np.pad(visible, 1)
+    for axis in range(3):
+        near = near | np.roll(near, 1, axis) | np.roll(near, -1, axis)
+    return visible, near[1:-1, 1:-1, 1:-1]
 
 
 def render(
@@ -275,37 +329,41 @@ class _March:
     """
 
     def __init__(self, sampler: _Sampler, starts: Vector, forward: Vector, step: float):
-        self.grid0 = sampler.grid_offset(starts)
-        self.delta = step * forward / sampler.voxel
-        enter, leave = sampler.crossing(starts, forward)
-        with np.errstate(invalid="ignore"):
-            first = np.ceil(enter / step)
-            last = np.ceil(leave / step) - 1  # the box is half-open
-        missed = ~(first <= last)
-        first[missed], last[missed] = 1, 0
-        self.first, self.last = first.astype(np.int64), last.astype(np.int64)
+        self.grid0 = sampler.grid_offset(starts).astype(np.float32)
+        self.delta = (step * forward / sampler.voxel).astype(np.float32)
+        self.first, self.last = sampler.steps_inside(starts, step * forward)
+        if not sampler.background_visible:  # beyond the held voxels nothing shows
+            first, last = sampler.steps_inside(
+                starts, step * forward, (sampler.held_low, sampler.held_high)
+            )
+            self.first, self.last = np.maximum(self.first, first), np.minimum(self.last, last)
         self.count = len(starts)
 
-    def steps(self, every: int = 1) -> Iterator[tuple[int, npt.NDArray[Any], npt.NDArray[Any]]]:
-        """(k, the rays still marching, their grid positions), front to back."""
-        if not (self.first <= self.last).any():
+    def steps(
+        self, every: int = 1, widen: int = 0
+    ) -> Iterator[tuple[int, npt.NDArray[Any], npt.NDArray[Any]]]:
+        """(k, the rays still marching, their grid positions), front to back; ``widen``
+        extends every ray's range by that many steps at both ends."""
+        first, last = self.first - widen, self.last + widen
+        if not (first <= last).any():
             return
-        for k in range(int(self.first.min()), int(self.last.max()) + 1, every):
-            live = np.flatnonzero((self.first <= k) & (k <= self.last))
+        for k in range(int(first.min()), int(last.max()) + 1, every):
+            live = np.flatnonzero((first <= k) & (k <= last))
             if live.size:
-                yield k, live, (self.grid0[live] + k * self.delta).astype(np.float32)
+                yield k, live, self.grid0[live] + np.float32(k) * self.delta
 
     def trim(self, near_visible: Callable[[npt.NDArray[Any]], npt.NDArray[Any]]) -> None:
         """Keep each ray's steps from just before its first to just after its last
         coarse sample near something visible (none: the ray is dropped).
 
         Coarse samples come every CELL steps, no further apart than a cell along any
-        axis, so a sample in a visible cell has a coarse sample within half that in a
-        neighbouring cell, which ``near_visible`` (visibility dilated by a cell) sees.
+        axis, and run a CELL beyond each ray's range, so every sample of the range has
+        a coarse sample within half a cell: in a neighbouring cell, which
+        ``near_visible`` (visibility dilated by a cell) sees.
         """
         hit_first = np.full(self.count, np.iinfo(np.int64).max)
         hit_last = np.full(self.count, np.iinfo(np.int64).min)
-        for k, live, grid in self.steps(CELL):
+        for k, live, grid in self.steps(CELL, widen=CELL):
             hits = live[near_visible(grid)]
             hit_first[hits] = np.minimum(hit_first[hits], k)
             hit_last[hits] = k
@@ -358,9 +416,7 @@ class _Sampler:
     """
 
     def __init__(self, voxels: Voxels, meta: VolumeMeta, layer: VolumeLayer) -> None:
-        held = voxels.values
-        padded = np.pad(held.astype(np.float32), 1, constant_values=meta.background)
-        self.values: npt.NDArray[Any] = padded
+        self.values: npt.NDArray[Any] = voxels.wrapped
         self.flat: npt.NDArray[Any] = self.values.ravel()
         ny, nz = self.values.shape[1], self.values.shape[2]
         self.strides: npt.NDArray[Any] = np.array([ny * nz, nz, 1])
@@ -369,29 +425,49 @@ class _Sampler:
         self.voxel: npt.NDArray[Any] = np.array(meta.spacing) * (1 << voxels.level)
         self.top: npt.NDArray[Any] = np.array(self.values.shape) - 2
         level_last = np.array(meta.level_shape(voxels.level), dtype=np.float64) - 1
-        self.clamp_low: npt.NDArray[Any] = (-self.origin).astype(np.float32)
-        self.clamp_high: npt.NDArray[Any] = (level_last - self.origin).astype(np.float32)
-        clip_low, clip_high = clip_box(layer, meta)
-        held_low = (self.origin + 1) * self.voxel
-        held_high = (self.origin + 1 + np.array(held.shape)) * self.voxel
-        self.low_corner: npt.NDArray[Any] = np.maximum(clip_low, held_low)
-        self.high_corner: npt.NDArray[Any] = np.minimum(clip_high, held_high)
+        edge = np.array(self.values.shape) - 1
+        self.clamp_low: npt.NDArray[Any] = np.maximum(-self.origin, 0).astype(np.float32)
+        self.clamp_high: npt.NDArray[Any] = np.minimum(level_last - self.origin, edge).astype(
+            np.float32
+        )
+        # Samples run through the whole clip box: beyond the held voxels (and their
+        # background wrapping) they clamp onto that wrapping and read background.
+        self.low_corner, self.high_corner = clip_box(layer, meta)
         self.low, high = meta.value_range
         self.span = max(high - self.low, 1e-9)
         self.table: npt.NDArray[Any] = lookup_table(layer.transfer)
-        self._cells: npt.NDArray[Any] | None = None
-        self._near: npt.NDArray[Any] | None = None
+        visible_from = np.flatnonzero(self.table[:, 3] > 0)
+        threshold = (
+            self.low + (visible_from[0] - 0.5) * self.span / (len(self.table) - 1)
+            if visible_from.size
+            else np.inf
+        )
+        self.visible, self.near = voxels.cells(float(threshold))
+        self.last_cell = np.array(self.visible.shape) - 1
+        # beyond this box (the held voxels and their wrapping) samples read background
+        self.held_low = self.origin * self.voxel
+        self.held_high = (self.origin + np.array(self.values.shape)) * self.voxel
+        self.background_visible = bool(self.table[self.index(np.array(meta.background)), 3] > 0)
 
-    def crossing(self, starts: Vector, direction: Vector) -> tuple[Vector, Vector]:
-        """Where each ray enters and leaves the kept box (slab method; NaN: misses)."""
+    def steps_inside(
+        self, starts: Vector, stride: Vector, box: tuple[Vector, Vector] | None = None
+    ) -> tuple[Vector, Vector]:
+        """Per ray the first and last ``k`` with ``start + k * stride`` in ``box`` (the
+        kept box by default; half-open, ``low <= p < high`` on every axis, whichever
+        way the ray runs); first > last when none."""
+        low, high = box if box is not None else (self.low_corner, self.high_corner)
         with np.errstate(divide="ignore", invalid="ignore"):
-            t_low = (self.low_corner - starts) / direction
-            t_high = (self.high_corner - starts) / direction
-        parallel = direction == 0
-        within = self.holds_axis(starts)
-        near = np.where(parallel, np.where(within, -np.inf, np.nan), np.minimum(t_low, t_high))
-        far = np.where(parallel, np.where(within, np.inf, np.nan), np.maximum(t_low, t_high))
-        return near.max(axis=1), far.min(axis=1)
+            to_low = (low - starts) / stride
+            to_high = (high - starts) / stride
+            rising = stride > 0
+            first = np.where(rising, np.ceil(to_low), np.floor(to_high) + 1)
+            last = np.where(rising, np.ceil(to_high) - 1, np.floor(to_low))
+        still = stride == 0
+        inside = (starts >= low) & (starts < high)
+        limit = np.iinfo(np.int32).max
+        first = np.where(still, np.where(inside, -limit, limit), first)
+        last = np.where(still, np.where(inside, limit, -limit), last)
+        return first.max(axis=1).astype(np.int64), last.min(axis=1).astype(np.int64)
 
     def holds_axis(self, points: Vector) -> npt.NDArray[Any]:
         return (points >= self.low_corner) & (points < self.high_corner)
@@ -425,43 +501,15 @@ class _Sampler:
 
     def maybe_visible(self, grid: npt.NDArray[Any]) -> npt.NDArray[Any]:
         """False where every voxel a sample's interpolation touches is transparent."""
-        if self._cells is None:
-            self._cells = self._visible_cells()
-        return np.asarray(self._cells[self._cell_of(grid)])
+        return np.asarray(self.visible[self._cell_of(grid)])
 
     def near_visible(self, grid: npt.NDArray[Any]) -> npt.NDArray[Any]:
         """:meth:`maybe_visible` widened by one cell in every direction."""
-        if self._near is None:
-            cells = self._cells if self._cells is not None else self._visible_cells()
-            self._cells = cells
-            near = np.pad(cells, 1)
-            for axis in range(3):
-                near = near | np.roll(near, 1, axis) | np.roll(near, -1, axis)
-            self._near = near[1:-1, 1:-1, 1:-1]
-        return np.asarray(self._near[self._cell_of(grid)])
+        return np.asarray(self.near[self._cell_of(grid)])
 
     def _cell_of(self, grid: npt.NDArray[Any]) -> tuple[npt.NDArray[Any], ...]:
-        clamped = np.clip(grid, self.clamp_low, self.clamp_high)
-        cell = np.minimum(clamped.astype(np.int64), self.top) // CELL
+        cell = np.clip(grid.astype(np.int32) // CELL, 0, self.last_cell)
         return cell[:, 0], cell[:, 1], cell[:, 2]
-
-    def _visible_cells(self) -> npt.NDArray[Any]:
-        """Per CELL^3 block: does it, or a voxel one beyond, reach a visible value."""
-        reach = self.values.copy()
-        for axis in range(3):
-            ahead: list[slice] = [slice(None)] * 3
-            behind: list[slice] = [slice(None)] * 3
-            ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
-            np.maximum(reach[tuple(behind)], reach[tuple(ahead)], out=reach[tuple(behind)])
-        reach = np.pad(reach, [(0, -n % CELL) for n in reach.shape], mode="edge")
-        x, y, z = (n // CELL for n in reach.shape)
-        maxima = reach.reshape(x, CELL, y, CELL, z, CELL).max(axis=5).max(axis=3).max(axis=1)
-        visible_from = np.flatnonzero(self.table[:, 3] > 0)
-        if visible_from.size == 0:
-            return np.zeros(maxima.shape, dtype=bool)
-        threshold = self.low + (visible_from[0] - 0.5) * self.span / (len(self.table) - 1)
-        visible: npt.NDArray[Any] = maxima >= threshold
-        return visible
 
     def index(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
         scaled = (value - self.low) * ((len(self.table) - 1) / self.span)

@@ -22,10 +22,10 @@ from __future__ import annotations
 import json
 import threading
 from collections import Counter, OrderedDict
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Hashable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -40,8 +40,10 @@ COEFFICIENTS_FILE = "coefficients.bin"
 FALLBACK_FILE = "fallback.npy"
 
 # bricks.npy columns: i, j, k (grid position), offset, low, high
+DERIVED_KEPT = 3  # assembled views kept per store (each up to the tile budget)
 UNIFORM = -1  # the offset of a brick that holds one value (its low)
 
+T = TypeVar("T")
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]  # world mm, min and max
 
 
@@ -129,6 +131,7 @@ class VolumeStore:
         self._cache_voxels = cache_voxels
         self._cached_voxels = 0
         self._lock = threading.Lock()  # tiles render in parallel threads
+        self._derived: OrderedDict[Hashable, Any] = OrderedDict()
         self._tree = _Octree(self.bricks, self.meta.grid, self.meta.depth)
 
     @property
@@ -185,6 +188,20 @@ class VolumeStore:
             )
         origin = (int(low[0]) * side, int(low[1]) * side, int(low[2]) * side)
         return out, origin
+
+    def memo(self, key: Hashable, make: Callable[[], T]) -> T:
+        """What ``make`` derives from this store, kept for the next few asks (the voxels
+        a view assembled: the next view often needs the same bricks)."""
+        with self._lock:
+            if key in self._derived:
+                self._derived.move_to_end(key)
+                return self._derived[key]  # type: ignore[no-any-return]
+        value = make()
+        with self._lock:
+            self._derived[key] = value
+            while len(self._derived) > DERIVED_KEPT:
+                self._derived.popitem(last=False)
+        return value
 
     def _remember(self, key: tuple[int, int], block: npt.NDArray[Any]) -> None:
         self._cache[key] = block

@@ -127,3 +127,15 @@ def test_the_level_of_detail_map_follows_the_budget(client: TestClient, volume: 
     tight = client.get("/api/walls/demo/volume/detail", headers=headers).json()
     level = {t["tile_id"]: t for t in tight["tiles"]}["r1c2"]
     assert level["level"] > 0 and level["voxels"] <= 4_096  # ... so coarser levels
+
+
+def test_a_repeated_request_is_served_from_the_render_cache(
+    client: TestClient, volume: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    first = client.get(image_url(client, scene_of(volume)))
+    renders: list[object] = []
+    monkeypatch.setattr("webapp.routes.volume.tile_image", lambda *args, **kw: renders.append(args))
+    again = client.get(image_url(client, scene_of(volume)))
+    assert again.status_code == 200 and again.content == first.content
+    assert again.headers["x-pixel-scale"] == first.headers["x-pixel-scale"]
+    assert renders == [], "nothing was rendered again"
