@@ -123,31 +123,37 @@ class _Canvas:
             self.rect.x + x * self.sx, self.rect.y + y * self.sy, side * self.sx, side * self.sy
         )
 
-    def nearest(self, anchor: Point, side: int) -> tuple[float, int, int] | None:
-        """The free spot for a ``side`` px code whose centre is nearest ``anchor``."""
-        if side >= self.no_room_from:
+    def nearest(
+        self, anchor: Point, side: int, height: int | None = None
+    ) -> tuple[float, int, int] | None:
+        """The free spot for a ``side`` px code (or a ``side`` x ``height`` px box)
+        whose centre is nearest ``anchor``."""
+        square = height is None
+        width, height = side, side if height is None else height
+        if (square and side >= self.no_room_from) or width > self.pw or height > self.ph:
             return None
         ax, ay = anchor
-        ideal_x = (ax - self.rect.x) / self.sx - side / 2
-        ideal_y = (ay - self.rect.y) / self.sy - side / 2
+        ideal_x = (ax - self.rect.x) / self.sx - width / 2
+        ideal_y = (ay - self.rect.y) / self.sy - height / 2
         boxes = np.array(self.boxes, dtype=np.int64).reshape(-1, 4)
-        xs = _candidates(ideal_x, boxes[:, 0], boxes[:, 2], side, self.pw)
-        ys = _candidates(ideal_y, boxes[:, 1], boxes[:, 3], side, self.ph)
+        xs = _candidates(ideal_x, boxes[:, 0], boxes[:, 2], width, self.pw)
+        ys = _candidates(ideal_y, boxes[:, 1], boxes[:, 3], height, self.ph)
         grid_x, grid_y = (a.ravel() for a in np.meshgrid(xs, ys))
         if len(boxes):
             overlap = (
                 (grid_x[:, None] < boxes[:, 2])
-                & (grid_x[:, None] + side > boxes[:, 0])
+                & (grid_x[:, None] + width > boxes[:, 0])
                 & (grid_y[:, None] < boxes[:, 3])
-                & (grid_y[:, None] + side > boxes[:, 1])
+                & (grid_y[:, None] + height > boxes[:, 1])
             ).any(axis=1)
             grid_x, grid_y = grid_x[~overlap], grid_y[~overlap]
         if not len(grid_x):
-            self.no_room_from = side
+            if square:
+                self.no_room_from = side
             return None
         distance = np.hypot(
-            self.rect.x + (grid_x + side / 2) * self.sx - ax,
-            self.rect.y + (grid_y + side / 2) * self.sy - ay,
+            self.rect.x + (grid_x + width / 2) * self.sx - ax,
+            self.rect.y + (grid_y + height / 2) * self.sy - ay,
         )
         best = np.lexsort((grid_x, grid_y, distance))[0]
         return float(distance[best]), int(grid_x[best]), int(grid_y[best])
@@ -191,6 +197,35 @@ def place(
     placed = tuple(o for key in keys if isinstance(o := outcome[key], Placement))
     unplaced = tuple(o for key in keys if isinstance(o := outcome[key], Unplaced))
     return Layout(placed, unplaced)
+
+
+def place_box(
+    wall: Wall, size_mm: tuple[float, float], anchor: Point, obstacles: Sequence[Rect]
+) -> Rect | None:
+    """Where a box of ``size_mm`` (a description balloon) stands nearest ``anchor``:
+    wholly on one display that is not a designated screen, clear of ``obstacles``
+    (codes, other boxes). None when no display has room for it."""
+    designated = {d.id for role in ROLES for d in wall.screen(role)}
+    best: tuple[float, Rect] | None = None
+    for display in wall.displays:
+        if display.id in designated:
+            continue
+        canvas = _Canvas(wall, display)
+        for area in obstacles:
+            canvas.reserve(area)
+        width = math.ceil(size_mm[0] / canvas.sx)
+        height = math.ceil(size_mm[1] / canvas.sy)
+        spot = canvas.nearest(anchor, width, height)
+        if spot is not None and (best is None or spot[0] < best[0]):
+            distance, x, y = spot
+            box = Rect(
+                canvas.rect.x + x * canvas.sx,
+                canvas.rect.y + y * canvas.sy,
+                width * canvas.sx,
+                height * canvas.sy,
+            )
+            best = (distance, box)
+    return best[1] if best else None
 
 
 def _place_anchored(

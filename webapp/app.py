@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
 
@@ -41,7 +41,7 @@ from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
 from webapp.tags import declare, show_tag_set
 from webapp.visitors import SessionCookieMiddleware
-from webapp.wall_state import read_state
+from webapp.wall_state import WallState, read_state
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"
@@ -100,26 +100,38 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         ws.router,
     ):
         app.include_router(router)
+    for wall_app in services.apps.values():
+        if (app_router := wall_app.router()) is not None:
+            app.include_router(app_router)
     _add_error_pages(app)
     return app
 
 
 async def prepare_walls(services: Services) -> None:
-    """Declare every app's tags on every wall and put each wall's tag set up.
+    """Settle the app each wall shows, declare every app's tags on every wall and put
+    each wall's tag set up.
 
     Idempotent: codes stay as they were and an unchanged set is not placed again, so
     every server process of a wall may do this at start.
     """
     for wall in services.walls.values():
-        for wall_app in services.apps.values():
-            await run_in_threadpool(
-                declare, services.db, wall.id, wall_app.name, wall_app.declare_tags(wall)
-            )
         _, state = await run_in_threadpool(read_state, services.db, wall.id)
+        if (shown := services.apps.get(state.app)) is not None:
+            settled: WallState = await run_in_threadpool(shown.settle, services, state)
+            if settled != state:
+                await services.hub.change_state(wall.id, _becomes(settled))
+                state = settled
+        for wall_app in services.apps.values():
+            tags = await run_in_threadpool(wall_app.declare_tags, services, wall, state)
+            await run_in_threadpool(declare, services.db, wall.id, wall_app.name, tags)
         tag_set = state.tag_set
         if not state.tag_layout and state.app in services.apps:
             tag_set = services.apps[state.app].default_tag_set
         await show_tag_set(services.hub, wall, tag_set, services.base_url)
+
+
+def _becomes(new: WallState) -> Callable[[WallState], WallState]:
+    return lambda _old: new
 
 
 def _wants_json(request: Request) -> bool:

@@ -67,9 +67,15 @@ class WallHub:
         self.swap_timeout_ms = swap_timeout_ms
         self.keep_events = keep_events
         self._locks: dict[str, asyncio.Lock] = {}
+        self._placing: dict[str, asyncio.Lock] = {}
         self._tiles: dict[str, dict[str, TileStatus]] = {}
         self._barriers: dict[tuple[str, int], _Barrier] = {}
         self._tasks: set[asyncio.Task[None]] = set()
+
+    def placing(self, wall_id: str) -> asyncio.Lock:
+        """Held while a change's codes are placed and committed with it, so two such
+        changes of one wall never interleave (a layout always matches its view)."""
+        return self._placing.setdefault(wall_id, asyncio.Lock())
 
     async def change_state(
         self, wall_id: str, update: Callable[[WallState], WallState]

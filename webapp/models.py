@@ -231,3 +231,32 @@ class PublicationRecord(Base):
     )
     decided_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     decided_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")
+
+
+class CensusDataSetRecord(Base):
+    """An imported census data set; the ``current`` one is what the census map shows."""
+
+    __tablename__ = "census_datasets"
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    name: Mapped[str] = mapped_column(String(64), index=True, nullable=False)
+    settings: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    source: Mapped[str] = mapped_column(String(500), nullable=False, default="")
+    tract_count: Mapped[int] = mapped_column(Integer, nullable=False)
+    current: Mapped[bool] = mapped_column(nullable=False, default=False)
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
+class CensusTractRecord(Base):
+    """One tract of a data set: its outline (GeoJSON, longitude/latitude) and values."""
+
+    __tablename__ = "census_tracts"
+
+    dataset_id: Mapped[int] = mapped_column(
+        ForeignKey("census_datasets.id", ondelete="CASCADE"), primary_key=True
+    )
+    geoid: Mapped[str] = mapped_column(String(64), primary_key=True)
+    geometry: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    values: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)

@@ -70,6 +70,7 @@ class Settings(BaseSettings):
     login_free_attempts: int = Field(default=3, ge=1)
     login_max_delay_s: float = Field(default=300.0, ge=1)
     publish_rate_per_minute: int = Field(default=3, ge=1)
+    balloon_seconds: int = Field(default=30, ge=1, le=3_600)
     volume_dir: Path | None = None
     volume_budget_voxels: int = Field(default=1 << 24, ge=4_096)
     volume_cache_voxels: int = Field(default=1 << 26, ge=0)

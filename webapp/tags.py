@@ -147,11 +147,23 @@ def issue(db: Database, wall_id: str, spec: TagSpec, created_by: str) -> TagReco
     raise RuntimeError(f"could not register tag {spec.name or spec.label!r} on {wall_id!r}")
 
 
-def _issue(session: Session, wall_id: str, spec: TagSpec, created_by: str) -> TagRecord:
+def _issue(
+    session: Session,
+    wall_id: str,
+    spec: TagSpec,
+    created_by: str,
+    known: dict[str, TagRecord] | None = None,
+) -> TagRecord:
+    """Fill in the tag named like ``spec`` (found in ``known`` when the caller looked
+    its names up already), or a new one."""
     record = None
     if spec.name is not None:
-        record = session.scalar(
-            select(TagRecord).where(TagRecord.wall_id == wall_id, TagRecord.name == spec.name)
+        record = (
+            known.get(spec.name)
+            if known is not None
+            else session.scalar(
+                select(TagRecord).where(TagRecord.wall_id == wall_id, TagRecord.name == spec.name)
+            )
         )
     if record is None:
         record = TagRecord(code=new_code(), wall_id=wall_id, created_by=created_by)
@@ -198,8 +210,19 @@ def declare(db: Database, wall_id: str, app: str, specs: Sequence[TagSpec]) -> N
     for _ in range(_ISSUE_ATTEMPTS):
         try:
             with db.session() as session:
+                named = sorted(name for name in names if name)
+                known = {
+                    record.name: record
+                    for record in session.scalars(
+                        select(TagRecord).where(
+                            TagRecord.wall_id == wall_id,
+                            or_(TagRecord.app == app, TagRecord.name.in_(named)),
+                        )
+                    )
+                    if record.name is not None
+                }
                 for spec in specs:
-                    _issue(session, wall_id, spec, created_by=f"app:{app}")
+                    _issue(session, wall_id, spec, f"app:{app}", known)
                 stale = session.scalars(
                     select(TagRecord).where(
                         TagRecord.wall_id == wall_id,

@@ -33,15 +33,23 @@ class View(BaseModel):
 
 
 class Balloon(BaseModel):
-    """A description balloon open on the wall beside an anchor point (wall mm)."""
+    """A description balloon open on the wall, pointing at an anchor (scene mm).
+
+    ``rect`` is where the box stands (placed by the server clear of codes and other
+    balloons); tiles stop drawing it at ``closes_at`` on the shared clock.
+    """
 
     model_config = ConfigDict(extra="forbid")
 
     id: str = Field(min_length=1, max_length=64)
     anchor: tuple[float, float]
+    rect: tuple[float, float, float, float] | None = None  # x, y, width, height
     title: str = Field(max_length=200)
     lines: list[str] = Field(default_factory=list, max_length=20)
     closes_at: int | None = None  # server ms
+
+    def open_at(self, ms: int) -> bool:
+        return self.closes_at is None or self.closes_at > ms
 
 
 class PublicItem(BaseModel):
@@ -81,6 +89,7 @@ class WallState(BaseModel):
     tag_set: str | None = Field(default=None, max_length=64)
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
+    dataset: int | None = Field(default=None, ge=1)  # the census map's data set
 
 
 class StatePatch(BaseModel):
@@ -114,7 +123,7 @@ class Change(BaseModel):
     heavy: bool
 
 
-HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume"})
+HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume", "dataset"})
 """Fields whose change makes tiles fetch something (renders, code layouts) first:
 applied by prepare -> ready -> swap."""
 

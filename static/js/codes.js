@@ -93,15 +93,17 @@ function drawLabels(ctx, codes, matrix) {
 
 /**
  * Draw a layout's codes. `matrix` maps scene mm to the canvas's device pixels; the
- * context's current transform is the same map (pins and labels use it).
+ * context's current transform is the same map (pins and labels use it). Codes in
+ * `hidden` (a Set) are left out, with what they stand on.
  */
-export function drawCodes(ctx, layout, matrix) {
+export function drawCodes(ctx, layout, matrix, hidden = null) {
   if (!layout) return;
+  const codes = hidden?.size ? layout.placed.filter((c) => !hidden.has(c.code)) : layout.placed;
   const [a, b] = matrix;
-  drawPins(ctx, layout.placed, Math.hypot(a, b));
+  drawPins(ctx, codes, Math.hypot(a, b));
   ctx.save();
   ctx.setTransform(1, 0, 0, 1, 0, 0);
-  for (const code of layout.placed) drawCode(ctx, code, matrix);
+  for (const code of codes) drawCode(ctx, code, matrix);
   ctx.restore();
-  drawLabels(ctx, layout.placed, matrix);
+  drawLabels(ctx, codes, matrix);
 }

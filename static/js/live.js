@@ -5,14 +5,15 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
 
 /**
  * @param {string} path websocket path
- * @param {function} drawer state -> (ctx, width, height) => void
+ * @param {function} drawer (state, clock) -> (ctx, width, height) => void; clock() is the
+ *   server time now (ms), for what changes by the clock (balloons closing)
  * @param {boolean} reports whether this page reports ready/applied (tiles only)
  * @param {function} prepare (changes, state) -> Promise: load what the changed state needs
  * @param {function} overlay state -> show(): ready page content beside the scene now,
  *   show it with the frame
- * @param {function} shown (state, redraw) after a frame is shown: redraw() draws the
- *   state again in place if it is still the one shown (a refinement arrived) and says
- *   whether it was
+ * @param {function} shown (state, redraw, clock) after a frame is shown: redraw() draws
+ *   the state again in place if it is still the one shown (a refinement arrived, a
+ *   balloon closed) and says whether it was
  */
 export function showLive(path, drawer, {
   reports = false, prepare = () => undefined, overlay = () => () => {}, shown = () => {},
@@ -21,10 +22,11 @@ export function showLive(path, drawer, {
   const frames = new Frames(document.getElementById("scene"));
   const marker = document.getElementById("offline");
   let current = null;
-  new WallSocket(socketUrl(path), {
+  const clock = () => socket.serverNow();
+  const socket = new WallSocket(socketUrl(path), {
     reports,
     render(state, version) {
-      const show = frames.prepare(drawer(state));
+      const show = frames.prepare(drawer(state, clock));
       const showOverlay = overlay(state);
       return () => {
         show();
@@ -33,9 +35,9 @@ export function showLive(path, drawer, {
         body.dataset.version = String(version);
         shown(state, () => {
           if (current !== state) return false;
-          frames.redraw(drawer(state));
+          frames.redraw(drawer(state, clock));
           return true;
-        });
+        }, clock);
       };
     },
     onPrepare(changes, state) {
@@ -47,5 +49,5 @@ export function showLive(path, drawer, {
       body.dataset.online = String(online);
     },
   });
-  window.addEventListener("resize", () => current && frames.redraw(drawer(current)));
+  window.addEventListener("resize", () => current && frames.redraw(drawer(current, clock)));
 }

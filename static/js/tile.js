@@ -1,4 +1,6 @@
 // A kiosk tile: draws its viewport of the wall scene from the state the server sends.
+import {drawBalloons, nextClosing} from "./balloons.js";
+import {CensusViews, drawCensus, drawMenu} from "./census.js";
 import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
 import {PublicScreen} from "./public.js";
@@ -10,33 +12,59 @@ const viewport = JSON.parse(body.dataset.viewport);
 const wall = JSON.parse(body.dataset.wallInfo);
 const layouts = new CodeLayouts(wall.id, body.dataset.tile);
 const volumes = new VolumeImages(wall.id, body.dataset.tile, body.dataset.token);
+const maps = new CensusViews(wall.id, body.dataset.tile);
 const display = wall.displays.find((d) => d.id === body.dataset.tile);
 const publicScreen = display?.roles.includes("public")
   ? new PublicScreen(document.getElementById("public")) : null;
 
 // The server's matrix maps scene mm to the display's native pixels; fit those to the canvas.
-// A volume image is already in native pixels; the pattern and codes are in scene mm.
-function drawer(state) {
+// Volume images and map views are already in native pixels; the rest is in scene mm.
+function drawer(state, clock) {
   const volume = volumes.get(state);
+  const map = maps.get(state);
   return (ctx, width, height) => {
     const sx = width / viewport.pixels[0];
     const sy = height / viewport.pixels[1];
     const [a, b, c, d, e, f] = viewport.to_pixels;
     const matrix = [a * sx, b * sy, c * sx, d * sy, e * sx, f * sy];
-    if (volume) {
-      ctx.setTransform(sx, 0, 0, sy, 0, 0);
-      drawVolume(ctx, volume);
-    }
+    const layout = layouts.get(state.tag_layout);
+    ctx.setTransform(sx, 0, 0, sy, 0, 0);
+    if (map) drawCensus(ctx, map, state, ...viewport.pixels);
+    else if (volume) drawVolume(ctx, volume);
     ctx.setTransform(...matrix);
-    if (!volume) drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
-    drawCodes(ctx, layouts.get(state.tag_layout), matrix);
+    if (!volume && !map) drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
+    drawCodes(ctx, layout, matrix, map ? maps.hiddenCodes(state) : null);
+    if (map) drawMenu(ctx, map, state, layout, matrix);
+    drawBalloons(ctx, state, clock(), Math.hypot(matrix[0], matrix[1]));
   };
 }
 
-// What the tile shows of a volume, for people (and tests) inspecting it: "refined 0".
-function markVolume(state) {
+// What the tile shows, for people (and tests) inspecting it: the volume's detail
+// ("refined 0"), the census groups hidden here, the balloons open.
+function mark(state, clock) {
   const volume = volumes.get(state);
   body.dataset.volume = volume ? `${volume.detail} ${volume.level}` : "";
+  const map = maps.get(state);
+  body.dataset.census = map ? `${map.dataset} ${map.tracts.length}` : "";
+  body.dataset.hiddenGroups = Object.entries(state.layers ?? {})
+    .filter(([, on]) => !on).map(([name]) => name).sort().join(" ");
+  body.dataset.balloons = (state.balloons ?? [])
+    .filter((b) => b.closes_at == null || b.closes_at > clock()).map((b) => b.id).join(" ");
+}
+
+let closing = null;
+
+// Balloons close by the shared clock: redraw when the next one is due, then look again.
+function closeBalloons(state, redraw, clock) {
+  clearTimeout(closing);
+  const due = nextClosing(state, clock());
+  if (due == null) return;
+  closing = setTimeout(() => {
+    if (redraw()) {
+      mark(state, clock);
+      closeBalloons(state, redraw, clock);
+    }
+  }, Math.max(0, due - clock()) + 1);
 }
 
 showLive(
@@ -45,13 +73,15 @@ showLive(
   {
     reports: true,
     prepare: (changes, state) => Promise.all([
-      layouts.load(changes.tag_layout),
+      layouts.load(changes.tag_layout ?? state.tag_layout),
       volumes.load(state),
+      maps.load(state),
     ]),
     overlay: (state) => (publicScreen ? publicScreen.prepare(state.public) : () => {}),
-    shown: (state, redraw) => {
-      markVolume(state);
-      volumes.refine(state, () => redraw() && markVolume(state));
+    shown: (state, redraw, clock) => {
+      mark(state, clock);
+      volumes.refine(state, () => redraw() && mark(state, clock));
+      closeBalloons(state, redraw, clock);
     },
   },
 );

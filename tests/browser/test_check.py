@@ -65,3 +65,18 @@ def test_check_exits_2_when_the_server_is_unreachable(server: ServerProcess) -> 
     result = run_check(server)
     assert result.returncode == 2
     assert result.stderr.startswith("error: ")
+
+
+def test_codes_placed_again_after_a_pan_and_zoom_of_the_census_map_still_decode(
+    server: ServerProcess,
+) -> None:
+    server.change("demo", {"app": "census"})
+    _, whole = fetch_layout(server.url, "demo", operator_token(server.secret))
+    server.change("demo", {"view": {"center": [0.55, 0.45], "zoom": 3}})
+    _, zoomed = fetch_layout(server.url, "demo", operator_token(server.secret))
+    tracts = [c for c in zoomed.placed if c.display not in ("r1c3", "r2c1")]
+    assert len(tracts) > len([c for c in whole.placed if c.display not in ("r1c3", "r2c1")])
+    result = run_check(server)
+    count = len(zoomed.placed)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert result.stdout.splitlines()[0] == f"decoded {count}/{count} codes"

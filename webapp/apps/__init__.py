@@ -3,26 +3,33 @@
 An app is a small plug-in: the core resolves a scanned code to its tag and hands the
 scan to the app named on the tag, which returns the phone page. Adding an app means
 adding a module here and listing it in :func:`builtin_apps`; the core knows nothing
-app-specific. An app extends the dashboard with a panel (``dashboard_panel``) and
-the public screen with what its pages publish (``publication``).
+app-specific. An app extends the dashboard with a panel (``dashboard_panel``), the
+public screen with what its pages publish (``publication``) and the server with its
+own pages and API (``router``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
-from fastapi import Request, Response
+from fastapi import APIRouter, Request, Response
+from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
 from webapp.models import TagRecord
 from webapp.people import Person
 from webapp.publishing import Publication
-from webapp.tags import TagSpec
+from webapp.tags import TagSpec, declare, layout_for
 from webapp.visitors import Visitor
+from webapp.wall_state import Change, WallState, read_state
 
 if TYPE_CHECKING:
     from webapp.services import Services
+
+PLACING_FIELDS = ("app", "view", "dataset")
+"""State fields apps anchor codes to: changing one places the codes again."""
 
 
 @dataclass(frozen=True)
@@ -35,6 +42,7 @@ class Scan:
     tag: TagRecord
     visitor: Visitor
     address: str
+    subject: str | None = None  # what the page shows when not the tag itself (an index pick)
 
     async def person(self) -> Person:
         """Who scanned: role, user group, information class (loaded when an app asks)."""
@@ -47,8 +55,14 @@ class WallApp(Protocol):
     name: str
     default_tag_set: str | None  # the set shown when the app comes on the wall
 
-    def declare_tags(self, wall: Wall) -> list[TagSpec]:
-        """The named tags the app needs on ``wall`` (declared at every start)."""
+    def settle(self, services: Services, state: WallState) -> WallState:
+        """The state as the app needs it when it comes on the wall (say, the data set
+        it shows); called in a worker thread, at start too."""
+        ...
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+        """The named tags the app needs on ``wall`` in ``state`` (declared at every
+        start, and again whenever one of :data:`PLACING_FIELDS` changes)."""
         ...
 
     async def on_scan(self, scan: Scan) -> Response:
@@ -71,10 +85,64 @@ class WallApp(Protocol):
         """
         ...
 
+    def router(self) -> APIRouter | None:
+        """The app's own pages and API (None: it has none)."""
+        ...
+
+
+async def change_state(
+    services: Services, wall: Wall, update: Callable[[WallState], WallState]
+) -> Change | None:
+    """Change a wall's state, moving its codes with the scene.
+
+    When the change touches what codes are anchored to (:data:`PLACING_FIELDS`), the
+    app on the wall declares its tags for the new state and they are placed before
+    the change commits, so the new codes arrive in the same swap as the new scene.
+    A change of app also puts up that app's tag set.
+    """
+    async with services.hub.placing(wall.id):
+        _, current = await run_in_threadpool(read_state, services.db, wall.id)
+        target = update(current)
+        if all(getattr(target, f) == getattr(current, f) for f in PLACING_FIELDS):
+            return await services.hub.change_state(wall.id, update)
+        app = services.apps.get(target.app)
+        tag_set = target.tag_set
+        settled: dict[str, Any] = {}
+        if target.app != current.app and app is not None:
+            tag_set = app.default_tag_set
+            ready = await run_in_threadpool(app.settle, services, target)
+            settled = {
+                name: getattr(ready, name)
+                for name in WallState.model_fields
+                if getattr(ready, name) != getattr(target, name)
+            }
+            target = ready
+        leaving = services.apps.get(current.app) if current.app != target.app else None
+        apps = [a for a in (leaving, app) if a is not None]
+        layout_id = await run_in_threadpool(_place_for, services, wall, apps, target, tag_set)
+        placed = {**settled, "tag_set": tag_set, "tag_layout": layout_id}
+
+        def with_codes(state: WallState) -> WallState:
+            return update(state).model_copy(update=placed)
+
+        return await services.hub.change_state(wall.id, with_codes)
+
+
+def _place_for(
+    services: Services, wall: Wall, apps: list[WallApp], state: WallState, tag_set: str | None
+) -> int:
+    """Declare the tags of ``apps`` (the one leaving the wall too) for ``state``, then
+    place ``tag_set``; returns the layout's id."""
+    for app in apps:
+        declare(services.db, wall.id, app.name, app.declare_tags(services, wall, state))
+    services.codes.forget()
+    return layout_for(services.db, wall, tag_set, services.base_url)
+
 
 def builtin_apps() -> dict[str, WallApp]:
+    from webapp.apps.census_map import CensusApp
     from webapp.apps.core import CoreApp
     from webapp.apps.pattern import PatternApp
 
-    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp())
+    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp(), CensusApp())
     return {app.name: app for app in apps}

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 from urllib.parse import quote
 
-from fastapi import Response, status
+from fastapi import APIRouter, Response, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import RedirectResponse
 
@@ -16,6 +17,10 @@ from webapp.publishing import Publication
 from webapp.routes.pages import render
 from webapp.settings import Role
 from webapp.tags import TagSpec
+from webapp.wall_state import WallState
+
+if TYPE_CHECKING:
+    from webapp.services import Services
 
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 
@@ -24,7 +29,10 @@ class CoreApp:
     name: str = "core"
     default_tag_set: str | None = None
 
-    def declare_tags(self, wall: Wall) -> list[TagSpec]:
+    def settle(self, services: Services, state: WallState) -> WallState:
+        return state
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """The student and instructor codes, permanent on the registration screen."""
         return [
             TagSpec(
@@ -64,6 +72,9 @@ class CoreApp:
 
     async def publication(self, scan: Scan) -> Publication | None:
         return None  # registration is not content
+
+    def router(self) -> APIRouter | None:
+        return None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return None

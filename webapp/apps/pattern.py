@@ -10,9 +10,9 @@ unplaceable instead, which the dashboard shows).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from fastapi import Response
+from fastapi import APIRouter, Response
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import ROLES, Display, Wall
@@ -20,7 +20,10 @@ from webapp.apps import Scan
 from webapp.publishing import Block, Publication
 from webapp.routes.pages import render
 from webapp.tags import TagSpec, get_layout
-from webapp.wall_state import read_state
+from webapp.wall_state import WallState, read_state
+
+if TYPE_CHECKING:
+    from webapp.services import Services
 
 SETUP_SET = "setup"
 
@@ -29,7 +32,10 @@ class PatternApp:
     name: str = "pattern"
     default_tag_set: str | None = SETUP_SET
 
-    def declare_tags(self, wall: Wall) -> list[TagSpec]:
+    def settle(self, services: Services, state: WallState) -> WallState:
+        return state
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         designated = {d.id for role in ROLES for d in wall.screen(role)}
         free = [d for d in wall.displays if d.id not in designated]
         tags = [self._tag(f"setup-{d.id}", f"Display {d.id}", d.rect.center) for d in free]
@@ -76,6 +82,9 @@ class PatternApp:
                 )
             ],
         )
+
+    def router(self) -> APIRouter | None:
+        return None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "panels/pattern.html"

@@ -35,6 +35,7 @@ async def publish(
     services: ServicesDep,
     address: ClientAddressDep,
     code: Annotated[str, Form(max_length=32)],
+    subject: Annotated[str | None, Form(max_length=64)] = None,
 ) -> HTMLResponse:
     """The Publish button of a phone page: the page's content goes to the public screen."""
     normalized = normalize_code(code)
@@ -55,7 +56,8 @@ async def publish(
         )
         response.headers["Retry-After"] = str(int(wait) + 1)
         return response
-    publication = await app.publication(Scan(request, services, wall, tag, person.visitor, address))
+    scan = Scan(request, services, wall, tag, person.visitor, address, subject or None)
+    publication = await app.publication(scan)
     if publication is None:
         raise HTTPException(status.HTTP_400_BAD_REQUEST, "This page has nothing to publish.")
     _, state = await run_in_threadpool(read_state, services.db, wall.id)

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from webapp.caching import SizedCache
 from webapp.volume.store import META_FILE, VolumeStore
-from webapp.volume.tiles import RenderCache
+from webapp.volume.tiles import EncodedTile
 
 RENDER_CACHE_BYTES = 64 * 1024 * 1024
 
@@ -18,7 +19,7 @@ class VolumeCatalog:
         self.directory = directory
         self.cache_voxels = cache_voxels
         self._open: dict[str, VolumeStore] = {}
-        self.renders = RenderCache(RENDER_CACHE_BYTES)
+        self.renders = SizedCache[EncodedTile](RENDER_CACHE_BYTES, lambda e: len(e.body))
 
     def names(self) -> list[str]:
         """The stores present now (a store built while running appears at once)."""

@@ -65,6 +65,16 @@ def matrix(client: TestClient) -> list[Row]:
     commit_change(db, "demo", lambda s: s.model_copy(update={"volume": volume}), keep_events=100)
     scene = json.dumps({"view": {}, "volume": volume.model_dump()})
     tile_volume = "/api/walls/demo/tiles/r1c1/volume"
+    # the census map on another wall, so the demo wall's rows keep their codes
+    census = client.post(
+        "/api/walls/kl-3x3/state",
+        json={"app": "census"},
+        headers={"Authorization": f"Bearer {services_of(client).operator_token}"},
+    )
+    assert census.status_code == 200, census.text
+    dataset = read_state(db, "kl-3x3")[1].dataset
+    group = next(t.params["group"] for t in wall_tags(db, "kl-3x3") if t.action == "toggle")
+    tract = "/apps/census/kl-3x3/tracts/06061022001"
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -188,6 +198,34 @@ def matrix(client: TestClient) -> list[Row]:
         Row(
             "GET", "/api/walls/{wall_id}/volume/detail", "/api/walls/demo/volume/detail", STAFF_API
         ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/census",
+            f"/api/walls/kl-3x3/tiles/r2c2/census?dataset={dataset}",
+            PUBLIC,
+        ),
+        Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
+        Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
+        Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),
+        Row("POST", "/apps/census/{wall_id}/tracts/{geoid}/balloon", f"{tract}/balloon",
+            PUBLIC, form={}),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/groups/{group_id}/toggle",
+            f"/apps/census/kl-3x3/groups/{group}/toggle",
+            PUBLIC,
+            form={},
+        ),
+        Row("GET", "/apps/census/census.kml", "/apps/census/census.kml?wall=kl-3x3", PUBLIC),
+        Row("GET", "/apps/census/census.kmz", "/apps/census/census.kmz", PUBLIC),
+        Row("GET", "/apps/census/network-link.kml", "/apps/census/network-link.kml", PUBLIC),
+        Row("GET", "/api/census/datasets", "/api/census/datasets", STAFF_API),
+        Row(
+            "GET", "/api/census/datasets/{dataset_id}", f"/api/census/datasets/{dataset}",
+            STAFF_API,
+        ),
+        Row("POST", "/api/census/current", "/api/census/current", STAFF_API,
+            json={"dataset": dataset}),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]
 

@@ -1,0 +1,57 @@
+// Description balloons: a box the server placed clear of codes, with a pointer to what
+// it describes. Drawn in scene mm (the caller's transform); each closes at its time on
+// the wall's shared clock, so every tile drops it at the same instant.
+
+const PAD = 0.5;          // of the font size
+const LINE_HEIGHT = 1.35; // of the font size
+
+export function openBalloons(state, serverNow) {
+  return (state.balloons ?? []).filter((b) => b.closes_at == null || b.closes_at > serverNow);
+}
+
+/** When the next open balloon closes (server ms), or null. */
+export function nextClosing(state, serverNow) {
+  const times = openBalloons(state, serverNow).map((b) => b.closes_at).filter((t) => t != null);
+  return times.length ? Math.min(...times) : null;
+}
+
+export function drawBalloons(ctx, state, serverNow, pxPerMm) {
+  for (const balloon of openBalloons(state, serverNow)) {
+    const [ax, ay] = balloon.anchor;
+    const [x, y, w, h] = balloon.rect ?? [ax + 20, ay - 60, 300, 120];
+    const font = h / (LINE_HEIGHT * (1 + balloon.lines.length) + 2 * PAD);
+    ctx.strokeStyle = "#1b1b1b";
+    ctx.fillStyle = "#fffdf5";
+    ctx.lineWidth = 2 / pxPerMm;
+    const edgeX = Math.min(Math.max(ax, x), x + w);
+    const edgeY = Math.min(Math.max(ay, y), y + h);
+    ctx.beginPath();
+    ctx.moveTo(edgeX, edgeY);
+    ctx.lineTo(ax, ay);
+    ctx.stroke();
+    ctx.beginPath();
+    ctx.arc(ax, ay, 4 / pxPerMm, 0, 2 * Math.PI);
+    ctx.fillStyle = "#1b1b1b";
+    ctx.fill();
+    ctx.fillStyle = "#fffdf5";
+    ctx.fillRect(x, y, w, h);
+    ctx.strokeRect(x, y, w, h);
+    ctx.fillStyle = "#1b1b1b";
+    ctx.textAlign = "left";
+    ctx.textBaseline = "top";
+    const left = x + PAD * font;
+    const room = w - 2 * PAD * font;
+    balloon.lines.forEach((line, i) => {
+      fitText(ctx, line, left, y + PAD * font + LINE_HEIGHT * font * (i + 1), room, font, "");
+    });
+    fitText(ctx, balloon.title, left, y + PAD * font, room, font, "bold ");
+  }
+}
+
+function fitText(ctx, text, x, y, room, font, weight) {
+  ctx.font = `${weight}${font}px sans-serif`;
+  const width = ctx.measureText(text).width;
+  const size = width > room ? font * room / width : font;
+  ctx.font = `${weight}${size}px sans-serif`;
+  ctx.fillText(text, x, y);
+}

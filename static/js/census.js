@@ -1,0 +1,127 @@
+// The census map on a tile: the server sends each tile its share of the map in the
+// tile's own pixels (outlines clipped and simplified, labels, groups, codes); the
+// tile draws it, hiding the groups whose layer is off, so a toggle is instant.
+
+const KEEP = 4;
+const FILL = "rgba(139, 90, 43, 0.55)";
+const EDGE = "#5a3310";
+const LABEL = "#f5e6d0";
+const SHOWN = "#6ede8a";
+const HIDDEN = "#8a8f99";
+
+export function groupShown(state, groupId) {
+  return state.layers?.[groupId] ?? true;
+}
+
+export class CensusViews {
+  constructor(wallId, tileId) {
+    this.base = `/api/walls/${wallId}/tiles/${tileId}/census`;
+    this.views = new Map();
+  }
+
+  static keyOf(state) {
+    if (state?.app !== "census" || !state.dataset) return null;
+    const [cx, cy] = state.view?.center ?? [0.5, 0.5];
+    const query = new URLSearchParams({
+      dataset: state.dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
+    });
+    return query.toString();
+  }
+
+  get(state) {
+    return this.views.get(CensusViews.keyOf(state));
+  }
+
+  async load(state) {
+    const key = CensusViews.keyOf(state);
+    if (!key || this.views.has(key)) return;
+    const response = await fetch(`${this.base}?${key}`);
+    if (!response.ok) throw new Error(`census map: ${response.status}`);
+    this.views.set(key, await response.json());
+    while (this.views.size > KEEP) this.views.delete(this.views.keys().next().value);
+  }
+
+  /** Codes of tracts in hidden groups: the tile leaves them out with their tracts. */
+  hiddenCodes(state) {
+    const view = this.get(state);
+    const hidden = new Set();
+    if (!view) return hidden;
+    for (const tract of view.tracts) {
+      if (tract.code && !groupShown(state, tract.group)) hidden.add(tract.code);
+    }
+    return hidden;
+  }
+}
+
+/** The tracts, in the tile's native pixels (the caller scales them to the canvas). */
+export function drawCensus(ctx, view, state, width, height) {
+  ctx.fillStyle = "#0d1b2a";
+  ctx.fillRect(0, 0, width, height);
+  const shown = view.tracts.filter((tract) => groupShown(state, tract.group));
+  ctx.fillStyle = FILL;
+  ctx.strokeStyle = EDGE;
+  ctx.lineWidth = 1.5;
+  ctx.lineJoin = "round";
+  for (const tract of shown) {
+    ctx.beginPath();
+    for (const ring of tract.rings) {
+      ctx.moveTo(ring[0], ring[1]);
+      for (let i = 2; i < ring.length; i += 2) ctx.lineTo(ring[i], ring[i + 1]);
+      ctx.closePath();
+    }
+    ctx.fill("evenodd");
+    ctx.stroke();
+  }
+  drawLabels(ctx, shown, view.label_px);
+}
+
+// Tract numbers where they fit inside their tract, under the tract's code if it has one
+// (codes stand on the label point; the label then sits just below the code's centre).
+function drawLabels(ctx, tracts, size) {
+  ctx.font = `bold ${Math.round(size)}px sans-serif`;
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
+  ctx.fillStyle = LABEL;
+  for (const tract of tracts) {
+    if (tract.code) continue;  // the code's own label names it
+    const width = ctx.measureText(tract.label).width;
+    if (width > 2 * tract.room) continue;
+    ctx.fillText(tract.label, tract.at[0], tract.at[1]);
+  }
+}
+
+/**
+ * On the menu screen: each toggle code says whether its group is shown now, and the
+ * caption says how many tracts carry codes. `matrix` maps scene mm to canvas pixels.
+ */
+export function drawMenu(ctx, view, state, layout, matrix) {
+  if (!layout) return;
+  const [a, b, c, d, e, f] = matrix;
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  let captionAt = null;
+  for (const code of layout.placed) {
+    const group = view.toggles[code.code];
+    if (!group) continue;
+    const [x, y, w] = code.rect;
+    const left = a * x + c * y + e;
+    const top = b * x + d * y + f;
+    const side = Math.hypot(a, b) * w;
+    const on = groupShown(state, group);
+    ctx.fillStyle = on ? SHOWN : HIDDEN;
+    ctx.fillRect(left, top - side / 9, side, side / 12);
+    ctx.font = `bold ${Math.round(side / 10)}px sans-serif`;
+    ctx.textAlign = "center";
+    ctx.textBaseline = "bottom";
+    ctx.fillText(on ? "shown" : "hidden", left + side / 2, top - side / 8);
+    captionAt = captionAt ?? [left, top - side / 3];
+  }
+  if (captionAt && view.caption) {
+    ctx.fillStyle = "#e8ecf4";
+    ctx.textAlign = "left";
+    ctx.textBaseline = "bottom";
+    ctx.font = `${Math.round(view.label_px * 0.8)}px sans-serif`;
+    ctx.fillText(view.caption, Math.max(8, captionAt[0]), Math.max(view.label_px, captionAt[1]));
+  }
+  ctx.restore();
+}

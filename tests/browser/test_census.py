@@ -1,0 +1,154 @@
+"""The census map in Chromium: tracts across the demo wall, a group toggled by scanning
+its code off the menu tile, and a balloon opened from a phone that closes by itself."""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+from playwright.sync_api import Browser, Page, expect
+
+from tag_service.verify import decode_image
+from tests.browser.conftest import open_tiles, version_of
+from tests.conftest import TEST_SECRET
+from webapp.check import fetch_layout
+from webapp.security import operator_token
+from webapp.settings import CONTENT_DIR
+from webapp.testing import ServerProcess, wait_until
+
+DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
+PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
+BALLOON_SECONDS = 5
+
+
+@pytest.fixture
+def census(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+    """A server whose demo wall shows the census map, balloons closing after 5 s."""
+    process = ServerProcess(
+        var_dir=tmp_path / "var",
+        database_url=database_url,
+        secret=TEST_SECRET,
+        extra_env={
+            "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
+            "TAGWALL_APPLY_LEAD_MS": "400",
+            "TAGWALL_BALLOON_SECONDS": str(BALLOON_SECONDS),
+        },
+    )
+    process.start()
+    process.change("demo", {"app": "census"})
+    yield process
+    process.stop()
+
+
+def screenshot(page: Page) -> np.ndarray:
+    return np.asarray(Image.open(io.BytesIO(page.screenshot(type="png"))).convert("RGB"))
+
+
+def brown_share(page: Page) -> float:
+    """The share of the tile covered by tract fill (brown over the dark background)."""
+    picture = screenshot(page).astype(int)
+    r, g, b = picture[..., 0], picture[..., 1], picture[..., 2]
+    return float(((r > g + 15) & (g > b) & (r > 60)).mean())
+
+
+def light_share(page: Page) -> float:
+    """The share of the tile that is near white: codes, and balloons' boxes."""
+    return float((screenshot(page).min(axis=2) > 235).mean())
+
+
+def shown(page: Page, key: str) -> str:
+    return str(page.evaluate(f"document.body.dataset.{key} || ''"))
+
+
+def test_a_scanned_toggle_hides_its_group_on_every_tile_at_once(
+    browser: Browser, census: ServerProcess
+) -> None:
+    tiles = dict(zip(DEMO, open_tiles(browser, census, "demo", DEMO, native=True), strict=True))
+    version = census.version("demo")
+    wait_until(
+        lambda: all(version_of(t) == version and shown(t, "census") for t in tiles.values()),
+        what="every tile to draw its share of the map",
+    )
+    assert brown_share(tiles["r2c2"]) > 0.02, "tracts are drawn"
+    _, layout = fetch_layout(census.url, "demo", operator_token(census.secret))
+    toggles = {c.payload: c.label for c in layout.placed if c.display == "r1c3"}
+    decoded = {d.payload for d in decode_image(Image.fromarray(screenshot(tiles["r1c3"])))}
+    assert len(toggles) == 11 and set(toggles) <= decoded, "the menu tile shows its codes"
+    # the group holding the most tracts of the middle of the map: downtown Sacramento
+    toggle = next(p for p, label in toggles.items() if label.startswith("0001"))
+    before = {tile: brown_share(page) for tile, page in tiles.items()}
+
+    phone = browser.new_context(**PHONE).new_page()
+    phone.goto(toggle)
+    expect(phone.locator("#outcome")).to_have_text("Hidden on the wall now.")
+
+    changed = census.version("demo")
+    assert changed > version
+    wait_until(
+        lambda: all(version_of(t) == changed for t in tiles.values()), what="tiles to apply it"
+    )
+    group = shown(tiles["r1c1"], "hiddenGroups")
+    assert group.startswith("tracts-0001-") and all(
+        shown(t, "hiddenGroups") == group for t in tiles.values()
+    )
+    applied = [t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == changed]
+    assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+    after = {tile: brown_share(page) for tile, page in tiles.items()}
+    assert sum(after.values()) < sum(before.values()), "its tracts are gone from the wall"
+
+    phone.goto(toggle)
+    expect(phone.locator("#outcome")).to_have_text("Shown on the wall now.")
+    wait_until(lambda: all(shown(t, "hiddenGroups") == "" for t in tiles.values()), what="back")
+    phone.context.close()
+    for page in tiles.values():
+        page.context.close()
+
+
+def test_a_balloon_opened_from_a_phone_shows_and_closes_by_itself(
+    browser: Browser, census: ServerProcess
+) -> None:
+    tiles = dict(zip(DEMO, open_tiles(browser, census, "demo", DEMO), strict=True))
+    version = census.version("demo")
+    wait_until(lambda: all(version_of(t) == version for t in tiles.values()), what="tiles up")
+    light = {tile: light_share(page) for tile, page in tiles.items()}  # codes are white too
+    phone = browser.new_context(**PHONE).new_page()
+    phone.goto(f"{census.url}/apps/census/demo/tracts")
+    phone.locator("details.tract-group").first.locator("summary").click()
+    phone.locator("ul.tract-list a").first.click()
+    expect(phone.locator("#show-on-wall")).to_be_visible()
+    phone.locator("#show-on-wall").click()
+    expect(phone.locator("#outcome")).to_contain_text(f"on the wall for {BALLOON_SECONDS} seconds")
+
+    [balloon] = census.status("demo")["state"]["balloons"]
+    wait_until(
+        lambda: all(shown(t, "balloons") == balloon["id"] for t in tiles.values()),
+        what="every tile to show the balloon",
+    )
+    x, y, w, h = balloon["rect"]
+    wall = census.status("demo")
+    assert wall["state"]["balloons"][0]["title"].startswith("Tract ")
+    holder = next(
+        tile
+        for tile in DEMO
+        if tiles[tile].evaluate(
+            "([x, y]) => { const v = JSON.parse(document.body.dataset.viewport);"
+            " const [sx, sy, sw, sh] = v.scene_rect;"
+            " return x >= sx && x < sx + sw && y >= sy && y < sy + sh; }",
+            [x + w / 2, y + h / 2],
+        )
+    )
+    assert light_share(tiles[holder]) > light[holder] + 0.005, "the balloon's box is on its tile"
+
+    wait_until(
+        lambda: all(shown(t, "balloons") == "" for t in tiles.values()),
+        timeout=BALLOON_SECONDS + 10,
+        what="the balloon to close on every tile",
+    )
+    assert light_share(tiles[holder]) == pytest.approx(light[holder], abs=0.001), "it is gone"
+    phone.context.close()
+    for page in tiles.values():
+        page.context.close()

@@ -1,0 +1,337 @@
+"""The census map over HTTP, as the dashboard, tiles and phones use it."""
+
+from __future__ import annotations
+
+import itertools
+import re
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from wall_client.layout import Rect
+from webapp.apps.census_map.store import list_datasets
+from webapp.tags import get_layout, wall_tags
+from webapp.wall_state import WallState, read_state
+
+
+def state_of(client: TestClient) -> WallState:
+    return read_state(services_of(client).db, "demo")[1]
+
+
+def change(client: TestClient, patch: dict[str, Any]) -> dict[str, Any]:
+    response = client.post("/api/walls/demo/state", json=patch, headers=operator_headers(client))
+    assert response.status_code == 200, response.text
+    result: dict[str, Any] = response.json()
+    return result
+
+
+def show_census(client: TestClient) -> WallState:
+    change(client, {"app": "census"})
+    return state_of(client)
+
+
+def census_codes(client: TestClient) -> dict[str, str]:
+    """Live census tags by name -> code."""
+    tags = wall_tags(services_of(client).db, "demo")
+    return {t.name: t.code for t in tags if t.app == "census" and t.active and t.name}
+
+
+def placed(client: TestClient, state: WallState) -> list[dict[str, Any]]:
+    layout = get_layout(services_of(client).db, "demo", state.tag_layout)
+    assert layout is not None
+    return list(layout.placed)
+
+
+def tile_map(client: TestClient, state: WallState, tile: str = "r1c2") -> dict[str, Any]:
+    cx, cy = state.view.center
+    response = client.get(
+        f"/api/walls/demo/tiles/{tile}/census",
+        params={
+            "dataset": state.dataset,
+            "layout": state.tag_layout,
+            "cx": cx,
+            "cy": cy,
+            "zoom": state.view.zoom,
+        },
+    )
+    assert response.status_code == 200, response.text
+    body: dict[str, Any] = response.json()
+    return body
+
+
+def test_walls_that_never_show_the_map_pay_nothing(client: TestClient) -> None:
+    assert list_datasets(services_of(client).db) == []
+    assert census_codes(client) == {}
+
+
+def test_putting_the_map_up_seeds_the_data_and_places_its_codes(client: TestClient) -> None:
+    state = show_census(client)
+    [dataset] = list_datasets(services_of(client).db)
+    assert dataset.tract_count == 403 and dataset.current
+    assert state.dataset == dataset.id and state.tag_set == "census"
+    codes = census_codes(client)
+    toggles = [name for name in codes if name.startswith("census:group:")]
+    assert len(toggles) == 10 and "census:index" in codes
+    on_wall = {p["code"] for p in placed(client, state)}
+    assert {codes[name] for name in toggles} <= on_wall
+    menu = services_of(client).walls["demo"].screen("menu")[0].id
+    assert all(
+        p["display"] == menu
+        for p in placed(client, state)
+        if p["code"] in {codes[n] for n in toggles}
+    )
+
+
+def test_zooming_in_places_more_codes_in_the_same_change(client: TestClient) -> None:
+    before = show_census(client)
+    tracts_before = [n for n in census_codes(client) if n.startswith("census:tract:")]
+    result = change(client, {"view": {"center": [0.5, 0.5], "zoom": 4}})
+    assert {"view", "tag_layout"} <= set(result["changed"]), "one change moves map and codes"
+    after = state_of(client)
+    tracts_after = [n for n in census_codes(client) if n.startswith("census:tract:")]
+    assert len(tracts_after) > len(tracts_before)
+    assert after.tag_layout != before.tag_layout
+    codes = census_codes(client)
+    placed_codes = {p["code"] for p in placed(client, after)}
+    assert {codes[n] for n in tracts_after} & placed_codes
+
+
+def test_a_tile_gets_its_share_of_the_map_with_codes_and_toggles(client: TestClient) -> None:
+    state = show_census(client)
+    body = tile_map(client, state, "r1c2")
+    assert body["dataset"] == state.dataset and body["tracts"]
+    codes = census_codes(client)
+    tract_codes = {codes[f"census:tract:{t['id']}"] for t in body["tracts"] if t["code"]}
+    assert tract_codes == {t["code"] for t in body["tracts"] if t["code"]}
+    groups = {codes[f"census:group:{g}"]: g for g in body["toggles"].values()}
+    assert body["toggles"] == groups and len(groups) == 10
+    carried = sum(
+        1
+        for p in placed(client, state)
+        if p["code"] in {c for n, c in codes.items() if n.startswith("census:tract:")}
+    )
+    assert f"{carried} of 403 tracts carry a code" in body["caption"]
+
+
+@pytest.mark.parametrize(
+    ("query", "status"),
+    [
+        ({"dataset": 99}, 404),
+        ({"dataset": 0}, 422),
+        ({"dataset": "x"}, 422),
+        ({"dataset": 1, "zoom": -1}, 422),
+        ({"dataset": 1, "zoom": "nan"}, 422),
+        ({}, 422),
+    ],
+)
+def test_bad_tile_map_requests(client: TestClient, query: dict[str, Any], status: int) -> None:
+    show_census(client)
+    assert client.get("/api/walls/demo/tiles/r1c2/census", params=query).status_code == status
+
+
+def test_scanning_a_toggle_flips_its_group_on_the_wall(client: TestClient) -> None:
+    show_census(client)
+    codes = census_codes(client)
+    name = next(n for n in codes if n.startswith("census:group:"))
+    group = name.removeprefix("census:group:")
+    page = client.get(f"/t/{codes[name]}")
+    assert page.status_code == 200 and "Hidden on the wall now" in page.text
+    assert state_of(client).layers[group] is False
+    again = client.get(f"/t/{codes[name]}")
+    assert "Shown on the wall now" in again.text and state_of(client).layers[group] is True
+    # the page's button flips it too
+    form = client.post(f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf_of(client)})
+    assert form.status_code == 200 and state_of(client).layers[group] is False
+
+
+def test_toggle_form_needs_its_csrf_token_and_a_real_group(client: TestClient) -> None:
+    show_census(client)
+    assert client.post("/apps/census/demo/groups/tracts-0001-0038/toggle").status_code == 403
+    missing = client.post("/apps/census/demo/groups/nope/toggle", data={"csrf": csrf_of(client)})
+    assert missing.status_code == 404
+
+
+def open_balloon(client: TestClient, geoid: str) -> Any:
+    return client.post(f"/apps/census/demo/tracts/{geoid}/balloon", data={"csrf": csrf_of(client)})
+
+
+def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient) -> None:
+    state = show_census(client)
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    geoids = [dataset.tracts[i].geoid for i in (0, 150, 300)]
+    for geoid in geoids:
+        response = open_balloon(client, geoid)
+        assert response.status_code == 200 and "on the wall for 30 seconds" in response.text
+    after = state_of(client)
+    assert [b.id for b in after.balloons] == [f"tract-{g}" for g in geoids]
+    wall = services_of(client).walls["demo"]
+    codes = [Rect(*p["rect"]) for p in placed(client, state)]
+    boxes = [Rect(*b.rect) for b in after.balloons if b.rect]
+    assert len(boxes) == 3
+    for box in boxes:
+        assert not any(box.intersects(code) for code in codes)
+        displays = [d for d in wall.displays if d.rect.intersects(box)]
+        assert len(displays) == 1, "a balloon never spans a bezel"
+    for a, b in itertools.pairwise(boxes):
+        assert not a.intersects(b)
+    first = after.balloons[0]
+    assert first.closes_at is not None and first.title == dataset.tract_title(dataset.tracts[0])
+    assert any("Total population" in line for line in first.lines)
+
+
+def test_reopening_a_balloon_replaces_it_and_at_most_eight_stay_open(client: TestClient) -> None:
+    show_census(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    for tract in dataset.tracts[:10]:
+        open_balloon(client, tract.geoid)
+    open_balloon(client, dataset.tracts[9].geoid)
+    balloons = state_of(client).balloons
+    assert len(balloons) == 8 and balloons[-1].id == f"tract-{dataset.tracts[9].geoid}"
+    assert len({b.id for b in balloons}) == 8
+
+
+def test_tract_pages_follow_the_readers_class(client: TestClient) -> None:
+    show_census(client)
+    register_student(client)
+    url = "/apps/census/demo/tracts/06061022001/here"
+    student = client.get(url).text
+    assert len(re.findall(r"<tr>", student)) == 4
+    assert "Population under 16" not in student and "Total population" in student
+    client.post(
+        "/me", data={"user_group": "undergraduate", "info_class": 3, "csrf": csrf_of(client)}
+    )
+    wider = client.get(url).text
+    assert "Population under 16" in wider and "Workers 16 and over" not in wider
+    assert "Employed civilians 16 and over" not in wider
+    with TestClient(client.app) as instructor:  # a phone of its own: class 5 by default
+        sign_in(instructor, "instructor")
+        everything = instructor.get(url).text
+    assert len(re.findall(r"<tr>", everything)) == 27
+
+
+def test_a_student_cannot_read_above_their_ceiling(client: TestClient) -> None:
+    show_census(client)
+    register_student(client)
+    response = client.post(
+        "/me", data={"user_group": "undergraduate", "info_class": 5, "csrf": csrf_of(client)}
+    )
+    assert response.status_code in (200, 400)
+    page = client.get("/apps/census/demo/tracts/06061022001/here").text
+    assert "Employed civilians 16 and over" not in page, "students stop at class 3"
+
+
+def test_scanning_a_tract_offers_the_wall_or_the_phone(client: TestClient) -> None:
+    show_census(client)
+    change(client, {"view": {"center": [0.5, 0.5], "zoom": 4}})
+    codes = census_codes(client)
+    name = next(n for n in codes if n.startswith("census:tract:"))
+    page = client.get(f"/t/{codes[name]}").text
+    assert "Show on the wall" in page and "Show here" in page
+
+
+def test_publishing_a_tract_page(client: TestClient) -> None:
+    show_census(client)
+    register_student(client)
+    page = client.get("/apps/census/demo/tracts/06061022001/here").text
+    code = re.search(r'name="code" value="([^"]+)"', page)
+    subject = re.search(r'name="subject" value="([^"]+)"', page)
+    assert code and subject and subject.group(1) == "06061022001"
+    response = client.post(
+        "/publish",
+        data={"code": code.group(1), "subject": subject.group(1), "csrf": csrf_of(client)},
+    )
+    assert response.status_code == 200
+    item = state_of(client).public
+    assert item is not None and item.title == "Tract 220.01, Placer"
+    assert "$225,900" in item.html and "Population under 16" not in item.html
+
+
+def test_the_index_lists_every_tract_by_group(client: TestClient) -> None:
+    show_census(client)
+    page = client.get("/apps/census/demo/tracts").text
+    assert page.count("/apps/census/demo/tracts/06") == 403
+    assert page.count('class="tract-group"') == 10
+
+
+def test_pages_say_when_the_map_is_not_on_the_wall(client: TestClient) -> None:
+    assert client.get("/apps/census/demo/tracts").status_code == 409
+    show_census(client)
+    assert client.get("/apps/census/demo/tracts/0000").status_code == 404
+    assert client.get("/apps/census/nowall/tracts").status_code == 404
+    change(client, {"app": "pattern"})
+    page = client.get("/apps/census/demo/tracts/06061022001")
+    assert page.status_code == 409 and "not on" in page.text
+    assert census_codes(client) == {}, "its codes are off while the map is"
+
+
+def test_choosing_the_data_set_needs_staff_and_a_real_one(client: TestClient) -> None:
+    show_census(client)
+    assert client.post("/api/census/current", json={"dataset": 1}).status_code == 401
+    assert (
+        client.post(
+            "/api/census/current", json={"dataset": 42}, headers=operator_headers(client)
+        ).status_code
+        == 404
+    )
+    assert (
+        client.post(
+            "/api/census/current", json={"dataset": "x"}, headers=operator_headers(client)
+        ).status_code
+        == 422
+    )
+    listed = client.get("/api/census/datasets", headers=operator_headers(client)).json()
+    assert [d["tracts"] for d in listed] == [403]
+    detail = client.get(
+        f"/api/census/datasets/{listed[0]['id']}", headers=operator_headers(client)
+    ).json()
+    assert len(detail["groups"]) == 10
+
+
+def test_google_earth_gets_the_wall_as_it_is(client: TestClient) -> None:
+    from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
+
+    show_census(client)
+    codes = census_codes(client)
+    group = next(n for n in codes if n.startswith("census:group:")).removeprefix("census:group:")
+    client.get(f"/t/{codes[f'census:group:{group}']}")  # hide a group
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    open_balloon(client, dataset.tracts[5].geoid)
+
+    kml = client.get("/apps/census/census.kml?wall=demo")
+    assert kml.status_code == 200
+    assert kml.headers["content-type"].startswith("application/vnd.google-earth.kml+xml")
+    assert_valid_kml(kml.content)
+    text = kml.text
+    assert text.count("<Placemark") == 403 and text.count("<Folder") == 10
+    hidden = re.search(rf'<Folder id="group-{group}">.*?<visibility>(\d)</visibility>', text, re.S)
+    assert hidden and hidden.group(1) == "0"
+    assert text.count("<gx:balloonVisibility>1</gx:balloonVisibility>") == 1
+
+    kmz = client.get("/apps/census/census.kmz?wall=demo")
+    assert kmz.status_code == 200 and kmz.content[:2] == b"PK"
+    link = client.get("/apps/census/network-link.kml?wall=demo")
+    assert_valid_kml(link.content)
+    assert "/apps/census/census.kml?wall=demo" in link.text and "onInterval" in link.text
+    assert client.get("/apps/census/census.kml?wall=nope").status_code == 404
+
+
+def test_kml_before_any_data_set_is_imported(client: TestClient) -> None:
+    response = client.get("/apps/census/census.kml")
+    assert response.status_code == 404 and "No census data set" in response.text
+
+
+def test_a_new_phone_can_open_a_balloon_from_the_index(client: TestClient) -> None:
+    show_census(client)
+    page = client.get("/apps/census/demo/tracts/06061022001").text
+    token = re.search(r'name="csrf" value="([^"]+)"', page)
+    assert token, "the form carries the new visitor's token"
+    response = client.post(
+        "/apps/census/demo/tracts/06061022001/balloon", data={"csrf": token.group(1)}
+    )
+    assert response.status_code == 200 and [b.id for b in state_of(client).balloons] == [
+        "tract-06061022001"
+    ]

@@ -1,0 +1,177 @@
+"""The map on the wall: projection, which tracts carry codes, each tile's share."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import Polygon
+
+from tests.webapp.apps.census_map.conftest import grid_dataset
+from wall_client.layout import Wall, load_walls
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.mapview import (
+    MARGIN,
+    SIMPLIFY_PX,
+    MapGeometry,
+    code_anchors,
+    label_mm,
+    projection,
+    tile_view,
+)
+from webapp.settings import CONTENT_DIR
+from webapp.wall_state import View
+
+
+@pytest.fixture(scope="module")
+def walls() -> dict[str, Wall]:
+    loaded = load_walls([CONTENT_DIR / "walls"])
+    # the demo wall with every display showing the map (no panels)
+    return {**loaded, "open": dataclasses.replace(loaded["demo"], id="open", screens={})}
+
+
+def scene_extent(geometry: MapGeometry, wall: Wall, view: View) -> tuple[float, ...]:
+    project = projection(geometry, wall, view)
+    minx, miny, maxx, maxy = geometry.extent
+    return (*project.point(minx, miny), *project.point(maxx, maxy))
+
+
+def test_at_zoom_one_the_data_fills_the_wall_centred(walls: dict[str, Wall]) -> None:
+    wall = walls["demo"]
+    geometry = MapGeometry.of(grid_dataset())
+    x0, y0, x1, y1 = scene_extent(geometry, wall, View())
+    assert x0 >= wall.width * MARGIN - 1e-6 and x1 <= wall.width * (1 - MARGIN) + 1e-6
+    assert y0 >= wall.height * MARGIN - 1e-6 and y1 <= wall.height * (1 - MARGIN) + 1e-6
+    assert (x0 + x1) / 2 == pytest.approx(wall.width / 2)
+    assert (y0 + y1) / 2 == pytest.approx(wall.height / 2)
+    assert min(x0 - 0, y0 - 0) == pytest.approx(min(wall.width, wall.height) * MARGIN, rel=0.5)
+
+
+def test_pan_and_zoom_move_the_map_like_every_scene_layer(walls: dict[str, Wall]) -> None:
+    wall = walls["demo"]
+    geometry = MapGeometry.of(grid_dataset())
+    base = projection(geometry, wall, View())
+    panned = projection(geometry, wall, View(center=(0.6, 0.5)))
+    zoomed = projection(geometry, wall, View(zoom=2))
+    u, v = geometry.label_points[0]
+    assert panned.point(u, v)[0] == pytest.approx(base.point(u, v)[0] - 0.1 * wall.width)
+    # zooming about the wall's centre doubles every distance from it
+    cx, cy = wall.width / 2, wall.height / 2
+    bx, by = base.point(u, v)
+    zx, zy = zoomed.point(u, v)
+    assert (zx - cx, zy - cy) == pytest.approx((2 * (bx - cx), 2 * (by - cy)))
+
+
+def test_a_tract_carries_a_code_only_when_the_code_fits_inside_it(
+    walls: dict[str, Wall],
+) -> None:
+    wall = walls["open"]
+    data = grid_dataset()
+    geometry = MapGeometry.of(data)
+    project = projection(geometry, wall, View())
+    room_mm = float(geometry.room.min()) * project.scale  # the squares are all alike
+    assert len(code_anchors(geometry, wall, View(), 2 * room_mm * 0.99)) == len(data.tracts)
+    assert code_anchors(geometry, wall, View(), 2 * room_mm * 1.01) == {}
+    # zooming in makes room: twice the zoom, twice the code (for the tracts still on the wall)
+    on_wall = code_anchors(geometry, wall, View(zoom=2), 1.0)
+    assert 0 < len(on_wall) < len(data.tracts)
+    assert code_anchors(geometry, wall, View(zoom=2), 2 * room_mm * 1.98) == on_wall
+
+
+def test_codes_stand_at_the_tract_centre_and_only_on_the_wall(walls: dict[str, Wall]) -> None:
+    wall = walls["open"]
+    data = grid_dataset()
+    geometry = MapGeometry.of(data)
+    anchors = code_anchors(geometry, wall, View(), 1.0)
+    project = projection(geometry, wall, View())
+    for tract in data.tracts:
+        centre = shapely.transform(tract.shape.centroid, lambda c: c)  # lon/lat
+        u = centre.x * math.cos(math.radians(float(np.mean(geometry.extent[1::2]) * -1)))
+        assert tract.geoid in anchors
+        x, _ = anchors[tract.geoid]
+        assert x == pytest.approx(project.point(u, -centre.y)[0], abs=1.0)
+    # panned so the map's middle is on the wall's right edge: half the tracts are off it
+    centred = code_anchors(geometry, wall, View(zoom=2), 1.0)
+    panned = code_anchors(geometry, wall, View(center=(0.25, 0.5), zoom=2), 1.0)
+    assert len(panned) == len(centred) // 2 > 0
+    assert all(x <= wall.width for x, _ in panned.values())
+
+
+def test_tiles_share_the_map_without_losing_a_tract(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    wall = walls["demo"]
+    geometry = MapGeometry.of(shipped)
+    seen: set[str] = set()
+    for display in wall.displays:
+        view = tile_view(shipped, geometry, wall, display.id, View(), {})
+        width, height = display.resolution
+        reach_px = 8 * label_mm(wall) * width / display.rect.width + 2
+        for tract in view["tracts"]:
+            seen.add(tract["id"])
+            points = np.concatenate([np.reshape(ring, (-1, 2)) for ring in tract["rings"]])
+            assert points[:, 0].min() >= -reach_px and points[:, 0].max() <= width + reach_px
+            assert points[:, 1].min() >= -reach_px and points[:, 1].max() <= height + reach_px
+            assert tract["group"] == shipped.group_of[tract["id"]]
+    assert seen == {t.geoid for t in shipped.tracts}
+
+
+def test_codes_and_groups_travel_with_the_tracts(walls: dict[str, Wall]) -> None:
+    wall = walls["demo"]
+    data = grid_dataset()
+    geometry = MapGeometry.of(data)
+    codes = {data.tracts[0].geoid: "ABC1234"}
+    views = [tile_view(data, geometry, wall, d.id, View(), codes) for d in wall.displays]
+    coded = [t for v in views for t in v["tracts"] if t["code"]]
+    assert coded and {t["code"] for t in coded} == {"ABC1234"}
+
+
+def test_outlines_stay_within_half_a_pixel(walls: dict[str, Wall], shipped: DataSet) -> None:
+    wall = walls["demo"]
+    geometry = MapGeometry.of(shipped)
+    display = wall.displays[1]
+    project = projection(geometry, wall, View())
+    px_per_mm = display.resolution[0] / display.rect.width
+    tolerance = SIMPLIFY_PX / px_per_mm / project.scale
+    simplified = geometry.outlines(tolerance)
+    error_px = shapely.hausdorff_distance(simplified, geometry.shapes) * project.scale * px_per_mm
+    assert float(np.max(error_px)) <= 0.5
+    assert (
+        shapely.get_num_coordinates(simplified).sum()
+        < 0.6 * shapely.get_num_coordinates(geometry.shapes).sum()
+    )
+
+
+def test_label_room_is_a_circle_inside_the_tract(shipped: DataSet) -> None:
+    geometry = MapGeometry.of(shipped)
+    for index in range(0, len(shipped.tracts), 37):
+        point = shapely.Point(*geometry.label_points[index])
+        shape = geometry.shapes[index]
+        assert shape.contains(point)
+        circle = point.buffer(float(geometry.room[index]) * 0.99)
+        assert shape.contains(circle) or isinstance(shape, Polygon) is False
+
+
+def test_no_code_stands_on_a_panel_or_on_another_code(walls: dict[str, Wall]) -> None:
+    wall = walls["demo"]
+    data = grid_dataset(columns=12, rows=6, size=0.004)
+    geometry = MapGeometry.of(data)
+    panels = [
+        wall.viewport(d.id).scene_rect
+        for ids in wall.screens.values()
+        for d in map(wall.display, ids)
+    ]
+    side = 150.0
+    anchors = code_anchors(geometry, wall, View(), side)
+    assert anchors
+    for x, y in anchors.values():
+        assert not any(r.x <= x < r.right and r.y <= y < r.bottom for r in panels)
+    points = list(anchors.values())
+    for i, (x, y) in enumerate(points):
+        for ox, oy in points[i + 1 :]:
+            assert abs(x - ox) >= side or abs(y - oy) >= side
+    everywhere = code_anchors(geometry, walls["open"], View(), 1.0)
+    assert len(everywhere) == len(data.tracts) > len(anchors)

@@ -1,0 +1,136 @@
+"""`tagwall census`: importing data sets and listing them, as a person at a shell would."""
+
+from __future__ import annotations
+
+import socket
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+from click.testing import CliRunner
+
+from tests.conftest import TEST_SECRET
+from tests.webapp.apps.census_map.test_importer import three_tracts
+from webapp.apps.census_map import store
+from webapp.cli import main
+from webapp.db import Database
+from webapp.security import operator_token
+
+
+def closed_port() -> int:
+    """A local port nothing listens on (bound once by the OS, then released)."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port: int = probe.getsockname()[1]
+    return port
+
+
+@pytest.fixture
+def env(tmp_path: Path, database_url: str) -> dict[str, str]:
+    """Settings whose server_url points at a port where no server runs."""
+    return {
+        "TAGWALL_VAR_DIR": str(tmp_path / "var"),
+        "TAGWALL_DATABASE_URL": database_url,
+        "TAGWALL_SECRET_KEY": TEST_SECRET,
+        "TAGWALL_HOST": "127.0.0.1",
+        "TAGWALL_PORT": str(closed_port()),
+    }
+
+
+def run(env: dict[str, str], *args: str) -> tuple[int, str, str]:
+    result = CliRunner().invoke(main, list(args), env=env)
+    return result.exit_code, result.stdout, result.stderr
+
+
+def test_import_prints_the_report_when_no_server_runs(
+    env: dict[str, str], tmp_path: Path, database_url: str
+) -> None:
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    code, out, err = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == "imported data set 1 'tracts': 3 tracts, 1 attributes"
+    assert "attributes: POP" in lines
+    assert "not reachable" in out and "when it next starts" in out
+    database = Database(database_url)
+    try:
+        assert store.current_id(database) == 1
+    finally:
+        database.dispose()
+
+
+def test_list_shows_the_data_sets_and_marks_the_current_one(
+    env: dict[str, str], tmp_path: Path
+) -> None:
+    code, out, _ = run(env, "census", "list")
+    assert code == 0 and "no census data sets" in out
+    shapes = str(three_tracts(tmp_path / "tracts.geojson"))
+    for name in ("first", "second"):
+        args = ("census", "import", "--shapes", shapes, "--key", "GEOID", "--name", name)
+        assert run(env, *args)[0] == 0
+    code, out, _ = run(env, "census", "list")
+    second, first = out.splitlines()
+    assert code == 0
+    assert second.startswith("*    2  second  'tracts'  3 tracts  ")
+    assert first.startswith("     1  first  'tracts'  3 tracts  ") and first.endswith(" UTC")
+
+
+@pytest.mark.parametrize(
+    "extra,message",
+    [
+        (("--key", "FIPS"), "has no column 'FIPS'"),
+        (("--key", "GEOID", "--table", "absent.csv"), "cannot read"),
+        (("--key", "GEOID", "--strict", "--table", "short.csv"), "strict import refused"),
+    ],
+)
+def test_bad_input_exits_1_with_the_message(
+    env: dict[str, str], tmp_path: Path, extra: tuple[str, ...], message: str
+) -> None:
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    (tmp_path / "short.csv").write_text("GEOID,POP\n06067000100,1\n")
+    args = [str(tmp_path / a) if a.endswith(".csv") else a for a in extra]
+    code, out, err = run(env, "census", "import", "--shapes", str(shapes), *args)
+    assert code == 1 and err.startswith("error: ") and message in err
+    assert "Traceback" not in out + err and "imported" not in out
+
+
+def test_an_unknown_kind_of_file_exits_1(env: dict[str, str], tmp_path: Path) -> None:
+    shapes = tmp_path / "tracts.kml"
+    shapes.write_text("<kml/>")
+    code, _, err = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
+    assert code == 1 and "not a kind of file" in err
+
+
+@pytest.mark.parametrize(
+    "answer,said",
+    [
+        (httpx.Response(200, json={"dataset": 1}), "the map now shows data set 1"),
+        (
+            httpx.Response(403, json={"detail": "operator token required"}),
+            "did not switch the map: 403 operator token required",
+        ),
+        (httpx.Response(502, text="bad gateway"), "did not switch the map: 502 bad gateway"),
+    ],
+)
+def test_import_asks_a_running_server_to_switch_the_map(
+    env: dict[str, str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    answer: httpx.Response,
+    said: str,
+) -> None:
+    sent: list[tuple[str, dict[str, Any]]] = []
+
+    def post(url: str, **kwargs: Any) -> httpx.Response:
+        sent.append((url, kwargs))
+        return answer
+
+    monkeypatch.setattr(httpx, "post", post)
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    code, out, _ = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
+    assert code == 0 and out.splitlines()[-1].endswith(said)
+    ((url, kwargs),) = sent
+    assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/census/current"
+    assert kwargs["json"] == {"dataset": 1} and kwargs["timeout"] == 5
+    assert kwargs["headers"] == {"Authorization": f"Bearer {operator_token(TEST_SECRET)}"}

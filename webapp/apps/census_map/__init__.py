@@ -1,0 +1,214 @@
+"""The census map: census tracts across the whole wall, a code on every tract big
+enough to carry one, group toggles on the menu screen, description balloons, pages
+sized to each visitor's information class, and KML so Google Earth stays a client.
+
+The data set is in the database (``store``), its geometry on a flat plane
+(``mapview``); the wall state says which data set is shown (``dataset``), the view
+(pan and zoom), which groups are hidden (``layers``) and which balloons are open.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections import OrderedDict
+from typing import TYPE_CHECKING
+
+from fastapi import APIRouter, Response
+from fastapi.concurrency import run_in_threadpool
+
+from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_payload
+from tag_service.sizing import code_size, min_module_mm
+from wall_client.layout import ROLES, Wall
+from webapp.apps import Scan, change_state
+from webapp.apps.census_map.charts import ChartStats
+from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.mapview import MapGeometry, code_anchors
+from webapp.apps.census_map.store import DataSets, current_id, seed
+from webapp.caching import SizedCache
+from webapp.publishing import Block, Publication
+from webapp.tags import TagSpec
+from webapp.wall_state import WallState
+
+if TYPE_CHECKING:
+    from webapp.services import Services
+
+APP = "census"
+CENSUS_SET = "census"
+INDEX_TAG = "census:index"
+KEPT_GEOMETRIES = 4
+RENDER_CACHE_BYTES = 64 * 1024 * 1024
+
+
+def group_tag(group_id: str) -> str:
+    return f"census:group:{group_id}"
+
+
+def tract_tag(geoid: str) -> str:
+    return f"census:tract:{geoid}"
+
+
+class CensusApp:
+    name: str = APP
+    default_tag_set: str | None = CENSUS_SET
+
+    def __init__(self) -> None:
+        self.datasets = DataSets()
+        self.renders = SizedCache[bytes](RENDER_CACHE_BYTES, len)  # tile views, KML
+        self.chart_stats = ChartStats()
+        self._geometries: OrderedDict[int, MapGeometry] = OrderedDict()
+        self._lock = threading.Lock()
+
+    # --- data ----------------------------------------------------------------------
+
+    def dataset(self, services: Services, dataset_id: int | None) -> DataSet | None:
+        return self.datasets.get(services.db, dataset_id) if dataset_id else None
+
+    def geometry(self, dataset: DataSet) -> MapGeometry:
+        """The data set on the plane: computed once per data set, kept for a few."""
+        with self._lock:
+            if dataset.id in self._geometries:
+                self._geometries.move_to_end(dataset.id)
+                return self._geometries[dataset.id]
+        geometry = MapGeometry.of(dataset)
+        with self._lock:
+            self._geometries[dataset.id] = geometry
+            while len(self._geometries) > KEPT_GEOMETRIES:
+                self._geometries.popitem(last=False)
+        return geometry
+
+    def shown(self, services: Services, state: WallState) -> DataSet | None:
+        """The data set the wall's state names (None: the census map is not set up)."""
+        return self.dataset(services, state.dataset)
+
+    # --- the WallApp interface -----------------------------------------------------
+
+    def settle(self, services: Services, state: WallState) -> WallState:
+        """On the wall, the map shows the current data set (the shipped one until an
+        import): seeded on first use, so walls that never show the map pay nothing."""
+        dataset_id = current_id(services.db) or seed(services.db)
+        return state.model_copy(update={"dataset": dataset_id})
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+        """While the map is on the wall: the tract index and group toggles on the menu
+        screen, and a code on every tract that has room for one at this view."""
+        dataset = self.shown(services, state) if state.app == APP else None
+        if dataset is None:
+            return []
+        menu = [
+            self._spec(INDEX_TAG, "Tract index", "index", {}, screen="menu", slot=0),
+            *(
+                self._spec(
+                    group_tag(group.id),
+                    group.name,
+                    "toggle",
+                    {"group": group.id},
+                    screen="menu",
+                    slot=slot,
+                )
+                for slot, group in enumerate(dataset.groups, start=1)
+            ),
+        ]
+        anchors = code_anchors(
+            self.geometry(dataset), wall, state.view, _code_side_mm(services, wall)
+        )
+        tracts = [
+            self._spec(
+                tract_tag(t.geoid), t.label, "tract", {"geoid": t.geoid}, anchor=anchors[t.geoid]
+            )
+            for t in dataset.tracts
+            if t.geoid in anchors
+        ]
+        return menu + tracts
+
+    def _spec(
+        self,
+        name: str,
+        label: str,
+        action: str,
+        params: dict[str, str],
+        *,
+        screen: str | None = None,
+        slot: int = 0,
+        anchor: tuple[float, float] | None = None,
+    ) -> TagSpec:
+        return TagSpec.model_validate(
+            {
+                "name": name,
+                "label": label,
+                "app": APP,
+                "action": action,
+                "params": params,
+                "tag_set": CENSUS_SET,
+                "screen": screen,
+                "slot": slot,
+                "anchor": anchor,
+            }
+        )
+
+    async def on_scan(self, scan: Scan) -> Response:
+        from webapp.apps.census_map import pages
+
+        action = scan.tag.action
+        if action == "toggle":
+            return await pages.toggle(self, scan)
+        if action == "tract":
+            return await pages.tract_choice(
+                self, scan.request, scan.services, scan.wall, scan.tag.params.get("geoid", "")
+            )
+        return await pages.index(self, scan.request, scan.services, scan.wall)
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        """The tract page as its publisher sees it: the values of their class."""
+        geoid = scan.subject or scan.tag.params.get("geoid")
+        if not geoid:
+            return None
+        _, dataset, tract = await self.tract_on_wall(scan.services, scan.wall, geoid)
+        if dataset is None or tract is None:
+            return None
+        person = await scan.person()
+        return Publication(
+            title=dataset.tract_title(tract),
+            blocks=[
+                Block(kind="facts", rows=dataset.facts(tract, person.info_class)),
+                Block(kind="text", text=dataset.title),
+            ],
+        )
+
+    async def tract_on_wall(
+        self, services: Services, wall: Wall, geoid: str
+    ) -> tuple[WallState, DataSet | None, Tract | None]:
+        from webapp.wall_state import read_state
+
+        _, state = await run_in_threadpool(read_state, services.db, wall.id)
+        dataset = await run_in_threadpool(self.shown, services, state)
+        return state, dataset, dataset.tract(geoid) if dataset else None
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        return "panels/census.html"
+
+    def router(self) -> APIRouter | None:
+        from webapp.apps.census_map.routes import router
+
+        return router
+
+
+def _code_side_mm(services: Services, wall: Wall) -> float:
+    """How wide a tract's code stands on this wall (the smallest symbol that carries a
+    tract's URL, on a display that is not a designated screen)."""
+    payload = url_payload(services.base_url, "0" * CODE_LENGTH)
+    modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
+    designated = {d.id for role in ROLES for d in wall.screen(role)}
+    display = next((d for d in wall.displays if d.id not in designated), wall.displays[0])
+    return code_size(display, modules, min_module_mm(wall.scan_distance_m)).side_mm
+
+
+async def switch_dataset(services: Services, dataset_id: int) -> None:
+    """Show ``dataset_id`` on every wall the census map is on (codes placed again)."""
+    for wall in services.walls.values():
+
+        def show(state: WallState) -> WallState:
+            if state.app != APP:
+                return state
+            return state.model_copy(update={"dataset": dataset_id})
+
+        await change_state(services, wall, show)

@@ -1,0 +1,91 @@
+"""What phones do to the census map on the wall: flip a tract group, open a balloon.
+
+Each is one state change; balloons are placed while the wall's placing lock is
+held, so two opened at once never land on each other.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fastapi.concurrency import run_in_threadpool
+
+from tag_service.placement import place_box
+from wall_client.layout import Rect, Wall
+from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.mapview import label_mm, projection
+from webapp.tags import get_layout
+from webapp.wall_state import Balloon, WallState, now_ms, read_state
+
+if TYPE_CHECKING:
+    from webapp.apps.census_map import CensusApp
+    from webapp.services import Services
+
+MAX_BALLOONS = 8
+LINE_HEIGHT = 1.35  # of the font size
+CHAR_WIDTH = 0.56  # of the font size, a generous average for sans-serif text
+BALLOON_FONT_OF_LABEL = 1.2
+
+
+def group_shown(state: WallState, group_id: str) -> bool:
+    """Groups are shown unless their layer was switched off."""
+    return state.layers.get(group_id, True)
+
+
+async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
+    """Flip a group's visibility on every tile; returns whether it is shown now."""
+    shown_now = False
+
+    def flip(state: WallState) -> WallState:
+        nonlocal shown_now
+        shown_now = not group_shown(state, group_id)
+        return state.model_copy(update={"layers": {**state.layers, group_id: shown_now}})
+
+    await services.hub.change_state(wall.id, flip)
+    return shown_now
+
+
+def balloon_size(title: str, lines: list[str], font_mm: float) -> tuple[float, float]:
+    """A box holding ``title`` over ``lines`` at ``font_mm``, padding included; tiles
+    fit the text to the box they are given."""
+    longest = max(len(text) for text in [title, *lines])
+    return (font_mm * (CHAR_WIDTH * longest + 1), font_mm * (LINE_HEIGHT * (1 + len(lines)) + 1))
+
+
+async def open_balloon(
+    app: CensusApp, services: Services, wall: Wall, dataset: DataSet, tract: Tract
+) -> Balloon:
+    """Open the tract's balloon beside it, clear of codes and other open balloons; it
+    closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
+    are open)."""
+    async with services.hub.placing(wall.id):
+        _, state = await run_in_threadpool(read_state, services.db, wall.id)
+        layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
+        geometry = await run_in_threadpool(app.geometry, dataset)
+        project = projection(geometry, wall, state.view)
+        anchor = project.point(*geometry.label_points[geometry.geoids.index(tract.geoid)])
+        now = now_ms()
+        others = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
+        title = dataset.tract_title(tract)
+        lines = [f"{label}: {value}" for label, value in dataset.headline(tract)]
+        font = label_mm(wall) * BALLOON_FONT_OF_LABEL
+        keep_clear = 2 * label_mm(wall)  # the tract's own label and centre stay visible
+        obstacles = [Rect(*placed["rect"]) for placed in (layout.placed if layout else [])]
+        obstacles += [Rect(*b.rect) for b in others if b.rect]
+        obstacles.append(
+            Rect(anchor[0] - keep_clear, anchor[1] - keep_clear, 2 * keep_clear, 2 * keep_clear)
+        )
+        box = place_box(wall, balloon_size(title, lines, font), anchor, obstacles)
+        balloon = Balloon(
+            id=f"tract-{tract.geoid}",
+            anchor=anchor,
+            rect=box.xywh if box else None,
+            title=title,
+            lines=lines,
+            closes_at=now + services.settings.balloon_seconds * 1000,
+        )
+        kept = [*others[-(MAX_BALLOONS - 1) :], balloon]
+        await services.hub.change_state(
+            wall.id, lambda current: current.model_copy(update={"balloons": kept})
+        )
+        return balloon

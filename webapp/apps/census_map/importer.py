@@ -1,0 +1,497 @@
+"""Census data sets from files: tract outlines (a shapefile, a zipped shapefile as
+TIGER/Line ships them, or a GeoJSON FeatureCollection) joined by key to an optional
+CSV table of values, checked, repaired where possible, then stored whole.
+
+Everything is read and checked before anything is written, so a refused import
+leaves the database as it was; the only write is :func:`store.save`'s transaction.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import re
+import struct
+import tomllib
+import zipfile
+from collections import Counter
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+from typing import Any
+
+import shapefile
+import shapely
+from pydantic import ValidationError
+from shapely import MultiPolygon, Polygon
+from shapely.errors import ShapelyError
+from shapely.geometry import mapping, shape
+
+from webapp.apps.census_map import store
+from webapp.apps.census_map.dataset import DataSetSettings, Value, default_settings
+from webapp.db import Database
+
+LISTED = 20  # keys listed per kind of problem; the rest are counted
+MISSING_TEXT = frozenset({"", "na", "n/a", "-", "null"})
+# The American Community Survey's "jam values": codes standing in for an estimate
+# that could not be made (too few samples, not applicable, ...), never real numbers.
+ACS_JAM_VALUES = frozenset({-666666666, -999999999, -888888888, -222222222, -333333333, -555555555})
+INTEGER = re.compile(r"[+-]?\d+")
+PROJECTED = re.compile(r'^\s*PROJ(?:CS|CRS)\s*\[\s*"([^"]*)"', re.IGNORECASE)
+SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
+GEOJSON_SUFFIXES = (".geojson", ".json")
+NAME_LENGTH = 64  # census_datasets.name
+
+
+class CensusImportError(Exception):
+    """An import refused, with a message for the person who asked for it."""
+
+
+@dataclass(frozen=True)
+class ImportReport:
+    """What an import stored and what it had to leave out or change."""
+
+    dataset_id: int
+    name: str
+    tracts: int
+    attributes: tuple[str, ...]
+    unmatched_shapes: tuple[str, ...]  # shape keys without a table row
+    unmatched_rows: tuple[str, ...]  # table keys without a shape
+    repaired: tuple[tuple[str, str], ...]  # (key, why the outline was invalid)
+    skipped: tuple[tuple[str, str], ...]  # (key, why the tract was left out)
+    ignored_columns: tuple[str, ...] = ()  # not numeric, so not attributes
+
+    def lines(self) -> list[str]:
+        """The summary a person reads: counts first, then the keys behind each problem."""
+        lines = [
+            f"imported data set {self.dataset_id} {self.name!r}: {self.tracts} tracts, "
+            f"{len(self.attributes)} attributes",
+            f"  shapes without a table row: {len(self.unmatched_shapes)}, "
+            f"table rows without a shape: {len(self.unmatched_rows)}, "
+            f"outlines repaired: {len(self.repaired)}, tracts skipped: {len(self.skipped)}",
+            f"attributes: {listed(self.attributes)}",
+        ]
+        if self.ignored_columns:
+            lines.append(f"left out, not numeric: {listed(self.ignored_columns)}")
+        return lines + problem_lines(
+            self.unmatched_shapes, self.unmatched_rows, self.repaired, self.skipped
+        )
+
+
+def listed(items: Sequence[str], limit: int = LISTED) -> str:
+    more = f" and {len(items) - limit} more" if len(items) > limit else ""
+    return ", ".join(items[:limit]) + more
+
+
+def problem_lines(
+    unmatched_shapes: Sequence[str],
+    unmatched_rows: Sequence[str],
+    repaired: Sequence[tuple[str, str]],
+    skipped: Sequence[tuple[str, str]],
+) -> list[str]:
+    """One line per kind of problem, naming up to :data:`LISTED` keys each."""
+    kinds = [
+        ("shapes without a table row", list(unmatched_shapes)),
+        ("table rows without a shape", list(unmatched_rows)),
+        ("outlines repaired", [f"{key} ({why})" for key, why in repaired]),
+        ("tracts skipped", [f"{key} ({why})" for key, why in skipped]),
+    ]
+    return [f"{kind}: {listed(items)}" for kind, items in kinds if items]
+
+
+@dataclass(frozen=True)
+class _Feature:
+    """A shape as read: its key, GeoJSON geometry (None: a null shape), properties."""
+
+    key: str
+    geometry: Mapping[str, Any] | None
+    properties: Mapping[str, Any]
+
+
+def import_files(
+    db: Database,
+    *,
+    shapes: Path,
+    key: str,
+    table: Path | None = None,
+    settings: Path | None = None,
+    name: str | None = None,
+    strict: bool = False,
+) -> ImportReport:
+    """Import ``shapes`` (joined to ``table`` by ``key`` when given) as a new data set
+    and make it current; :class:`CensusImportError` says why when it cannot."""
+    name = name or shapes.stem
+    if not 1 <= len(name) <= NAME_LENGTH:
+        raise CensusImportError(f"a data set name has 1 to {NAME_LENGTH} characters: {name!r}")
+    settings_file = settings or _beside(shapes)
+    chosen = _read_settings(settings_file) if settings_file else None
+    features = _read_shapes(shapes, key)
+    _refuse_duplicates(shapes.name, [f.key for f in features])
+    records: Mapping[str, Mapping[str, Any]]
+    if table is None:
+        columns = list(dict.fromkeys(c for f in features for c in f.properties if c != key))
+        records = {f.key: f.properties for f in features}
+    else:
+        columns, records = _read_table(table, key)
+
+    shape_keys = {f.key for f in features}
+    unmatched_shapes = tuple(sorted(shape_keys - records.keys()))
+    unmatched_rows = tuple(sorted(records.keys() - shape_keys))
+    joined = [f for f in features if f.key in records]
+    attributes = _numeric_columns(columns, [records[f.key] for f in joined])
+    rows: list[store.TractRow] = []
+    outlines: list[Any] = []
+    repaired: list[tuple[str, str]] = []
+    skipped: list[tuple[str, str]] = []
+    for feature in joined:
+        outline, problem = _outline(feature.geometry)
+        if outline is None:
+            skipped.append((feature.key, problem or "no outline"))
+            continue
+        if problem:
+            repaired.append((feature.key, problem))
+        record = records[feature.key]
+        values = {column: _number(record.get(column)) for column in attributes}
+        rows.append(store.TractRow(feature.key, _geojson(outline), values))
+        outlines.append(outline)
+
+    problems = problem_lines(unmatched_shapes, unmatched_rows, repaired, skipped)
+    if strict and problems:
+        raise CensusImportError("\n".join(["strict import refused, nothing imported:", *problems]))
+    if not rows:
+        raise CensusImportError(_nothing_left(key, features, records, skipped))
+    _require_longitude_latitude(shapes.name, outlines)
+    if not attributes:
+        raise CensusImportError(f"no numeric columns to show besides {key!r}")
+    chosen = chosen or default_settings(shapes.stem, attributes)
+    unknown = [a.key for a in chosen.attributes if a.key not in attributes]
+    if unknown:
+        raise CensusImportError(
+            f"{settings_file or 'the settings'} names attributes the data lack: {listed(unknown)}"
+            f" (numeric columns: {listed(attributes)})"
+        )
+    source = " + ".join(p.name for p in (shapes, table) if p is not None)
+    dataset_id = store.save(db, name, chosen, rows, source=source)
+    return ImportReport(
+        dataset_id=dataset_id,
+        name=name,
+        tracts=len(rows),
+        attributes=tuple(attributes),
+        unmatched_shapes=unmatched_shapes,
+        unmatched_rows=unmatched_rows,
+        repaired=tuple(repaired),
+        skipped=tuple(skipped),
+        ignored_columns=tuple(c for c in columns if c not in attributes),
+    )
+
+
+# -- settings ------------------------------------------------------------------------
+
+
+def _beside(shapes: Path) -> Path | None:
+    """The settings an instructor keeps next to the shapes (same name, ``.toml``)."""
+    candidate = shapes.with_suffix(".toml")
+    return candidate if candidate.is_file() else None
+
+
+def _read_settings(path: Path) -> DataSetSettings:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as error:
+        raise CensusImportError(f"cannot read settings {path}: {error.strerror}") from error
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as error:
+        raise CensusImportError(f"{path} is not valid TOML: {error}") from error
+    try:
+        return DataSetSettings.model_validate(data)
+    except ValidationError as error:
+        problems = [
+            f"  {'.'.join(str(part) for part in p['loc']) or 'settings'}: {p['msg']}"
+            for p in error.errors()
+        ]
+        raise CensusImportError("\n".join([f"{path}: invalid settings", *problems])) from error
+
+
+# -- shapes ----------------------------------------------------------------------------
+
+
+def _read_shapes(path: Path, key: str) -> list[_Feature]:
+    if not path.is_file():
+        raise CensusImportError(f"no such file: {path}")
+    suffix = path.suffix.lower()
+    if suffix == ".shp":
+        return _read_shapefile(path.name, _shapefile_beside(path), key)
+    if suffix == ".zip":
+        return _read_shapefile(path.name, _shapefile_in_zip(path), key)
+    if suffix in GEOJSON_SUFFIXES:
+        return _read_geojson(path, key)
+    raise CensusImportError(
+        f"{path.name}: not a kind of file the census import reads; give a .shp (with its "
+        f".dbf beside it), a .zip holding one shapefile, or a .geojson FeatureCollection"
+    )
+
+
+def _shapefile_beside(path: Path) -> dict[str, bytes]:
+    """The parts of the shapefile ``path`` by suffix (``.shp``, ``.dbf``, ...)."""
+    return {
+        part.suffix.lower(): part.read_bytes()
+        for part in path.parent.iterdir()
+        if part.stem == path.stem and part.suffix.lower() in SHAPEFILE_PARTS and part.is_file()
+    }
+
+
+def _shapefile_in_zip(path: Path) -> dict[str, bytes]:
+    """The parts of the one shapefile in a zip (in a folder or not), read in memory."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = [
+                PurePosixPath(m)
+                for m in archive.namelist()
+                if not m.startswith("__MACOSX/") and not m.endswith("/")
+            ]
+            shps = [m for m in members if m.suffix.lower() == ".shp"]
+            if len(shps) != 1:
+                found = listed([str(m) for m in shps]) if shps else "none"
+                raise CensusImportError(
+                    f"{path.name}: a zip must hold exactly one shapefile (.shp found: {found})"
+                )
+            stem = shps[0].with_suffix("")
+            return {
+                m.suffix.lower(): archive.read(str(m))
+                for m in members
+                if m.with_suffix("") == stem and m.suffix.lower() in SHAPEFILE_PARTS
+            }
+    except (zipfile.BadZipFile, OSError) as error:
+        raise CensusImportError(f"{path.name}: not a readable zip file: {error}") from error
+
+
+def _read_shapefile(label: str, parts: Mapping[str, bytes], key: str) -> list[_Feature]:
+    if ".dbf" not in parts:
+        raise CensusImportError(f"{label}: the shapefile's .dbf (its table) is missing")
+    _refuse_projected(label, parts.get(".prj"))
+    files = {suffix.lstrip("."): io.BytesIO(data) for suffix, data in parts.items()}
+    files.pop("prj", None)
+    try:
+        # Text columns other than the key are left out anyway, so a wrong code page
+        # must not stop an import: undecodable bytes are replaced.
+        with shapefile.Reader(**files, encodingErrors="replace") as reader:
+            # fields[0] is the deletion flag; a field is [name, type, size, decimals]
+            columns = [field[0] for field in reader.fields[1:]]
+            if key not in columns:
+                raise CensusImportError(_no_key_column(label, key, columns))
+            features = [
+                _feature(label, index, key, _shape_geometry(item.shape), item.record.as_dict())
+                for index, item in enumerate(reader.iterShapeRecords(), start=1)
+            ]
+    except (shapefile.ShapefileException, struct.error, ValueError, EOFError) as error:
+        raise CensusImportError(f"{label}: not a readable shapefile: {error}") from error
+    return features
+
+
+def _shape_geometry(item: Any) -> Mapping[str, Any] | None:
+    """A shapefile shape as GeoJSON; types GeoJSON lacks (MultiPatch) by name only."""
+    if item.shapeType == shapefile.NULL:
+        return None
+    try:
+        geometry: Mapping[str, Any] = item.__geo_interface__
+    except shapefile.GeoJSON_Error:
+        return {"type": item.shapeTypeName}
+    return geometry
+
+
+def _refuse_projected(label: str, prj: bytes | None) -> None:
+    """Outlines must be longitude/latitude: a projected CRS (metres or feet) is refused
+    rather than guessed at. A missing .prj is taken as longitude/latitude."""
+    match = PROJECTED.match(prj.decode("utf-8", errors="replace")) if prj else None
+    if match:
+        raise CensusImportError(
+            f"{label}: its .prj describes a projected coordinate system ({match.group(1)}), "
+            f"but the census map needs longitude/latitude; reproject first, e.g. "
+            f"`ogr2ogr -t_srs EPSG:4326 out.shp in.shp`"
+        )
+
+
+def _read_geojson(path: Path, key: str) -> list[_Feature]:
+    try:
+        data = json.loads(path.read_bytes())
+    except (ValueError, OSError) as error:
+        raise CensusImportError(f"{path.name}: not readable JSON: {error}") from error
+    collection = data if isinstance(data, dict) else {}
+    items = collection.get("features")
+    if collection.get("type") != "FeatureCollection" or not isinstance(items, list):
+        raise CensusImportError(f"{path.name}: not a GeoJSON FeatureCollection")
+    features = [item if isinstance(item, dict) else {} for item in items]
+    properties = [f.get("properties") or {} for f in features]
+    if features and not any(key in p for p in properties):
+        columns = list(dict.fromkeys(c for p in properties for c in p))
+        raise CensusImportError(_no_key_column(path.name, key, columns))
+    return [
+        _feature(path.name, index, key, feature.get("geometry"), props)
+        for index, (feature, props) in enumerate(zip(features, properties, strict=True), start=1)
+    ]
+
+
+def _feature(
+    label: str, index: int, key: str, geometry: Any, properties: Mapping[str, Any]
+) -> _Feature:
+    value = _key(properties.get(key))
+    if not value:
+        raise CensusImportError(f"{label}: shape {index} has no {key} value")
+    return _Feature(value, geometry if isinstance(geometry, Mapping) else None, properties)
+
+
+def _no_key_column(label: str, key: str, columns: Sequence[str]) -> str:
+    return f"{label} has no column {key!r}; its columns: {listed(columns) or 'none'}"
+
+
+def _key(value: object) -> str:
+    """A join key as text: numbers (a dbf's N column, JSON) as their digits, no ".0"."""
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    return "" if value is None else str(value).strip()
+
+
+def _refuse_duplicates(label: str, keys: Iterable[str]) -> None:
+    twice = sorted(k for k, n in Counter(keys).items() if n > 1)
+    if twice:
+        raise CensusImportError(f"{label}: keys that appear more than once: {listed(twice)}")
+
+
+# -- outlines --------------------------------------------------------------------------
+
+
+def _outline(geometry: Mapping[str, Any] | None) -> tuple[Any, str | None]:
+    """A shape's outline as a 2-D Polygon or MultiPolygon, and the problem met:
+    ``(outline, None)`` valid, ``(outline, reason)`` repaired, ``(None, reason)`` skipped.
+    """
+    if geometry is None:
+        return None, "no outline"
+    kind = geometry.get("type")
+    if kind not in ("Polygon", "MultiPolygon"):
+        return None, f"not a polygon but {kind or 'nothing'}"
+    try:
+        outline = shapely.force_2d(shape(geometry))
+    except (ValueError, TypeError, IndexError, ShapelyError) as error:
+        return None, f"unreadable outline: {error}"
+    if outline.is_empty:
+        return None, "empty outline"
+    if shapely.is_valid(outline):
+        return outline, None
+    reason = str(shapely.is_valid_reason(outline))
+    fixed = _polygonal(shapely.make_valid(outline))
+    if fixed is None:
+        return None, f"invalid ({reason}) and nothing of it is left once repaired"
+    return fixed, reason
+
+
+def _polygonal(geometry: Any) -> Any:
+    """The polygon parts of a repaired geometry (make_valid may add lines and points
+    where a ring collapsed), or None when there are none."""
+    polygons = [
+        polygon
+        for part in shapely.get_parts(geometry)
+        for polygon in shapely.get_parts(part)
+        if isinstance(polygon, Polygon) and not polygon.is_empty
+    ]
+    if not polygons:
+        return None
+    result = polygons[0] if len(polygons) == 1 else MultiPolygon(polygons)
+    return result if shapely.is_valid(result) else None
+
+
+def _geojson(outline: Any) -> dict[str, Any]:
+    """A GeoJSON dict with lists for coordinates (``mapping`` gives tuples)."""
+    geometry: dict[str, Any] = json.loads(json.dumps(mapping(outline)))
+    return geometry
+
+
+def _require_longitude_latitude(label: str, outlines: Sequence[Any]) -> None:
+    """Catch projected coordinates that came without a .prj to say so."""
+    bounds = shapely.total_bounds(outlines)
+    west, south, east, north = (float(b) for b in bounds)
+    if west < -180 or east > 180 or south < -90 or north > 90:
+        raise CensusImportError(
+            f"{label}: coordinates run from ({west:g}, {south:g}) to ({east:g}, {north:g}), "
+            f"so they are not longitude/latitude; reproject to EPSG:4326 first"
+        )
+
+
+# -- table and values ------------------------------------------------------------------
+
+
+def _read_table(path: Path, key: str) -> tuple[list[str], dict[str, dict[str, Any]]]:
+    """The table's columns, and its rows by key (keys unique)."""
+    try:
+        with path.open(encoding="utf-8-sig", newline="") as file:
+            reader = csv.DictReader(file)
+            columns = [c.strip() for c in reader.fieldnames or []]
+            reader.fieldnames = columns
+            if key not in columns:
+                raise CensusImportError(_no_key_column(path.name, key, columns))
+            twice = sorted(c for c, n in Counter(columns).items() if n > 1)
+            if twice:
+                raise CensusImportError(f"{path.name}: columns named twice: {listed(twice)}")
+            rows = list(reader)
+    except OSError as error:
+        raise CensusImportError(f"cannot read {path}: {error.strerror}") from error
+    except (UnicodeDecodeError, csv.Error) as error:
+        raise CensusImportError(f"{path.name}: not a UTF-8 CSV file: {error}") from error
+    for line, row in enumerate(rows, start=2):
+        if not _key(row.get(key)):
+            raise CensusImportError(f"{path.name}: row {line} has no {key} value")
+    _refuse_duplicates(path.name, [_key(row[key]) for row in rows])
+    return [c for c in columns if c != key], {_key(row[key]): row for row in rows}
+
+
+def _numeric_columns(columns: Sequence[str], records: Sequence[Mapping[str, Any]]) -> list[str]:
+    """The columns whose values (in the rows that join a shape) are all numbers or
+    missing, with at least one number: the attributes. Text such as a NAME is left out,
+    and so are rows that never join, such as a second header line of labels."""
+    numeric = []
+    for column in columns:
+        try:
+            values = [_number(record.get(column)) for record in records]
+        except ValueError:
+            continue
+        if any(v is not None for v in values):
+            numeric.append(column)
+    return numeric
+
+
+def _number(raw: object) -> Value:
+    """A cell as a number (an int stays an int); None when missing or an ACS jam value;
+    ValueError when it is text."""
+    if raw is None:
+        return None
+    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
+        raise ValueError(f"not a number: {raw!r}")
+    if isinstance(raw, str):
+        text = raw.strip()
+        if text.lower() in MISSING_TEXT:
+            return None
+        number: float = int(text) if INTEGER.fullmatch(text) else float(text)
+    else:
+        number = raw
+    return None if not math.isfinite(number) or number in ACS_JAM_VALUES else number
+
+
+def _nothing_left(
+    key: str,
+    features: Sequence[_Feature],
+    records: Mapping[str, Any],
+    skipped: Sequence[tuple[str, str]],
+) -> str:
+    """Why no tract is left, with the keys side by side when none matched (a key that
+    lost its leading zero in a spreadsheet is the usual cause)."""
+    if not features:
+        return "the shapes hold no features; nothing imported"
+    if skipped:
+        return "every matched tract was skipped, nothing imported: " + "; ".join(
+            problem_lines((), (), (), skipped)
+        )
+    sample_rows = listed(sorted(records)[:3], 3) or "none"
+    return (
+        f"no shape matched a table row by {key}, nothing imported (shapes: "
+        f"{listed([f.key for f in features[:3]], 3)}; table: {sample_rows})"
+    )

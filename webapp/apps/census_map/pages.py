@@ -1,0 +1,126 @@
+"""The census map's phone pages: a tract (show on the wall, or here), the tract index,
+and the answer to a group toggle. Values shown follow the visitor's information
+class, and only ever that class's."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from fastapi import HTTPException, Request, Response, status
+from fastapi.concurrency import run_in_threadpool
+from sqlalchemy import select
+
+from wall_client.layout import Wall
+from webapp.apps import Scan
+from webapp.apps.census_map.actions import group_shown, toggle_group
+from webapp.apps.census_map.charts import charts_for
+from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.models import TagRecord
+from webapp.people import Person
+from webapp.routes.pages import render
+from webapp.wall_state import WallState
+
+if TYPE_CHECKING:
+    from webapp.apps.census_map import CensusApp
+    from webapp.services import Services
+
+
+async def shown_dataset(
+    app: CensusApp, services: Services, wall: Wall
+) -> tuple[WallState, DataSet]:
+    """The data set on the wall; 409 when the census map is not on it now."""
+    from webapp.apps.census_map import APP
+    from webapp.wall_state import read_state
+
+    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    dataset = await run_in_threadpool(app.shown, services, state) if state.app == APP else None
+    if dataset is None:
+        raise HTTPException(
+            status.HTTP_409_CONFLICT, f"The census map is not on {wall.name} at the moment."
+        )
+    return state, dataset
+
+
+def tract_of(dataset: DataSet, geoid: str) -> Tract:
+    tract = dataset.tract(geoid)
+    if tract is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"{dataset.title} has no tract {geoid!r}.")
+    return tract
+
+
+def index_code(services: Services, wall: Wall) -> str | None:
+    """The tract index's code: publishing from a tract page goes through it."""
+    from webapp.apps.census_map import INDEX_TAG
+
+    with services.db.session() as session:
+        return session.scalar(
+            select(TagRecord.code).where(TagRecord.wall_id == wall.id, TagRecord.name == INDEX_TAG)
+        )
+
+
+async def tract_choice(
+    app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str
+) -> Response:
+    _, dataset = await shown_dataset(app, services, wall)
+    tract = tract_of(dataset, geoid)
+    return render(
+        request,
+        "census/tract.html",
+        wall=wall,
+        dataset=dataset,
+        tract=tract,
+        title=dataset.tract_title(tract),
+        seconds=services.settings.balloon_seconds,
+    )
+
+
+async def tract_here(
+    app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str, person: Person
+) -> Response:
+    """The tract's values for this visitor's class, its charts, and Publish."""
+    _, dataset = await shown_dataset(app, services, wall)
+    tract = tract_of(dataset, geoid)
+    code = await run_in_threadpool(index_code, services, wall)
+    return render(
+        request,
+        "census/here.html",
+        wall=wall,
+        dataset=dataset,
+        tract=tract,
+        title=dataset.tract_title(tract),
+        facts=dataset.facts(tract, person.info_class),
+        charts=charts_for(dataset, tract, person.info_class, app.chart_stats),
+        info_class=person.info_class,
+        tag={"code": code} if code else None,
+        subject=tract.geoid,
+    )
+
+
+async def index(app: CensusApp, request: Request, services: Services, wall: Wall) -> Response:
+    state, dataset = await shown_dataset(app, services, wall)
+    by_group = [
+        (
+            group,
+            [t for t in dataset.tracts if t.geoid in group.geoids],
+            group_shown(state, group.id),
+        )
+        for group in dataset.groups
+    ]
+    return render(request, "census/index.html", wall=wall, dataset=dataset, groups=by_group)
+
+
+async def toggle(app: CensusApp, scan: Scan) -> Response:
+    """A scanned group toggle flips that group on every tile at once."""
+    _, dataset = await shown_dataset(app, scan.services, scan.wall)
+    group_id = str(scan.tag.params.get("group", ""))
+    return await toggled(scan.request, scan.services, scan.wall, dataset, group_id)
+
+
+async def toggled(
+    request: Request, services: Services, wall: Wall, dataset: DataSet, group_id: str
+) -> Response:
+    group = next((g for g in dataset.groups if g.id == group_id), None)
+    if group is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
+    shown = await toggle_group(services, wall, group.id)
+    return render(request, "census/toggled.html", wall=wall, group=group, shown=shown)

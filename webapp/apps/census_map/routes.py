@@ -1,0 +1,355 @@
+"""The census map's pages and API: each tile's share of the map, the phone pages,
+KML for Google Earth, and the data set the map shows."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Annotated, Literal, cast
+
+from fastapi import APIRouter, HTTPException, Query, Request, Response, status
+from fastapi.concurrency import run_in_threadpool
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from sqlalchemy import select
+
+from wall_client.layout import Wall
+from webapp.apps.census_map import APP, CensusApp, pages, switch_dataset
+from webapp.apps.census_map.actions import group_shown, open_balloon
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
+from webapp.apps.census_map.mapview import tile_view
+from webapp.apps.census_map.store import list_datasets, make_current
+from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffOnly, TileDep, WallDep
+from webapp.models import TagRecord
+from webapp.routes.pages import render
+from webapp.services import Services
+from webapp.tags import get_layout
+from webapp.wall_state import View, WallState, now_ms, read_state
+
+router = APIRouter(tags=["census"])
+NETWORK_LINK_REFRESH_S = 10
+KML_TYPE = "application/vnd.google-earth.kml+xml"
+KMZ_TYPE = "application/vnd.google-earth.kmz"
+
+
+def census_app(services: Services) -> CensusApp:
+    return cast(CensusApp, services.apps[APP])
+
+
+class DataSetChoice(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    dataset: int = Field(ge=1)
+
+
+class DataSetEntry(BaseModel):
+    id: int
+    name: str
+    title: str
+    tracts: int
+    current: bool
+    created_at: str
+
+
+# --- tiles ---------------------------------------------------------------------------
+
+
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census")
+async def tile_map(
+    wall: WallDep,
+    tile: TileDep,
+    services: ServicesDep,
+    dataset: Annotated[int, Query(ge=1)],
+    layout: Annotated[int, Query(ge=0)] = 0,
+    cx: float = 0.5,
+    cy: float = 0.5,
+    zoom: float = 1.0,
+) -> Response:
+    """One tile's share of the census map for a data set, codes layout and view, in the
+    tile's native pixels (the tile fetches it before it answers ``ready``)."""
+    try:
+        view = View(center=(cx, cy), zoom=zoom)
+    except ValidationError as error:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"view: {error.errors()[0]['msg']}"
+        ) from None
+    app = census_app(services)
+    key = (dataset, wall.id, tile.id, layout, view.center, view.zoom)
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_in_threadpool(app.dataset, services, dataset)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
+            )
+        body = await run_in_threadpool(
+            _tile_body, app, services, wall, tile.id, found.id, layout, view
+        )
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
+
+
+def _tile_body(
+    app: CensusApp,
+    services: Services,
+    wall: Wall,
+    tile_id: str,
+    dataset_id: int,
+    layout_id: int,
+    view: View,
+) -> bytes:
+    dataset = app.dataset(services, dataset_id)
+    assert dataset is not None
+    codes = _codes_on(services, wall, layout_id)
+    tracts = {name.removeprefix("census:tract:"): code for name, code in codes.items()}
+    view_body = tile_view(dataset, app.geometry(dataset), wall, tile_id, view, tracts)
+    groups = {f"census:group:{g.id}": g.id for g in dataset.groups}
+    view_body["toggles"] = {code: groups[name] for name, code in codes.items() if name in groups}
+    carried = sum(1 for name in codes if name.startswith("census:tract:"))
+    view_body["caption"] = (
+        f"{dataset.title} · {carried} of {len(dataset.tracts)} tracts carry a code; "
+        "every tract is in the tract index"
+    )
+    return json.dumps(view_body, separators=(",", ":")).encode()
+
+
+def _codes_on(services: Services, wall: Wall, layout_id: int) -> dict[str, str]:
+    """The census codes placed in a layout, by tag name."""
+    layout = get_layout(services.db, wall.id, layout_id) if layout_id else None
+    placed = [p["code"] for p in layout.placed] if layout else []
+    if not placed:
+        return {}
+    with services.db.session() as session:
+        rows = session.execute(
+            select(TagRecord.name, TagRecord.code).where(
+                TagRecord.code.in_(placed), TagRecord.app == APP
+            )
+        ).all()
+    return {name: code for name, code in rows if name}
+
+
+# --- phones --------------------------------------------------------------------------
+
+
+@router.get("/apps/census/{wall_id}/tracts", include_in_schema=False)
+async def tract_index(request: Request, wall: WallDep, services: ServicesDep) -> Response:
+    return await pages.index(census_app(services), request, services, wall)
+
+
+@router.get("/apps/census/{wall_id}/tracts/{geoid}", include_in_schema=False)
+async def tract_page(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+) -> Response:
+    """The tract's two choices; its form needs the visitor's session (``person``)."""
+    return await pages.tract_choice(census_app(services), request, services, wall, geoid)
+
+
+@router.get("/apps/census/{wall_id}/tracts/{geoid}/here", include_in_schema=False)
+async def tract_here(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+) -> Response:
+    return await pages.tract_here(census_app(services), request, services, wall, geoid, person)
+
+
+def _slow_down(services: Services, person_id: str, address: str) -> None:
+    wait = services.scan_allowed(person_id, address)
+    if wait is not None:
+        raise HTTPException(
+            status.HTTP_429_TOO_MANY_REQUESTS,
+            f"That was a lot in a short time. Try again in {int(wait) + 1} seconds.",
+            headers={"Retry-After": str(int(wait) + 1)},
+        )
+
+
+@router.post(
+    "/apps/census/{wall_id}/tracts/{geoid}/balloon",
+    include_in_schema=False,
+    dependencies=[CsrfDep],
+)
+async def show_on_wall(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+) -> Response:
+    """ "Show on the wall": the tract's balloon opens beside it on every tile."""
+    app = census_app(services)
+    _, dataset = await pages.shown_dataset(app, services, wall)
+    tract = pages.tract_of(dataset, geoid)
+    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
+    balloon = await open_balloon(app, services, wall, dataset, tract)
+    return render(
+        request,
+        "census/balloon.html",
+        wall=wall,
+        tract=tract,
+        title=balloon.title,
+        placed=balloon.rect is not None,
+        seconds=services.settings.balloon_seconds,
+    )
+
+
+@router.post(
+    "/apps/census/{wall_id}/groups/{group_id}/toggle",
+    include_in_schema=False,
+    dependencies=[CsrfDep],
+)
+async def toggle_group(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group_id: str
+) -> Response:
+    _, dataset = await pages.shown_dataset(census_app(services), services, wall)
+    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
+    return await pages.toggled(request, services, wall, dataset, group_id)
+
+
+# --- Google Earth --------------------------------------------------------------------
+
+
+async def _kml_inputs(services: Services, wall_id: str | None) -> tuple[Wall, WallState, CensusApp]:
+    wall = services.walls.get(wall_id or services.settings.default_wall)
+    if wall is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
+    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    return wall, state, census_app(services)
+
+
+@dataclass(frozen=True)
+class _KmlInputs:
+    dataset: DataSet
+    hidden: frozenset[str]
+    open_balloons: frozenset[str]
+    name: str
+
+    def kml(self) -> bytes:
+        return census_kml(
+            self.dataset, hidden=self.hidden, open_balloons=self.open_balloons, name=self.name
+        ).encode()
+
+    def kmz(self) -> bytes:
+        return census_kmz(
+            self.dataset, hidden=self.hidden, open_balloons=self.open_balloons, name=self.name
+        )
+
+    def cached(self, app: CensusApp, kind: Literal["kml", "kmz"]) -> bytes:
+        """Built once per map state: a network link asks every few seconds."""
+        key = (kind, self.dataset.id, self.hidden, self.open_balloons, self.name)
+        body = app.renders.get(key)
+        if body is None:
+            body = self.kml() if kind == "kml" else self.kmz()
+            app.renders.put(key, body)
+        return body
+
+
+async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
+    """The map as the wall shows it now: its data set, hidden groups, open balloons (the
+    current data set as imported when the map is not on the wall)."""
+    wall, state, app = await _kml_inputs(services, wall_id)
+    dataset = await run_in_threadpool(app.shown, services, state)
+    if dataset is None:
+        dataset = await run_in_threadpool(app.datasets.current, services.db)
+    if dataset is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "No census data set has been imported.")
+    on_wall = state.app == APP and state.dataset == dataset.id
+    now = now_ms()
+    hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
+    balloons = frozenset(b.id.removeprefix("tract-") for b in state.balloons if b.open_at(now))
+    return _KmlInputs(
+        dataset=dataset,
+        hidden=hidden if on_wall else frozenset(),
+        open_balloons=balloons if on_wall else frozenset(),
+        name=f"{dataset.title} · {wall.name}",
+    )
+
+
+WallQuery = Annotated[str | None, Query(alias="wall", max_length=64)]
+
+
+@router.get("/apps/census/census.kml")
+async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    """The map as Google Earth shows it: tracts, groups as folders, open balloons."""
+    inputs = await _kml_of(services, wall_id)
+    body = await run_in_threadpool(inputs.cached, census_app(services), "kml")
+    return Response(body, media_type=KML_TYPE)
+
+
+@router.get("/apps/census/census.kmz")
+async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    inputs = await _kml_of(services, wall_id)
+    body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
+    return Response(
+        body,
+        media_type=KMZ_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="census.kmz"'},
+    )
+
+
+@router.get("/apps/census/network-link.kml")
+async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    """Open once in Google Earth Pro: it fetches census.kml every few seconds, so
+    Earth follows the wall's groups and balloons."""
+    wall, _, _ = await _kml_inputs(services, wall_id)
+    url = f"{services.base_url}/apps/census/census.kml?wall={wall.id}"
+    text = network_link_kml(
+        url, refresh_seconds=NETWORK_LINK_REFRESH_S, name=f"tagwall census map · {wall.name}"
+    )
+    return Response(
+        text,
+        media_type=KML_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="network-link.kml"'},
+    )
+
+
+# --- data sets -----------------------------------------------------------------------
+
+
+@router.get("/api/census/datasets", dependencies=[StaffOnly])
+async def datasets(services: ServicesDep) -> list[DataSetEntry]:
+    infos = await run_in_threadpool(list_datasets, services.db)
+    return [
+        DataSetEntry(
+            id=i.id,
+            name=i.name,
+            title=i.title,
+            tracts=i.tract_count,
+            current=i.current,
+            created_at=i.created_at.isoformat(),
+        )
+        for i in infos
+    ]
+
+
+@router.post("/api/census/current", dependencies=[StaffOnly])
+async def choose_dataset(choice: DataSetChoice, services: ServicesDep) -> DataSetChoice:
+    """Make a data set the one the census map shows; walls showing it switch in sync."""
+    try:
+        await run_in_threadpool(make_current, services.db, choice.dataset)
+    except KeyError:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"There is no census data set {choice.dataset}."
+        ) from None
+    await switch_dataset(services, choice.dataset)
+    return choice
+
+
+class GroupEntry(BaseModel):
+    id: str
+    name: str
+    tracts: int
+
+
+class DataSetDetail(BaseModel):
+    id: int
+    title: str
+    tracts: int
+    groups: list[GroupEntry]
+
+
+@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly])
+async def dataset_detail(dataset_id: int, services: ServicesDep) -> DataSetDetail:
+    """A data set's groups, for the dashboard's toggles."""
+    dataset = await run_in_threadpool(census_app(services).dataset, services, dataset_id)
+    if dataset is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset_id}.")
+    return DataSetDetail(
+        id=dataset.id,
+        title=dataset.title,
+        tracts=len(dataset.tracts),
+        groups=[GroupEntry(id=g.id, name=g.name, tracts=len(g.geoids)) for g in dataset.groups],
+    )
