@@ -6,8 +6,6 @@ const KEEP = 4;
 const FILL = "rgba(139, 90, 43, 0.55)";
 const EDGE = "#5a3310";
 const LABEL = "#f5e6d0";
-const SHOWN = "#6ede8a";
-const HIDDEN = "#8a8f99";
 
 export function groupShown(state, groupId) {
   return state.layers?.[groupId] ?? true;
@@ -90,38 +88,26 @@ function drawLabels(ctx, tracts, size) {
   }
 }
 
-/**
- * On the menu screen: each toggle code says whether its group is shown now, and the
- * caption says how many tracts carry codes. `matrix` maps scene mm to canvas pixels.
- */
-export function drawMenu(ctx, view, state, layout, matrix) {
-  if (!layout) return;
-  const [a, b, c, d, e, f] = matrix;
-  ctx.save();
-  ctx.setTransform(1, 0, 0, 1, 0, 0);
-  let captionAt = null;
-  for (const code of layout.placed) {
+/** The layout with each group toggle's label saying whether its group is shown now. */
+export function withToggleStates(layout, view, state) {
+  if (!layout || !view) return layout;
+  const placed = layout.placed.map((code) => {
     const group = view.toggles[code.code];
-    if (!group) continue;
-    const [x, y, w] = code.rect;
-    const left = a * x + c * y + e;
-    const top = b * x + d * y + f;
-    const side = Math.hypot(a, b) * w;
-    const on = groupShown(state, group);
-    ctx.fillStyle = on ? SHOWN : HIDDEN;
-    ctx.fillRect(left, top - side / 9, side, side / 12);
-    ctx.font = `bold ${Math.round(side / 10)}px sans-serif`;
-    ctx.textAlign = "center";
-    ctx.textBaseline = "bottom";
-    ctx.fillText(on ? "shown" : "hidden", left + side / 2, top - side / 8);
-    captionAt = captionAt ?? [left, top - side / 3];
-  }
-  if (captionAt && view.caption) {
-    ctx.fillStyle = "#e8ecf4";
-    ctx.textAlign = "left";
-    ctx.textBaseline = "bottom";
-    ctx.font = `${Math.round(view.label_px * 0.8)}px sans-serif`;
-    ctx.fillText(view.caption, Math.max(8, captionAt[0]), Math.max(view.label_px, captionAt[1]));
-  }
-  ctx.restore();
+    if (!group) return code;
+    return {...code, label: `${code.label} · ${groupShown(state, group) ? "shown" : "hidden"}`};
+  });
+  return {...layout, placed};
+}
+
+/** On the menu screen, along its bottom edge: how many tracts carry codes. */
+export function drawCaption(ctx, view, width, height) {
+  if (!view.caption) return;
+  const size = Math.round(view.label_px);
+  ctx.font = `${size}px sans-serif`;
+  const fit = Math.min(1, (width - 2 * size) / ctx.measureText(view.caption).width);
+  ctx.font = `${Math.floor(size * fit)}px sans-serif`;
+  ctx.fillStyle = "#e8ecf4";
+  ctx.textAlign = "right";
+  ctx.textBaseline = "bottom";
+  ctx.fillText(view.caption, width - size / 2, height - size / 2);
 }

@@ -1,6 +1,6 @@
 // A kiosk tile: draws its viewport of the wall scene from the state the server sends.
 import {drawBalloons, nextClosing} from "./balloons.js";
-import {CensusViews, drawCensus, drawMenu} from "./census.js";
+import {CensusViews, drawCaption, drawCensus, withToggleStates} from "./census.js";
 import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
 import {PublicScreen} from "./public.js";
@@ -27,14 +27,14 @@ function drawer(state, clock) {
     const sy = height / viewport.pixels[1];
     const [a, b, c, d, e, f] = viewport.to_pixels;
     const matrix = [a * sx, b * sy, c * sx, d * sy, e * sx, f * sy];
-    const layout = layouts.get(state.tag_layout);
+    const layout = withToggleStates(layouts.get(state.tag_layout), map, state);
     ctx.setTransform(sx, 0, 0, sy, 0, 0);
     if (map) drawCensus(ctx, map, state, ...viewport.pixels);
     else if (volume) drawVolume(ctx, volume);
+    if (map && display?.roles.includes("menu")) drawCaption(ctx, map, ...viewport.pixels);
     ctx.setTransform(...matrix);
     if (!volume && !map) drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
     drawCodes(ctx, layout, matrix, map ? maps.hiddenCodes(state) : null);
-    if (map) drawMenu(ctx, map, state, layout, matrix);
     drawBalloons(ctx, state, clock(), Math.hypot(matrix[0], matrix[1]));
   };
 }

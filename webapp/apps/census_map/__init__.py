@@ -89,13 +89,15 @@ class CensusApp:
         return state.model_copy(update={"dataset": dataset_id})
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
-        """While the map is on the wall: the tract index and group toggles on the menu
-        screen, and a code on every tract that has room for one at this view."""
+        """While the map is on the wall: the group toggles on the menu screen, the tract
+        index on the registration screen, and a code on every tract that has room for
+        one at this view."""
         dataset = self.shown(services, state) if state.app == APP else None
         if dataset is None:
             return []
         menu = [
-            self._spec(INDEX_TAG, "Tract index", "index", {}, screen="menu", slot=0),
+            # beside the registration codes: the menu screen is full with ten toggles
+            self._spec(INDEX_TAG, "Tract index", "index", {}, screen="registration", slot=2),
             *(
                 self._spec(
                     group_tag(group.id),

@@ -27,6 +27,7 @@ class Attribute(BaseModel):
     label: str = Field(min_length=1, max_length=120)
     kind: Literal["count", "money", "number"] = "count"
     info_class: int = Field(default=1, ge=1, le=5)  # the lowest class that sees it
+    missing: list[float] = Field(default_factory=list, max_length=10)  # codes for "no value"
 
 
 class Part(BaseModel):
@@ -113,6 +114,12 @@ class DataSetSettings(BaseModel):
 
     def attribute(self, key: str) -> Attribute:
         return next(a for a in self.attributes if a.key == key)
+
+    def clean(self, values: dict[str, Value]) -> dict[str, Value]:
+        """The values with each attribute's "no value" codes (a median of 0 where nobody
+        was counted) as None."""
+        missing = {a.key: a.missing for a in self.attributes if a.missing}
+        return {k: None if v in missing.get(k, ()) else v for k, v in values.items()}
 
     def visible(self, info_class: int) -> list[Attribute]:
         """The attributes a reader of ``info_class`` sees, headline ones first."""

@@ -139,17 +139,17 @@ def load(db: Database, dataset_id: int) -> DataSet | None:
             .where(CensusTractRecord.dataset_id == dataset_id)
             .order_by(CensusTractRecord.geoid)
         ).all()
+        settings = DataSetSettings.model_validate(record.settings)
         tracts = tuple(
             Tract(
                 geoid=row.geoid,
                 label=tract_label(row.geoid),
                 county=county_of(row.geoid),
                 shape=shape(row.geometry),
-                values=dict(row.values),
+                values=settings.clean(row.values),
             )
             for row in rows
         )
-        settings = DataSetSettings.model_validate(record.settings)
         return DataSet(id=record.id, name=record.name, settings=settings, tracts=tracts)
 
 

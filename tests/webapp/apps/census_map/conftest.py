@@ -35,7 +35,7 @@ def sacramento() -> DataSet:
             label=tract_label(f["properties"]["GEOID"]),
             county=county_of(f["properties"]["GEOID"]),
             shape=shape(f["geometry"]),
-            values={k: v for k, v in f["properties"].items() if k != "GEOID"},
+            values=settings.clean({k: v for k, v in f["properties"].items() if k != "GEOID"}),
         )
         for f in features
     )
