@@ -11,7 +11,7 @@ import platform
 import sys
 from pathlib import Path
 
-BENCHMARKS = ("fanout", "codes", "placement", "scans", "volume")
+BENCHMARKS = ("fanout", "codes", "placement", "scans", "volume", "census")
 RESULTS = Path(__file__).parent / "results"
 
 

@@ -29,8 +29,8 @@ CHROMIUM_ARGS = [
 ]
 
 
-@pytest.fixture
-def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
+    """A started server on the shipped walls; ``extra_env`` adds ``TAGWALL_*`` settings."""
     process = ServerProcess(
         var_dir=tmp_path / "var",
         database_url=database_url,
@@ -38,9 +38,16 @@ def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
             "TAGWALL_APPLY_LEAD_MS": "400",
+            **extra_env,
         },
     )
     process.start()
+    return process
+
+
+@pytest.fixture
+def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+    process = serve(tmp_path, database_url)
     yield process
     process.stop()
 

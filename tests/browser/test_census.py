@@ -13,11 +13,10 @@ from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
-from tests.browser.conftest import open_tiles, version_of
-from tests.conftest import TEST_SECRET
+from tests.browser.conftest import open_tiles, serve, version_of
 from webapp.check import fetch_layout
+from webapp.schemas import LayoutInfo
 from webapp.security import operator_token
-from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
@@ -28,17 +27,7 @@ BALLOON_SECONDS = 5
 @pytest.fixture
 def census(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
     """A server whose demo wall shows the census map, balloons closing after 5 s."""
-    process = ServerProcess(
-        var_dir=tmp_path / "var",
-        database_url=database_url,
-        secret=TEST_SECRET,
-        extra_env={
-            "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
-            "TAGWALL_APPLY_LEAD_MS": "400",
-            "TAGWALL_BALLOON_SECONDS": str(BALLOON_SECONDS),
-        },
-    )
-    process.start()
+    process = serve(tmp_path, database_url, TAGWALL_BALLOON_SECONDS=str(BALLOON_SECONDS))
     process.change("demo", {"app": "census"})
     yield process
     process.stop()
@@ -58,6 +47,11 @@ def brown_share(page: Page) -> float:
 def light_share(page: Page) -> float:
     """The share of the tile that is near white: codes, and balloons' boxes."""
     return float((screenshot(page).min(axis=2) > 235).mean())
+
+
+def tract_codes(layout: LayoutInfo) -> set[str]:
+    """The codes standing on the map (not on the menu or registration screen)."""
+    return {c.code for c in layout.placed if c.display not in ("r1c3", "r2c1")}
 
 
 def shown(page: Page, key: str) -> str:
@@ -150,5 +144,39 @@ def test_a_balloon_opened_from_a_phone_shows_and_closes_by_itself(
     )
     assert light_share(tiles[holder]) == pytest.approx(light[holder], abs=0.001), "it is gone"
     phone.context.close()
+    for page in tiles.values():
+        page.context.close()
+
+
+def test_the_instructor_zooms_from_the_dashboard_and_codes_follow(
+    browser: Browser, census: ServerProcess
+) -> None:
+    tiles = dict(zip(DEMO, open_tiles(browser, census, "demo", DEMO), strict=True))
+    version = census.version("demo")
+    wait_until(lambda: all(version_of(t) == version for t in tiles.values()), what="tiles up")
+    _, before = fetch_layout(census.url, "demo", operator_token(census.secret))
+    dashboard = browser.new_page()
+    dashboard.goto(f"{census.url}/login/operator?token={operator_token(census.secret)}")
+    expect(dashboard.locator("#census-groups li")).to_have_count(10)
+
+    for step in (1, 2):  # each step from the view the dashboard was last told of
+        dashboard.locator('#census-panel [data-zoom="1.5"]').click()
+        wait_until(
+            lambda step=step: census.status("demo")["state"]["view"]["zoom"] == 1.5**step,
+            what=f"zoom step {step}",
+        )
+        wait_until(
+            lambda: dashboard.locator("#version").inner_text() == str(census.version("demo")),
+            what="the dashboard to see the change",
+        )
+
+    assert census.status("demo")["state"]["view"]["zoom"] == 2.25
+    zoomed = census.version("demo")
+    wait_until(lambda: all(version_of(t) == zoomed for t in tiles.values()), what="tiles to follow")
+    applied = [t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == zoomed]
+    assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+    _, after = fetch_layout(census.url, "demo", operator_token(census.secret))
+    assert len(tract_codes(after)) > len(tract_codes(before)), "more tracts carry codes"
+    dashboard.close()
     for page in tiles.values():
         page.context.close()

@@ -1,5 +1,6 @@
 // The census map's dashboard panel: the data set, pan and zoom, groups, open balloons.
 import {STATUS_EVENT, api, changeState} from "../api.js";
+import {bindViewControls} from "./view.js";
 
 const $ = (id) => document.getElementById(id);
 let state = null;
@@ -57,23 +58,7 @@ document.addEventListener(STATUS_EVENT, async (event) => {
   showBalloons();
 });
 
-for (const button of document.querySelectorAll("[data-census-pan]")) {
-  button.addEventListener("click", () => {
-    if (!state) return;
-    const [dx, dy] = button.dataset.censusPan.split(",").map(Number);
-    const view = state.view;
-    const step = 1 / view.zoom;
-    changeState({view: {...view, center: [view.center[0] + dx * step, view.center[1] + dy * step]}});
-  });
-}
-for (const button of document.querySelectorAll("[data-census-zoom]")) {
-  button.addEventListener("click", () => {
-    if (!state) return;
-    changeState({view: {...state.view, zoom: state.view.zoom * Number(button.dataset.censusZoom)}});
-  });
-}
-$("census-reset").addEventListener("click", () =>
-  changeState({view: {center: [0.5, 0.5], zoom: 1, yaw: 0, pitch: 0}}));
+bindViewControls($("census-panel"), () => state);
 $("census-use").addEventListener("click", async () => {
   await api("/api/census/current", {
     method: "POST", body: JSON.stringify({dataset: Number($("census-dataset").value)}),

@@ -111,7 +111,7 @@ class CensusApp:
             ),
         ]
         anchors = code_anchors(
-            self.geometry(dataset), wall, state.view, _code_side_mm(services, wall)
+            self.geometry(dataset), wall, state.view, code_side_mm(services.base_url, wall)
         )
         tracts = [
             self._spec(
@@ -194,10 +194,10 @@ class CensusApp:
         return router
 
 
-def _code_side_mm(services: Services, wall: Wall) -> float:
+def code_side_mm(base_url: str, wall: Wall) -> float:
     """How wide a tract's code stands on this wall (the smallest symbol that carries a
     tract's URL, on a display that is not a designated screen)."""
-    payload = url_payload(services.base_url, "0" * CODE_LENGTH)
+    payload = url_payload(base_url, "0" * CODE_LENGTH)
     modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
     designated = {d.id for role in ROLES for d in wall.screen(role)}
     display = next((d for d in wall.displays if d.id not in designated), wall.displays[0])

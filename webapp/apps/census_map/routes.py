@@ -132,7 +132,11 @@ def _codes_on(services: Services, wall: Wall, layout_id: int) -> dict[str, str]:
 
 
 @router.get("/apps/census/{wall_id}/tracts", include_in_schema=False)
-async def tract_index(request: Request, wall: WallDep, services: ServicesDep) -> Response:
+async def tract_index(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep
+) -> Response:
+    """Every tract by group, each group with its toggle (a wall whose menu screen is
+    too small for every toggle code still lets phones switch them)."""
     return await pages.index(census_app(services), request, services, wall)
 
 

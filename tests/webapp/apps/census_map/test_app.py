@@ -335,3 +335,14 @@ def test_a_new_phone_can_open_a_balloon_from_the_index(client: TestClient) -> No
     assert response.status_code == 200 and [b.id for b in state_of(client).balloons] == [
         "tract-06061022001"
     ]
+
+
+def test_the_index_switches_groups_too(client: TestClient) -> None:
+    show_census(client)
+    page = client.get("/apps/census/demo/tracts").text
+    assert page.count("Hide them on the wall") == 10
+    token = re.search(r'name="csrf" value="([^"]+)"', page)
+    action = re.search(r'action="(/apps/census/demo/groups/[^"]+/toggle)"', page)
+    assert token and action
+    client.post(action.group(1), data={"csrf": token.group(1)})
+    assert "Show them on the wall" in client.get("/apps/census/demo/tracts").text

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import io
-import json
 import re
-import tomllib
 import zipfile
 from pathlib import Path
 
@@ -13,8 +11,8 @@ import pytest
 import simplekml
 from lxml import etree
 from shapely import MultiPolygon, Point, Polygon, box
-from shapely.geometry import shape
 
+from tests.webapp.apps.census_map.conftest import sacramento as shipped_dataset
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from webapp.apps.census_map.dataset import (
     Attribute,
@@ -96,22 +94,7 @@ def placemarks(root: etree._Element) -> dict[str, etree._Element]:
 
 @pytest.fixture(scope="module")
 def sacramento() -> DataSet:
-    settings = DataSetSettings.model_validate(
-        tomllib.loads((CENSUS / "sacramento-2000.toml").read_text())
-    )
-    keys = [attribute.key for attribute in settings.attributes]
-    features = json.loads((CENSUS / "sacramento-2000.geojson").read_text())["features"]
-    tracts = tuple(
-        Tract(
-            geoid=feature["properties"]["GEOID"],
-            label=tract_label(feature["properties"]["GEOID"]),
-            county=county_of(feature["properties"]["GEOID"]),
-            shape=shape(feature["geometry"]),
-            values={key: feature["properties"].get(key) for key in keys},
-        )
-        for feature in features
-    )
-    return DataSet(id=1, name="sacramento-2000", settings=settings, tracts=tracts)
+    return shipped_dataset()
 
 
 # --- the schema check itself -------------------------------------------------------
