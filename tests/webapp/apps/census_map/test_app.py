@@ -346,3 +346,19 @@ def test_the_index_switches_groups_too(client: TestClient) -> None:
     assert token and action
     client.post(action.group(1), data={"csrf": token.group(1)})
     assert "Show them on the wall" in client.get("/apps/census/demo/tracts").text
+
+
+def test_a_restart_keeps_the_map_its_groups_and_its_codes(client: TestClient) -> None:
+    from webapp.app import create_app
+
+    show_census(client)
+    codes = census_codes(client)
+    group = next(n for n in codes if n.startswith("census:group:"))
+    client.get(f"/t/{codes[group]}")
+    before = state_of(client)
+    with TestClient(create_app(services_of(client).settings)) as restarted:
+        after = state_of(restarted)
+        assert after.app == "census" and after.dataset == before.dataset
+        assert after.layers == before.layers and after.tag_layout == before.tag_layout
+        assert census_codes(restarted) == codes, "the same codes, still live"
+        assert len(list_datasets(services_of(restarted).db)) == 1, "seeded once"
