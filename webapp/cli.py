@@ -568,3 +568,33 @@ def census_list() -> None:
             f"{mark} {d.id:>4}  {d.name}  {d.title!r}  {d.tract_count} tracts  "
             f"{d.created_at:%Y-%m-%d %H:%M} UTC"
         )
+
+
+@main.group()
+def content() -> None:
+    """Teaching content the apps read (the brain atlas's regions and texts)."""
+
+
+@content.command("check")
+@click.option(
+    "--dir",
+    "directory",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=None,
+    help="The brain atlas content folder (default: content/brain_atlas).",
+)
+def content_check(directory: Path | None) -> None:
+    """Check the brain atlas's regions, tutor texts and references; exit 2 on problems."""
+    from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
+
+    try:
+        loaded = load_content(directory or ATLAS_DIR)
+    except ContentError as error:
+        for problem in error.problems:
+            click.echo(problem, err=True)
+        click.echo(f"{len(error.problems)} problem(s) found", err=True)
+        sys.exit(EXIT_USAGE)
+    click.echo(
+        f"ok: {len(loaded.in_set('full'))} quiz regions, {len(loaded.in_set('k5'))} K-5 "
+        f"regions, {len(loaded.tutors)} tutor files, {len(loaded.references)} references"
+    )

@@ -1,0 +1,261 @@
+"""The brain atlas's content: regions (names people may answer with, the atlas labels
+that make them up) and tutor texts per user group, in files an instructor edits.
+
+``content/brain_atlas/regions.yaml`` lists the regions; ``tutor/<region id>.yaml``
+holds each region's texts; ``references.yaml`` the works they cite. :func:`check`
+says what is wrong with them in words an editor can act on.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Literal, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from webapp.settings import CONTENT_DIR
+
+ATLAS_DIR = CONTENT_DIR / "brain_atlas"
+REGION_ID = r"^[a-z0-9]+(-[a-z0-9]+)*$"
+TagSetName = Literal["full", "k5"]
+M = TypeVar("M", bound=BaseModel)
+Hemisphere = Literal["left", "right", "both"]
+
+
+class Region(BaseModel):
+    """A region with a pin on the wall: one atlas label, or a union of them."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    id: str = Field(pattern=REGION_ID, max_length=64)
+    name: str = Field(min_length=1, max_length=100)  # the correct answer, as shown
+    synonyms: list[str] = Field(default_factory=list, max_length=20)
+    abbreviations: list[str] = Field(default_factory=list, max_length=10)
+    hemisphere: Hemisphere
+    labels: list[int] = Field(min_length=1)  # Desikan-Killiany ids (atlas-desikankilliany.csv)
+    sets: list[TagSetName] = Field(min_length=1)  # which tag sets show its pin
+
+
+class Reference(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    citation: str = Field(min_length=10, max_length=500)
+    url: str | None = Field(default=None, pattern=r"^https://")
+
+
+class GroupText(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    text: str = Field(min_length=40, max_length=6_000)  # Markdown
+    references: list[str] = Field(default_factory=list, max_length=20)
+
+
+class ResearchText(BaseModel):
+    """The research group's page: a short orientation and a curated reading list, shown
+    (labelled offline) when the live literature search cannot be reached."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    text: str = Field(min_length=40, max_length=6_000)
+    references: list[str] = Field(min_length=1, max_length=20)
+    search: str = Field(min_length=3, max_length=300)  # the PubMed query for the region
+
+
+class Tutor(BaseModel):
+    """One region's texts: ``k5`` for regions in the K-5 set, the others for the rest."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    k5: GroupText | None = None
+    undergraduate: GroupText | None = None
+    medical: GroupText | None = None
+    research: ResearchText | None = None
+
+
+class AtlasLabel(BaseModel):
+    id: int
+    label: str
+    hemisphere: Literal["L", "R", "B"]
+    structure: str
+
+
+SIDES: dict[Hemisphere, set[str]] = {"left": {"L"}, "right": {"R"}, "both": {"L", "R", "B"}}
+GROUPS_OF_SET: dict[TagSetName, tuple[str, ...]] = {
+    "k5": ("k5",),
+    "full": ("undergraduate", "medical", "research"),
+}
+
+
+class ContentError(Exception):
+    """The content has problems; ``problems`` lists each in words an editor can act on."""
+
+    def __init__(self, problems: list[str]) -> None:
+        super().__init__("\n".join(problems))
+        self.problems = problems
+
+
+class AtlasContent(BaseModel):
+    """Everything the app reads from ``content/brain_atlas``, checked."""
+
+    regions: list[Region]
+    tutors: dict[str, Tutor]
+    references: dict[str, Reference]
+    labels: dict[int, AtlasLabel]
+
+    def region(self, region_id: str) -> Region | None:
+        return next((r for r in self.regions if r.id == region_id), None)
+
+    def in_set(self, tag_set: TagSetName) -> list[Region]:
+        return [r for r in self.regions if tag_set in r.sets]
+
+
+def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
+    """The content of ``directory``; ContentError listing every problem found."""
+    problems: list[str] = []
+    labels = _read_labels(directory / "atlas-desikankilliany.csv", problems)
+    regions = _read_list(directory / "regions.yaml", "regions", Region, problems)
+    references = _read_mapping(directory / "references.yaml", Reference, problems)
+    tutors: dict[str, Tutor] = {}
+    tutor_dir = directory / "tutor"
+    for path in sorted(tutor_dir.glob("*.yaml")) if tutor_dir.is_dir() else []:
+        tutor = _read_model(path, Tutor, problems)
+        if tutor is not None:
+            tutors[path.stem] = tutor
+    content = AtlasContent(regions=regions, tutors=tutors, references=references, labels=labels)
+    problems += _cross_check(content)
+    if problems:
+        raise ContentError(problems)
+    return content
+
+
+def check(directory: Path = ATLAS_DIR) -> list[str]:
+    """What is wrong with the content (nothing: an empty list)."""
+    try:
+        load_content(directory)
+    except ContentError as error:
+        return error.problems
+    return []
+
+
+def _read_yaml(path: Path, problems: list[str]) -> object:
+    try:
+        return yaml.safe_load(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        problems.append(f"{path.name}: missing")
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        problems.append(f"{path.name}: not valid YAML: {error}".replace("\n", " "))
+    return None
+
+
+def _where(error: dict[str, object]) -> str:
+    return ".".join(str(part) for part in error["loc"])  # type: ignore[attr-defined]
+
+
+def _explain(label: str, error: ValidationError) -> list[str]:
+    return [f"{label}: {_where(dict(e))}: {e['msg']}" for e in error.errors()]
+
+
+def _read_model(path: Path, model: type[M], problems: list[str]) -> M | None:
+    data = _read_yaml(path, problems)
+    if data is None and path.exists():
+        problems.append(f"{path.name}: empty")
+        return None
+    try:
+        return model.model_validate(data)
+    except ValidationError as error:
+        problems += _explain(f"tutor/{path.name}", error)
+        return None
+
+
+def _read_list(path: Path, key: str, model: type[M], problems: list[str]) -> list[M]:
+    data = _read_yaml(path, problems)
+    if data is None:
+        return []
+    if not isinstance(data, dict) or not isinstance(data.get(key), list):
+        problems.append(f"{path.name}: expected a list under `{key}:`")
+        return []
+    items = []
+    for index, item in enumerate(data[key]):
+        try:
+            items.append(model.model_validate(item))
+        except ValidationError as error:
+            name = item.get("id", index) if isinstance(item, dict) else index
+            problems += _explain(f"{path.name}: {key}[{name}]", error)
+    return items
+
+
+def _read_mapping(path: Path, model: type[M], problems: list[str]) -> dict[str, M]:
+    data = _read_yaml(path, problems)
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        problems.append(f"{path.name}: expected a mapping of id -> entry")
+        return {}
+    items = {}
+    for key, value in data.items():
+        try:
+            items[str(key)] = model.model_validate(value)
+        except ValidationError as error:
+            problems += _explain(f"{path.name}: {key}", error)
+    return items
+
+
+def _read_labels(path: Path, problems: list[str]) -> dict[int, AtlasLabel]:
+    try:
+        with path.open(newline="", encoding="utf-8") as table:
+            return {int(row["id"]): AtlasLabel.model_validate(row) for row in csv.DictReader(table)}
+    except (OSError, KeyError, ValueError, ValidationError) as error:
+        problems.append(f"{path.name}: cannot read the atlas labels: {error}")
+        return {}
+
+
+def _cross_check(content: AtlasContent) -> list[str]:
+    """Problems between files: labels, names, tutor files and references."""
+    problems = []
+    seen_ids: set[str] = set()
+    names: dict[str, str] = {}
+    used_labels: dict[tuple[str, int], str] = {}
+    for region in content.regions:
+        where = f"regions.yaml: {region.id}"
+        if region.id in seen_ids:
+            problems.append(f"{where}: the id is used twice")
+        seen_ids.add(region.id)
+        for label_id in region.labels:
+            label = content.labels.get(label_id)
+            if label is None:
+                problems.append(f"{where}: {label_id} is not an atlas label")
+            elif label.hemisphere not in SIDES[region.hemisphere]:
+                problems.append(
+                    f"{where}: label {label_id} ({label.label}) is in hemisphere "
+                    f"{label.hemisphere}, not {region.hemisphere}"
+                )
+            for tag_set in region.sets:
+                other = used_labels.setdefault((tag_set, label_id), region.id)
+                if other != region.id:
+                    problems.append(f"{where}: label {label_id} is also in {other} ({tag_set})")
+        for text in [region.name, *region.synonyms, *region.abbreviations]:
+            other = names.setdefault(text.casefold(), region.id)
+            if other != region.id:
+                problems.append(f"{where}: {text!r} also names {other}")
+        tutor = content.tutors.get(region.id)
+        if tutor is None:
+            problems.append(f"tutor/{region.id}.yaml: missing")
+            continue
+        for tag_set in region.sets:
+            for group in GROUPS_OF_SET[tag_set]:
+                if getattr(tutor, group) is None:
+                    problems.append(f"tutor/{region.id}.yaml: no text for {group}")
+    for stem in sorted(content.tutors.keys() - seen_ids):
+        problems.append(f"tutor/{stem}.yaml: no region {stem!r} in regions.yaml")
+    for stem, tutor in sorted(content.tutors.items()):
+        for group in ("k5", "undergraduate", "medical", "research"):
+            text = getattr(tutor, group)
+            for reference in text.references if text else []:
+                if reference not in content.references:
+                    problems.append(
+                        f"tutor/{stem}.yaml: {group} cites {reference!r}, "
+                        "which references.yaml does not list"
+                    )
+    return problems
