@@ -24,13 +24,13 @@ from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm
 from wall_client.layout import Wall, load_wall
-from webapp.apps.census_map import code_side_mm
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, code_anchors, tile_view
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
 from webapp.db import Database
 from webapp.migrate import upgrade
 from webapp.settings import CONTENT_DIR
+from webapp.tags import anchored_code_side_mm
 from webapp.wall_state import View
 
 WALLS = ("demo", "hiperwall")
@@ -123,7 +123,7 @@ def run() -> dict[str, Any]:
     }
     for name in WALLS:
         wall = load_wall(CONTENT_DIR / "walls" / f"{name}.toml")
-        side = code_side_mm(BASE_URL, wall)
+        side = anchored_code_side_mm(BASE_URL, wall)
         per_view = {}
         for zoom in ZOOMS:
             geometry = MapGeometry.of(dataset)  # cold simplification per view, as after a restart

@@ -8,12 +8,21 @@ Rules, in scene millimetres (the wall canvas; physical wall mm in overlay mode):
   zone is part of the code);
 * an anchored code never stands on a designated screen (public, menu, registration:
   those show panels) and stands as near its anchor as possible, at most
-  ``max_offset_codes`` code sides away; a displaced code gets a leader line (pin)
-  from its edge to the anchor;
+  ``max_offset_codes`` code sides plus its clearance (``clear_mm``) away, centre to
+  anchor; a displaced code gets a leader line (pin) from its edge to the anchor;
+* an anchored request with a clearance (``clear_mm > 0``) keeps the square of side
+  ``2 * clear_mm`` centred on its anchor free of anchored codes, its own and every
+  other: all those squares are reserved before the first anchored code is placed, so
+  no code hides the point it marks nor another tag's pin head. Its code stands
+  nearest outside the square and always gets a pin. Adding the clearance to the reach
+  keeps such a code placeable: a code right beside the square is ``clear_mm`` plus
+  half a side from the anchor. The squares do not apply to slot codes: those stand
+  on designated screens (panels, where no anchored code stands) and are placed
+  first, so a tag's clearance never moves a panel's codes;
 * a slot code stands in its cell of a grid laid over its screen's displays;
 * every request ends up placed or unplaced with the reason, never dropped; the
-  result depends only on the inputs (slot codes first, then anchored codes in the
-  order given).
+  result depends only on the inputs (slot codes first, then the clear squares, then
+  anchored codes in the order given).
 
 The nearest free position is exact: with rectangular obstacles, the best top-left
 corner has each coordinate either where the anchor wants it or flush against an
@@ -47,6 +56,7 @@ class PlacementRequest:
     screen: str | None = None  # a screen role, for slot requests
     slot: int = 0
     preferred_mm: float | None = None
+    clear_mm: float = 0.0  # half the side of the square around the anchor kept free of codes
 
     def __post_init__(self) -> None:
         if (self.anchor is None) == (self.screen is None):
@@ -57,6 +67,10 @@ class PlacementRequest:
             raise ValueError(f"{self.key}: sizes must be positive module counts")
         if self.module_mm <= 0:
             raise ValueError(f"{self.key}: module_mm must be positive")
+        if not (math.isfinite(self.clear_mm) and self.clear_mm >= 0):
+            raise ValueError(f"{self.key}: clear_mm must be a finite distance >= 0")
+        if self.clear_mm > 0 and self.anchor is None:
+            raise ValueError(f"{self.key}: clear_mm needs an anchor (slot codes have none)")
 
 
 @dataclass(frozen=True)
@@ -172,7 +186,15 @@ def place(
     *,
     max_offset_codes: float = 3.0,
 ) -> Layout:
-    """Place ``requests`` on ``wall`` avoiding ``reserved`` rectangles (scene mm)."""
+    """Place ``requests`` on ``wall`` avoiding ``reserved`` rectangles (scene mm).
+
+    An anchored code's centre stands at most ``max_offset_codes`` code sides plus
+    its request's ``clear_mm`` from the anchor: straight out from a side of the clear
+    square, the reach counts from that side, so a clearance never makes a code
+    unplaceable that fits right beside its square (its centre is then ``clear_mm``
+    plus half a side from the anchor). The distance stays the plain one from the
+    anchor, so the nearest free spot is also the one to check against the reach.
+    """
     keys = [request.key for request in requests]
     if len(set(keys)) != len(keys):
         raise ValueError("placement requests need unique keys")
@@ -189,6 +211,11 @@ def place(
     designated = {d.id for role in ROLES for d in wall.screen(role)}
     free = [canvases[d.id] for d in wall.displays if d.id not in designated]
     bounds = _bounds(free)
+    for request in requests:  # every pin head is kept clear before any code is placed
+        if request.anchor is not None and request.clear_mm > 0:
+            square = _clear_square(request.anchor, request.clear_mm)
+            for canvas in free:
+                canvas.reserve(square)
     for request in requests:
         if request.anchor is not None:
             outcome[request.key] = _place_anchored(
@@ -248,7 +275,7 @@ def _place_anchored(
             side_mm = size.side_px * canvas.sx
             if smallest_side is None or side_mm < smallest_side[0]:
                 smallest_side = (side_mm, size.side_px)
-            limit = max_offset_codes * side_mm
+            limit = max_offset_codes * side_mm + request.clear_mm
             reach = max(reach, limit)
             if gap > limit:
                 continue
@@ -339,7 +366,7 @@ def _commit(
     canvas.boxes.append((x, y, x + side, y + side))
     rect = canvas.to_scene(x, y, side)
     leader = None
-    if anchor is not None and not rect.contains(anchor):
+    if anchor is not None and (request.clear_mm > 0 or not rect.contains(anchor)):
         edge = (min(max(anchor[0], rect.x), rect.right), min(max(anchor[1], rect.y), rect.bottom))
         leader = (edge, anchor)
     return Placement(
@@ -352,6 +379,11 @@ def _commit(
         variant=variant,
         leader=leader,
     )
+
+
+def _clear_square(anchor: Point, clear_mm: float) -> Rect:
+    """The square of side ``2 * clear_mm`` centred on ``anchor`` (scene mm)."""
+    return Rect(anchor[0] - clear_mm, anchor[1] - clear_mm, 2 * clear_mm, 2 * clear_mm)
 
 
 def _bounds(canvases: Sequence[_Canvas]) -> Floats:

@@ -22,6 +22,7 @@ from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
 from webapp.db import Database
 from webapp.hub import WallHub
+from webapp.markdown import markdown_html
 from webapp.routes import (
     dashboard,
     health,
@@ -82,6 +83,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.services = services
     app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
+    app.state.templates.env.filters["markdown"] = markdown_html
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")

@@ -584,17 +584,30 @@ def content() -> None:
     help="The brain atlas content folder (default: content/brain_atlas).",
 )
 def content_check(directory: Path | None) -> None:
-    """Check the brain atlas's regions, tutor texts and references; exit 2 on problems."""
+    """Check the brain atlas's regions, tutor texts, references and view presets (every
+    region must show in one of them); exit 2 on problems."""
     from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
+    from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache
+    from webapp.apps.brain_atlas.views import load_views, showing
 
+    folder = directory or ATLAS_DIR
     try:
-        loaded = load_content(directory or ATLAS_DIR)
+        loaded = load_content(folder)
+        presets = load_views(folder / "views.yaml")
+        shown = showing(presets, loaded.regions, AtlasVolumes.load(folder), PinCache())
     except ContentError as error:
         for problem in error.problems:
             click.echo(problem, err=True)
         click.echo(f"{len(error.problems)} problem(s) found", err=True)
         sys.exit(EXIT_USAGE)
+    unseen = [region_id for region_id, ids in shown.items() if not ids]
+    for region_id in unseen:
+        click.echo(f"views.yaml: no view shows the pin of {region_id}", err=True)
+    if unseen:
+        click.echo(f"{len(unseen)} problem(s) found", err=True)
+        sys.exit(EXIT_USAGE)
     click.echo(
         f"ok: {len(loaded.in_set('full'))} quiz regions, {len(loaded.in_set('k5'))} K-5 "
-        f"regions, {len(loaded.tutors)} tutor files, {len(loaded.references)} references"
+        f"regions, {len(loaded.tutors)} tutor files, {len(loaded.references)} references, "
+        f"{len(presets)} views showing every pin"
     )

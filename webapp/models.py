@@ -76,6 +76,7 @@ class TagRecord(Base):
     screen: Mapped[str | None] = mapped_column(String(32))
     slot: Mapped[int] = mapped_column(Integer, nullable=False, default=0)
     size_mm: Mapped[float | None] = mapped_column(Float)
+    clear_mm: Mapped[float | None] = mapped_column(Float)  # keep-clear half-side, anchored tags
     priority: Mapped[int] = mapped_column(Integer, nullable=False, default=0)
     active: Mapped[bool] = mapped_column(nullable=False, default=True)
     expires_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
@@ -260,3 +261,51 @@ class CensusTractRecord(Base):
     geoid: Mapped[str] = mapped_column(String(64), primary_key=True)
     geometry: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
     values: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+
+
+class BrainQuizRoundRecord(Base):
+    """A round of the brain atlas quiz on a wall; resetting the quiz starts the next,
+    and earlier rounds' answers stay for export."""
+
+    __tablename__ = "brain_quiz_rounds"
+
+    wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    number: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    started_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+    started_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")
+
+
+class BrainAnswerRecord(Base):
+    """A visitor's answer for one region of a tag set, in one round (changeable until
+    the visitor finishes that set)."""
+
+    __tablename__ = "brain_answers"
+    __table_args__ = (UniqueConstraint("wall_id", "round", "visitor_id", "tag_set", "region_id"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    wall_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    round: Mapped[int] = mapped_column(Integer, nullable=False)
+    visitor_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    tag_set: Mapped[str] = mapped_column(String(16), nullable=False)
+    region_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    answer: Mapped[str] = mapped_column(String(200), nullable=False)
+    correct: Mapped[bool] = mapped_column(nullable=False)
+    answered_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, onupdate=_utcnow, nullable=False
+    )
+
+
+class BrainQuizFinishRecord(Base):
+    """A visitor finished a tag set's quiz in a round: answers are final, results shown."""
+
+    __tablename__ = "brain_quiz_finishes"
+
+    wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    round: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    visitor_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    tag_set: Mapped[str] = mapped_column(String(16), primary_key=True)
+    finished_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )

@@ -28,12 +28,13 @@ Status = Literal["shown", "pending", "rejected", "cleared"]
 
 
 class Block(BaseModel):
-    """One part of a publication: a paragraph, a table of facts, or a site image."""
+    """One part of a publication: a paragraph, Markdown text (rendered without raw
+    HTML), a table of facts, or a site image."""
 
     model_config = ConfigDict(extra="forbid")
 
-    kind: Literal["text", "facts", "image"]
-    text: str = Field(default="", max_length=5_000)
+    kind: Literal["text", "markdown", "facts", "image"]
+    text: str = Field(default="", max_length=8_000)
     rows: list[tuple[str, str]] = Field(default_factory=list, max_length=100)
     src: str = Field(default="", max_length=500)
 

@@ -148,6 +148,7 @@ class TagInfo(BaseModel):
     screen: str | None
     slot: int
     size_mm: float | None
+    clear_mm: float | None
     active: bool
     expires_at: datetime | None
     created_at: datetime

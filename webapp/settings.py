@@ -74,6 +74,14 @@ class Settings(BaseSettings):
     volume_dir: Path | None = None
     volume_budget_voxels: int = Field(default=1 << 24, ge=4_096)
     volume_cache_voxels: int = Field(default=1 << 26, ge=0)
+    # The brain atlas's literature search for the research group (NCBI E-utilities).
+    pubmed_url: str = Field(
+        default="https://eutils.ncbi.nlm.nih.gov/entrez/eutils/", pattern=r"^https?://"
+    )
+    pubmed_timeout: float = Field(default=5.0, gt=0, le=60)
+    pubmed_results: int = Field(default=8, ge=1, le=50)
+    pubmed_cache_seconds: int = Field(default=86_400, ge=0)
+    pubmed_email: str | None = None  # sent with tool=tagwall, as NCBI asks of clients
 
     @field_validator("wall_configs", mode="before")
     @classmethod

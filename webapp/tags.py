@@ -21,6 +21,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from tag_service.codes import (
+    CODE_LENGTH,
     Contact,
     PayloadKind,
     matrix_rows,
@@ -33,8 +34,8 @@ from tag_service.codes import (
     vcard_payload,
 )
 from tag_service.placement import PlacementRequest, place
-from tag_service.sizing import min_module_mm
-from wall_client.layout import Wall
+from tag_service.sizing import code_size, min_module_mm
+from wall_client.layout import ROLES, Wall
 from webapp.db import Database, as_utc
 from webapp.hub import WallHub
 from webapp.models import TagLayoutRecord, TagRecord, WallStateRecord
@@ -77,6 +78,13 @@ class TagSpec(BaseModel):
     screen: Literal["public", "menu", "registration"] | None = None
     slot: int = Field(default=0, ge=0, le=99)
     size_mm: float | None = Field(default=None, gt=0, le=5_000)
+    clear_mm: float | None = Field(
+        default=None,
+        gt=0,
+        le=1_000,
+        description="keep a square of side 2*clear_mm around the anchor free of codes:"
+        " the code stands on a pin beside what it marks (anchored tags only)",
+    )
     priority: int = Field(default=0, ge=-1_000, le=1_000)
     active: bool = True
     expires_at: datetime | None = None
@@ -85,6 +93,8 @@ class TagSpec(BaseModel):
     def _check(self) -> TagSpec:
         if (self.anchor is None) == (self.screen is None):
             raise ValueError("give a tag either an anchor (wall mm) or a screen slot")
+        if self.clear_mm is not None and self.anchor is None:
+            raise ValueError("clear_mm keeps the area around an anchor free: give an anchor")
         content_payload(self.kind, self.content())  # raises PayloadError with the reason
         if self.expires_at is not None:
             self.expires_at = as_utc(self.expires_at)
@@ -131,6 +141,7 @@ def _fill(record: TagRecord, spec: TagSpec) -> None:
     record.screen = spec.screen
     record.slot = spec.slot
     record.size_mm = spec.size_mm
+    record.clear_mm = spec.clear_mm
     record.priority = spec.priority
     record.active = spec.active
     record.expires_at = spec.expires_at
@@ -354,6 +365,7 @@ def compute_layout(
             screen=tag.screen,
             slot=tag.slot,
             preferred_mm=tag.size_mm,
+            clear_mm=tag.clear_mm or 0.0,
         )
         for tag in tags
     ]
@@ -400,7 +412,17 @@ def _inputs_hash(
         "wall": [wall.id, wall.bezel_mode, wall.scan_distance_m, geometry, wall.screens],
         "set": tag_set,
         "tags": [
-            [t.code, t.label, t.kind, anchor_of(t), t.screen, t.slot, t.size_mm, payload]
+            [
+                t.code,
+                t.label,
+                t.kind,
+                anchor_of(t),
+                t.screen,
+                t.slot,
+                t.size_mm,
+                t.clear_mm,
+                payload,
+            ]
             for t, payload in zip(tags, payloads, strict=True)
         ],
     }
@@ -427,3 +449,14 @@ def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:
         if "expires_at" in given:
             tag.expires_at = as_utc(update.expires_at) if update.expires_at else None
         return tag
+
+
+def anchored_code_side_mm(base_url: str, wall: Wall) -> float:
+    """How wide a code anchored in the scene stands on this wall: the smallest symbol
+    that carries a tag URL, on a display that is not a designated screen. Apps size
+    what they keep clear around their codes by it."""
+    payload = url_payload(base_url, "0" * CODE_LENGTH)
+    modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
+    designated = {d.id for role in ROLES for d in wall.screen(role)}
+    display = next((d for d in wall.displays if d.id not in designated), wall.displays[0])
+    return code_size(display, modules, min_module_mm(wall.scan_distance_m)).side_mm

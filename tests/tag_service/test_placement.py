@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 from pathlib import Path
 
 import pytest
@@ -40,6 +41,14 @@ def anchored(
     )
 
 
+def clear_square(request: PlacementRequest) -> Rect | None:
+    """The square a request keeps free of codes (None without a clearance)."""
+    if request.anchor is None or request.clear_mm <= 0:
+        return None
+    (x, y), c = request.anchor, request.clear_mm
+    return Rect(x - c, y - c, 2 * c, 2 * c)
+
+
 def designated(wall: Wall) -> set[str]:
     return {d.id for role in ROLES for d in wall.screen(role)}
 
@@ -54,6 +63,7 @@ def assert_valid(
     assert placed.keys() | unplaced == {r.key for r in requests}, "nothing is dropped"
     assert all(u.reason for u in layout.unplaced)
     by_key = {r.key: r for r in requests}
+    squares = [square for r in requests if (square := clear_square(r)) is not None]
     for p in layout.placed:
         request = by_key[p.key]
         display = wall.display(p.display_id)
@@ -68,6 +78,7 @@ def assert_valid(
         assert not any(p.rect.intersects(area) for area in reserved)
         if request.anchor is not None:
             assert p.display_id not in designated(wall), "panels keep their screens"
+            assert not any(p.rect.intersects(grown(sq, -TOL)) for sq in squares), "pins clear"
             inside = p.rect.contains(request.anchor)
             assert (p.leader is None) == inside
             if p.leader is not None:
@@ -99,6 +110,7 @@ def scenarios(draw: st.DrawFn) -> tuple[Wall, list[PlacementRequest], list[Rect]
         y = draw(st.floats(-100, wall.height + 100))
         sizes = draw(st.sampled_from([(V2,), (V2, V1), (V1,)]))
         preferred = draw(st.none() | st.floats(20, 400))
+        clear = draw(st.sampled_from([0.0, 0.0, 0.0, 5.0, 60.0, 400.0]))
         requests.append(
             PlacementRequest(
                 key=f"T{index}",
@@ -106,6 +118,7 @@ def scenarios(draw: st.DrawFn) -> tuple[Wall, list[PlacementRequest], list[Rect]
                 module_mm=min_module_mm(distance),
                 anchor=(x, y),
                 preferred_mm=preferred,
+                clear_mm=clear,
             )
         )
     for slot in range(draw(st.integers(0, 6))):
@@ -256,6 +269,9 @@ def test_a_crowded_screen_says_how_many_codes_did_not_fit(demo: Wall) -> None:
         ({"anchor": None, "screen": "lobby"}, "unknown screen 'lobby'"),
         ({"sizes": ()}, "sizes must be positive"),
         ({"module_mm": 0.0}, "module_mm must be positive"),
+        ({"clear_mm": -1.0}, "clear_mm must be a finite distance"),
+        ({"clear_mm": float("nan")}, "clear_mm must be a finite distance"),
+        ({"anchor": None, "screen": "menu", "clear_mm": 5.0}, "clear_mm needs an anchor"),
     ],
 )
 def test_malformed_requests_are_refused(kwargs: dict[str, object], message: str) -> None:
@@ -267,3 +283,79 @@ def test_malformed_requests_are_refused(kwargs: dict[str, object], message: str)
 def test_duplicate_keys_are_refused(demo: Wall) -> None:
     with pytest.raises(ValueError, match="unique keys"):
         place(demo, [anchored("A", 10, 10), anchored("A", 20, 20)])
+
+
+def test_a_cleared_anchor_gets_its_code_beside_it_on_a_pin(demo: Wall) -> None:
+    anchor = demo.viewport("r1c1").scene_rect.center
+    request = anchored("A", *anchor, clear_mm=80.0)
+    layout = place(demo, [request])
+    [code] = layout.placed
+    square = clear_square(request)
+    assert square is not None
+    assert not code.rect.intersects(grown(square, -TOL)), "wholly outside its square"
+    assert code.leader is not None
+    start, end = code.leader
+    assert end == anchor
+    assert grown(code.rect, TOL).contains(start)
+    assert start[0] in (code.rect.x, code.rect.right) or start[1] in (
+        code.rect.y,
+        code.rect.bottom,
+    ), "the pin starts on the code's edge"
+    # Nearest outside the square: flush with one side (give or take the pixels the
+    # square was rounded out to), centred on the anchor along it.
+    pixel = code.rect.width / code.pixels[2]
+    cx, cy = code.rect.center
+    beside = 80.0 + code.rect.width / 2
+    assert max(abs(cx - anchor[0]), abs(cy - anchor[1])) <= beside + 2 * pixel
+    assert min(abs(cx - anchor[0]), abs(cy - anchor[1])) <= pixel
+    assert_valid(demo, [request], [], layout)
+
+
+def test_no_code_covers_another_tags_cleared_anchor(demo: Wall) -> None:
+    anchor = demo.viewport("r2c2").scene_rect.center
+    pinned = anchored("PIN", *anchor, clear_mm=60.0)
+    # Anchored right beside the pin head and placed first: the square is kept anyway.
+    neighbours = [anchored(f"N{i}", anchor[0] + 10 * i, anchor[1] - 5) for i in range(4)]
+    requests = [*neighbours, pinned]
+    layout = place(demo, requests)
+    assert len(layout.placed) == len(requests)
+    square = clear_square(pinned)
+    assert square is not None
+    assert all(not p.rect.intersects(grown(square, -TOL)) for p in layout.placed)
+    assert all(p.leader is not None for p in layout.placed), "every anchor is inside it"
+    assert_valid(demo, requests, [], layout)
+
+
+def test_no_clearance_places_as_before(demo: Wall) -> None:
+    centre = demo.viewport("r2c2").scene_rect.center
+    plain = [anchored(f"A{i}", centre[0] + 40 * i, centre[1]) for i in range(4)]
+    zero = [anchored(f"A{i}", centre[0] + 40 * i, centre[1], clear_mm=0.0) for i in range(4)]
+    layout = place(demo, plain)
+    assert place(demo, zero) == layout
+    assert layout.placed[0].leader is None, "the first still sits on its anchor"
+
+
+def test_a_clearance_beyond_the_reach_still_places_the_code(demo: Wall) -> None:
+    # The square covers almost all of r2c2: the code goes to the next free display,
+    # further than 3 code sides from the anchor but within 3 sides of the square.
+    anchor = demo.viewport("r2c2").scene_rect.center
+    request = anchored("A", *anchor, clear_mm=600.0)
+    layout = place(demo, [request])
+    [code] = layout.placed
+    side = code.rect.width
+    distance = math.dist(code.rect.center, anchor)
+    assert 3 * side < distance <= 3 * side + 600.0
+    assert code.leader is not None and code.leader[1] == anchor
+    assert_valid(demo, [request], [], layout)
+
+
+def test_cleared_layouts_are_deterministic(demo: Wall) -> None:
+    centre = demo.viewport("r2c3").scene_rect.center
+    requests = [
+        anchored(f"A{i}", centre[0] + 30 * (i % 3), centre[1] + 25 * (i // 3), clear_mm=c)
+        for i, c in enumerate([40.0, 0.0, 15.0, 90.0, 0.0, 25.0])
+    ]
+    reserved = [Rect(centre[0] - 300, centre[1] + 150, 200, 100)]
+    layout = place(demo, requests, reserved)
+    assert place(demo, requests, reserved) == layout
+    assert_valid(demo, requests, reserved, layout)

@@ -126,6 +126,15 @@ def test_a_plain_publication_renders_its_blocks(app: FastAPI) -> None:
     assert "Published by a student · 01:00 UTC, 02 Jan 1970" in html
 
 
+def test_markdown_blocks_format_but_never_inject(app: FastAPI) -> None:
+    publication = Publication(
+        title="Hippocampus", blocks=[Block(kind="markdown", text=f"**Memory.** {EVIL}")]
+    )
+    html = render_item(templates_of(app), publication, "a student", at_ms=0)
+    assert '<div class="markdown"><p><strong>Memory.</strong>' in html
+    assert "<script>" not in html and "&lt;script&gt;" in html
+
+
 @pytest.mark.parametrize(
     "src",
     [
@@ -152,7 +161,7 @@ def test_blocks_are_only_the_known_kinds_and_fields() -> None:
     with pytest.raises(ValidationError):
         Block.model_validate({"kind": "text", "html": "<b>x</b>"})
     with pytest.raises(ValidationError):
-        Block(kind="text", text="x" * 5_001)
+        Block(kind="text", text="x" * 8_001)
 
 
 def test_publication_limits() -> None:

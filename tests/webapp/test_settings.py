@@ -1,5 +1,6 @@
 import stat
 from pathlib import Path
+from typing import Any
 
 import pytest
 from pydantic import ValidationError
@@ -61,3 +62,32 @@ def test_invalid_values_are_rejected() -> None:
         Settings(port=0)
     with pytest.raises(ValidationError):
         Settings(bus="carrier-pigeon")  # type: ignore[arg-type]
+
+
+def test_pubmed_settings_defaults_and_environment(monkeypatch: pytest.MonkeyPatch) -> None:
+    settings = Settings()
+    assert settings.pubmed_url == "https://eutils.ncbi.nlm.nih.gov/entrez/eutils/"
+    assert settings.pubmed_timeout == 5.0 and settings.pubmed_results == 8
+    assert settings.pubmed_cache_seconds == 86_400 and settings.pubmed_email is None
+    monkeypatch.setenv("TAGWALL_PUBMED_EMAIL", "atlas@example.org")
+    monkeypatch.setenv("TAGWALL_PUBMED_TIMEOUT", "2.5")
+    monkeypatch.setenv("TAGWALL_PUBMED_CACHE_SECONDS", "0")
+    settings = Settings()
+    assert settings.pubmed_email == "atlas@example.org"
+    assert settings.pubmed_timeout == 2.5 and settings.pubmed_cache_seconds == 0
+
+
+@pytest.mark.parametrize(
+    "field,value",
+    [
+        ("pubmed_timeout", 0),
+        ("pubmed_timeout", 60.5),
+        ("pubmed_results", 0),
+        ("pubmed_results", 51),
+        ("pubmed_cache_seconds", -1),
+        ("pubmed_url", "eutils.ncbi.nlm.nih.gov/entrez/eutils/"),
+    ],
+)
+def test_pubmed_settings_out_of_bounds_are_rejected(field: str, value: Any) -> None:
+    with pytest.raises(ValidationError, match=field):
+        Settings(**{field: value})

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 from pydantic import ValidationError
 
@@ -26,6 +28,7 @@ from webapp.tags import (
 )
 
 BASE = "http://192.168.1.20:8000"
+TOL = 1e-6  # mm: float rounding of pixel edges
 
 
 @pytest.fixture(scope="module")
@@ -58,6 +61,10 @@ def test_direct_payloads_are_encoded_as_given(db: Database) -> None:
         ({"kind": "text", "text": "Grüße"}, "ASCII"),
         ({"tag_set": "no spaces"}, "String should match pattern"),
         ({"colour": "red"}, "Extra inputs are not permitted"),
+        ({"anchor": None, "screen": "menu", "clear_mm": 20.0}, "clear_mm keeps the area"),
+        ({"clear_mm": 0.0}, "greater than 0"),
+        ({"clear_mm": -5.0}, "greater than 0"),
+        ({"clear_mm": 1_001.0}, "less than or equal to 1000"),
     ],
 )
 def test_malformed_specs_are_refused(fields: dict[str, object], message: str) -> None:
@@ -138,3 +145,44 @@ def test_unplaceable_tags_are_kept_with_the_reason(db: Database, demo: Wall) -> 
 def test_updating_an_unknown_tag_raises_key_error(db: Database) -> None:
     with pytest.raises(KeyError):
         update_tag(db, "NOSUCH1", TagUpdate(label="x"))
+
+
+def test_a_clearance_is_stored_when_issued_or_declared(db: Database) -> None:
+    issued = issue(db, "demo", tag_spec(label="pinned", clear_mm=40.0), "test")
+    plain = issue(db, "demo", tag_spec(label="plain"), "test")
+    declare(db, "demo", "quiz", [tag_spec(name="region", clear_mm=12.5)])
+    stored = {t.label or t.name: t.clear_mm for t in wall_tags(db, "demo")}
+    assert stored == {"pinned": 40.0, "plain": None, "region": 12.5}
+    found = find(db, issued.code)
+    assert found is not None and found.clear_mm == 40.0
+    assert plain.clear_mm is None
+
+
+def test_changing_the_clearance_places_the_code_again_beside_its_anchor(
+    db: Database, demo: Wall
+) -> None:
+    ax, ay = 300.0, 300.0  # tag_spec's anchor
+
+    def declared(clear_mm: float | None) -> tuple[int, dict[str, Any]]:
+        spec = tag_spec(app="atlas", name="hippocampus", clear_mm=clear_mm)
+        declare(db, "demo", "atlas", [spec])
+        layout = get_layout(db, "demo", layout_for(db, demo, None, BASE))
+        assert layout is not None
+        [code] = layout.placed
+        return layout.id, code
+
+    first, on_it = declared(None)
+    assert on_it["leader"] is None, "without a clearance the code covers its anchor"
+    second, beside = declared(50.0)
+    assert second != first, "a new clearance is a new layout"
+    x, y, width, height = beside["rect"]
+    outside = (
+        x >= ax + 50.0 - TOL
+        or x + width <= ax - 50.0 + TOL
+        or y >= ay + 50.0 - TOL
+        or y + height <= ay - 50.0 + TOL
+    )
+    assert outside, "wholly outside the square"
+    assert beside["leader"] is not None and tuple(beside["leader"][1]) == (ax, ay)
+    assert declared(50.0)[0] == second, "an unchanged clearance reuses the layout"
+    assert declared(80.0)[0] != second

@@ -28,8 +28,9 @@ from webapp.wall_state import Change, WallState, read_state
 if TYPE_CHECKING:
     from webapp.services import Services
 
-PLACING_FIELDS = ("app", "view", "dataset")
-"""State fields apps anchor codes to: changing one places the codes again."""
+PLACING_FIELDS = ("app", "view", "dataset", "volume", "tag_set")
+"""State fields that decide which codes stand where: changing one declares the app's
+tags again and places the set shown."""
 
 
 @dataclass(frozen=True)
@@ -140,9 +141,10 @@ def _place_for(
 
 
 def builtin_apps() -> dict[str, WallApp]:
+    from webapp.apps.brain_atlas import BrainApp
     from webapp.apps.census_map import CensusApp
     from webapp.apps.core import CoreApp
     from webapp.apps.pattern import PatternApp
 
-    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp(), CensusApp())
+    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp(), CensusApp(), BrainApp())
     return {app.name: app for app in apps}

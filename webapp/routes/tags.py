@@ -51,6 +51,7 @@ def tag_info(tag: TagRecord, services: Services) -> TagInfo:
         screen=tag.screen,
         slot=tag.slot,
         size_mm=tag.size_mm,
+        clear_mm=tag.clear_mm,
         active=tag.active,
         expires_at=tag.expires_at,
         created_at=tag.created_at,

@@ -63,6 +63,26 @@ class Camera:
         return relative @ self.right, relative @ self.down, relative @ self.forward
 
 
+def scene_to_plane(view: View, scene_size: tuple[float, float], meta: VolumeMeta) -> Affine:
+    """Scene mm (x, y) -> image plane (u, v) in world mm, for ``view`` of a scene of
+    ``scene_size`` (width, height): at zoom 1 and centre (0.5, 0.5) the volume's longest
+    side spans the scene's shorter side, centred. The one home of this map: tiles'
+    footprints and anything placed on the picture (pins) go through it (or its
+    inverse)."""
+    width, height = scene_size
+    k = max(meta.extent) / min(width, height)  # world mm per scene mm at zoom 1
+    zoom = view.zoom
+    cx, cy = view.center
+    return (
+        k / zoom,
+        0.0,
+        0.0,
+        k / zoom,
+        k * ((cx - 0.5) * width - width / (2 * zoom)),
+        k * ((cy - 0.5) * height - height / (2 * zoom)),
+    )
+
+
 @dataclass(frozen=True)
 class Footprint:
     """A tile on the image plane: its pixel (x, y) -> plane (u, v) map and size."""
@@ -74,19 +94,9 @@ class Footprint:
     def of(
         cls, viewport: Viewport, view: View, scene_size: tuple[float, float], meta: VolumeMeta
     ) -> Footprint:
-        width, height = scene_size
-        k = max(meta.extent) / min(width, height)  # world mm per scene mm at zoom 1
-        zoom = view.zoom
-        cx, cy = view.center
-        scene_to_plane: Affine = (
-            k / zoom,
-            0.0,
-            0.0,
-            k / zoom,
-            k * ((cx - 0.5) * width - width / (2 * zoom)),
-            k * ((cy - 0.5) * height - height / (2 * zoom)),
+        to_plane = compose_affine(
+            scene_to_plane(view, scene_size, meta), invert_affine(viewport.to_pixels)
         )
-        to_plane = compose_affine(scene_to_plane, invert_affine(viewport.to_pixels))
         return cls(to_plane, viewport.pixels)
 
     @property

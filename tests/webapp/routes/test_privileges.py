@@ -75,6 +75,15 @@ def matrix(client: TestClient) -> list[Row]:
     dataset = read_state(db, "kl-3x3")[1].dataset
     group = next(t.params["group"] for t in wall_tags(db, "kl-3x3") if t.action == "toggle")
     tract = "/apps/census/kl-3x3/tracts/06061022001"
+    # the brain atlas on a third wall, in quiz mode
+    brain = client.post(
+        "/api/walls/irregular/state",
+        json={"app": "brain"},
+        headers={"Authorization": f"Bearer {services_of(client).operator_token}"},
+    )
+    assert brain.status_code == 200, brain.text
+    pin_code = next(t.code for t in wall_tags(db, "irregular") if t.action == "pin" and t.active)
+    pin = f"/apps/brain/irregular/pins/{pin_code}"
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -207,8 +216,13 @@ def matrix(client: TestClient) -> list[Row]:
         Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),
-        Row("POST", "/apps/census/{wall_id}/tracts/{geoid}/balloon", f"{tract}/balloon",
-            PUBLIC, form={}),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/tracts/{geoid}/balloon",
+            f"{tract}/balloon",
+            PUBLIC,
+            form={},
+        ),
         Row(
             "POST",
             "/apps/census/{wall_id}/groups/{group_id}/toggle",
@@ -221,11 +235,71 @@ def matrix(client: TestClient) -> list[Row]:
         Row("GET", "/apps/census/network-link.kml", "/apps/census/network-link.kml", PUBLIC),
         Row("GET", "/api/census/datasets", "/api/census/datasets", STAFF_API),
         Row(
-            "GET", "/api/census/datasets/{dataset_id}", f"/api/census/datasets/{dataset}",
+            "GET",
+            "/api/census/datasets/{dataset_id}",
+            f"/api/census/datasets/{dataset}",
             STAFF_API,
         ),
-        Row("POST", "/api/census/current", "/api/census/current", STAFF_API,
-            json={"dataset": dataset}),
+        Row(
+            "POST",
+            "/api/census/current",
+            "/api/census/current",
+            STAFF_API,
+            json={"dataset": dataset},
+        ),
+        Row("GET", "/apps/brain/{wall_id}/pins/{code}", pin, PUBLIC),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/pins/{code}/answer",
+            f"{pin}/answer",
+            PUBLIC,
+            form={"answer": "thalamus"},
+        ),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/pins/{code}/reveal",
+            f"{pin}/reveal",
+            (403, 403, OK, OK),
+            form={},
+        ),
+        # the literature names the region: closed while the quiz is on, for everyone
+        Row(
+            "GET",
+            "/apps/brain/{wall_id}/pins/{code}/literature",
+            f"{pin}/literature",
+            (409, 409, 409, 409),
+        ),
+        Row(
+            "GET", "/apps/brain/{wall_id}/quiz/{tag_set}", "/apps/brain/irregular/quiz/full", PUBLIC
+        ),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/quiz/{tag_set}/finish",
+            "/apps/brain/irregular/quiz/full/finish",
+            PUBLIC,
+            form={},
+        ),
+        Row("GET", "/api/walls/{wall_id}/brain", "/api/walls/irregular/brain", STAFF_API),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/brain",
+            "/api/walls/irregular/brain",
+            STAFF_API,
+            json={"mode": "quiz"},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/brain/quiz/reset",
+            "/api/walls/irregular/brain/quiz/reset",
+            STAFF_API,
+            json={},
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/brain/answers.csv",
+            "/api/walls/irregular/brain/answers.csv",
+            STAFF_API,
+        ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]
 

@@ -2,20 +2,25 @@
 that make them up) and tutor texts per user group, in files an instructor edits.
 
 ``content/brain_atlas/regions.yaml`` lists the regions; ``tutor/<region id>.yaml``
-holds each region's texts; ``references.yaml`` the works they cite. :func:`check`
-says what is wrong with them in words an editor can act on.
+holds each region's texts; ``references.yaml`` the works they cite;
+``atlas-names.yaml`` a readable name for every atlas label (the names of the regions a
+set leaves out are wrong answers in that set's quiz). :func:`check` says what is wrong
+with them in words an editor can act on.
 """
 
 from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import Literal, TypeVar
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from webapp.settings import CONTENT_DIR
+
+if TYPE_CHECKING:
+    from webapp.apps.brain_atlas.matching import AnswerKey
 
 ATLAS_DIR = CONTENT_DIR / "brain_atlas"
 REGION_ID = r"^[a-z0-9]+(-[a-z0-9]+)*$"
@@ -103,6 +108,7 @@ class AtlasContent(BaseModel):
     tutors: dict[str, Tutor]
     references: dict[str, Reference]
     labels: dict[int, AtlasLabel]
+    atlas_names: dict[str, str] = Field(default_factory=dict)  # label -> readable name
 
     def region(self, region_id: str) -> Region | None:
         return next((r for r in self.regions if r.id == region_id), None)
@@ -110,11 +116,54 @@ class AtlasContent(BaseModel):
     def in_set(self, tag_set: TagSetName) -> list[Region]:
         return [r for r in self.regions if tag_set in r.sets]
 
+    def competitors(self, tag_set: TagSetName) -> list[str]:
+        """The readable names of the atlas regions the set leaves out: no region of the
+        set includes any of their label ids (either hemisphere), so in that set's quiz
+        they are always wrong answers ("pars orbitalis", "cuneus"). In atlas order."""
+        covered = {
+            self.labels[label_id].label
+            for region in self.in_set(tag_set)
+            for label_id in region.labels
+            if label_id in self.labels
+        }
+        names: dict[str, str] = {}
+        for label in self.labels.values():
+            name = self.atlas_names.get(label.label)
+            if name is not None and label.label not in covered:
+                names.setdefault(label.label, name)
+        return list(names.values())
+
+    def parts(self, tag_set: TagSetName) -> dict[str, list[str]]:
+        """The readable names of the atlas regions each region of the set is made of
+        (region id -> names, in label order): the K-5 frontal lobe's "Frontal pole"."""
+        parts: dict[str, list[str]] = {}
+        for region in self.in_set(tag_set):
+            names = parts.setdefault(region.id, [])
+            for label_id in region.labels:
+                label = self.labels.get(label_id)
+                name = self.atlas_names.get(label.label) if label is not None else None
+                if name is not None and name not in names:
+                    names.append(name)
+        return parts
+
+    def answer_key(self, tag_set: TagSetName) -> AnswerKey:
+        """The answer key of one tag set's quiz: its regions, the atlas regions it
+        leaves out as competitors, and the atlas regions each region is made of as its
+        parts. Names need only be unique within a set, so there is one key per set."""
+        from webapp.apps.brain_atlas.matching import AnswerKey  # it imports this module
+
+        return AnswerKey(
+            self.in_set(tag_set),
+            competitors=self.competitors(tag_set),
+            parts=self.parts(tag_set),
+        )
+
 
 def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
     """The content of ``directory``; ContentError listing every problem found."""
     problems: list[str] = []
     labels = _read_labels(directory / "atlas-desikankilliany.csv", problems)
+    atlas_names = _read_atlas_names(directory / "atlas-names.yaml", labels, problems)
     regions = _read_list(directory / "regions.yaml", "regions", Region, problems)
     references = _read_mapping(directory / "references.yaml", Reference, problems)
     tutors: dict[str, Tutor] = {}
@@ -123,7 +172,13 @@ def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
         tutor = _read_model(path, Tutor, problems)
         if tutor is not None:
             tutors[path.stem] = tutor
-    content = AtlasContent(regions=regions, tutors=tutors, references=references, labels=labels)
+    content = AtlasContent(
+        regions=regions,
+        tutors=tutors,
+        references=references,
+        labels=labels,
+        atlas_names=atlas_names,
+    )
     problems += _cross_check(content)
     if problems:
         raise ContentError(problems)
@@ -211,11 +266,44 @@ def _read_labels(path: Path, problems: list[str]) -> dict[int, AtlasLabel]:
         return {}
 
 
+def _read_atlas_names(
+    path: Path, labels: dict[int, AtlasLabel], problems: list[str]
+) -> dict[str, str]:
+    """``label: readable name`` for every label of the atlas CSV, and nothing else."""
+    data = _read_yaml(path, problems)
+    if data is None:
+        if path.exists():
+            problems.append(f"{path.name}: empty")
+        return {}
+    if not isinstance(data, dict):
+        problems.append(f"{path.name}: expected a mapping of atlas label -> readable name")
+        return {}
+    known = {label.label for label in labels.values()}
+    names: dict[str, str] = {}
+    seen: dict[str, str] = {}
+    for key, value in data.items():
+        label = str(key)
+        if not isinstance(value, str) or not value.strip() or len(value) > 100:
+            problems.append(f"{path.name}: {label}: expected a name of 1 to 100 characters")
+            continue
+        if labels and label not in known:
+            problems.append(f"{path.name}: {label}: not a label of the atlas CSV")
+            continue
+        other = seen.setdefault(value.strip().casefold(), label)
+        if other != label:
+            problems.append(f"{path.name}: {label}: {value!r} also names {other}")
+        names[label] = value.strip()
+    for label in sorted(known - names.keys() - {str(k) for k in data}):
+        problems.append(f"{path.name}: no readable name for the atlas label {label!r}")
+    return names
+
+
 def _cross_check(content: AtlasContent) -> list[str]:
     """Problems between files: labels, names, tutor files and references."""
     problems = []
     seen_ids: set[str] = set()
-    names: dict[str, str] = {}
+    names: dict[tuple[TagSetName, str], str] = {}
+    left_out = {tag_set: _left_out(content, tag_set) for tag_set in GROUPS_OF_SET}
     used_labels: dict[tuple[str, int], str] = {}
     for region in content.regions:
         where = f"regions.yaml: {region.id}"
@@ -235,10 +323,23 @@ def _cross_check(content: AtlasContent) -> list[str]:
                 other = used_labels.setdefault((tag_set, label_id), region.id)
                 if other != region.id:
                     problems.append(f"{where}: label {label_id} is also in {other} ({tag_set})")
+        # Names need only be unique within a set: a quiz is always taken in one. (A
+        # region with unknown labels has a problem already; its names wait for that.)
+        labels_known = all(label_id in content.labels for label_id in region.labels)
         for text in [region.name, *region.synonyms, *region.abbreviations]:
-            other = names.setdefault(text.casefold(), region.id)
-            if other != region.id:
-                problems.append(f"{where}: {text!r} also names {other}")
+            clashes: dict[str, list[str]] = {}
+            for tag_set in region.sets:
+                other = names.setdefault((tag_set, text.casefold()), region.id)
+                if other != region.id:
+                    clashes.setdefault(other, []).append(tag_set)
+                left_out_label = left_out[tag_set].get(text.casefold())
+                if left_out_label is not None and labels_known:
+                    problems.append(
+                        f"{where}: {text!r} is the atlas name of {left_out_label!r}, which no "
+                        f"{tag_set} region includes (add the label, or drop the name)"
+                    )
+            for other, tag_sets in clashes.items():
+                problems.append(f"{where}: {text!r} also names {other} ({', '.join(tag_sets)})")
         tutor = content.tutors.get(region.id)
         if tutor is None:
             problems.append(f"tutor/{region.id}.yaml: missing")
@@ -259,3 +360,11 @@ def _cross_check(content: AtlasContent) -> list[str]:
                         "which references.yaml does not list"
                     )
     return problems
+
+
+def _left_out(content: AtlasContent, tag_set: TagSetName) -> dict[str, str]:
+    """The set's competitors (atlas regions it leaves out): folded name -> label."""
+    competitors = set(content.competitors(tag_set))
+    return {
+        name.casefold(): label for label, name in content.atlas_names.items() if name in competitors
+    }

@@ -2,19 +2,28 @@
 
 A student scans a pin and types the region's name on a phone, so answers arrive in any
 case, with or without accents, hyphens, a side ("left", "R", "(lh)") or filler words,
-in any word order and with typos. :class:`AnswerKey` decides whether an answer names a
-given region, and which region an answer names at all (for the class's statistics of
-wrong answers).
+in any word order, without the head noun ("precentral" for "precentral gyrus") and
+with typos. :class:`AnswerKey` decides whether an answer names a given region, and
+which region an answer names at all (for the class's statistics of wrong answers).
 
-Typos are forgiven only where that cannot turn one region's name into another's: a
-typo is accepted for a region only if no name of any other region lies within the same
-edit distance, so a real name of a neighbouring region is always judged as that region.
+Typos are forgiven only where that cannot turn one name into another's: a typo is
+accepted for a region only if no name of any other region lies within the same edit
+distance, and neither does the name of any *competitor*: an atlas region the quiz
+leaves out ("pars orbitalis", "cuneus"), which is always a wrong answer, nor that of
+an atlas region another region is made of (a *part*). So a real name of a neighbouring
+region is always judged as that region, never as a typo.
+
+A name without its head noun (:data:`HEAD_NOUNS`) is accepted when that shortened
+form is unambiguous: no other region or competitor is called that, or shortens to it
+("superior frontal" names the superior frontal gyrus; "frontal" alone names nothing
+in a key that also holds the middle frontal gyrus and the frontal pole).
 """
 
 from __future__ import annotations
 
+import itertools
 import unicodedata
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from webapp.apps.brain_atlas.content import Hemisphere, Region
@@ -24,10 +33,21 @@ MAX_ANSWER_LENGTH = 200
 keeps the cost of judging bounded."""
 
 FILLER_WORDS = frozenset({"the", "a", "an", "of", "area", "region"})
+"""Words left out of every name and answer (unless nothing else is left)."""
 LEFT_WORDS = frozenset({"left", "l", "lh"})
 RIGHT_WORDS = frozenset({"right", "r", "rh"})
 SIDE_COMPANIONS = frozenset({"hemisphere", "hemispheres", "side", "sided"})
 """Words dropped when next to a side word ("left hemisphere", "right-sided")."""
+
+HEAD_NOUNS = frozenset(
+    {"gyrus", "gyri", "cortex", "cortices", "lobe", "lobes", "lobule", "lobules"}
+    | {"nucleus", "nuclei", "sulcus", "sulci"}
+)
+"""The anatomical head nouns an answer may leave out of a name: "precentral" for
+"Precentral gyrus", "caudate" for "Caudate nucleus", "insular" for "Insular cortex",
+"frontal" for "Frontal lobe". "area" and "region" need no entry here: they are filler
+words, left out of every name anyway. Parts that narrow a name down ("pole", "pars",
+"strip") are not head nouns: "temporal" never means the temporal pole."""
 
 MAX_TYPO_DISTANCE = 3
 """The largest distance any name allows (see :func:`allowed_distance`)."""
@@ -108,22 +128,38 @@ def _words(text: str) -> list[str]:
     return "".join(c if c.isalnum() else " " for c in folded).split()
 
 
-def _split_sides(words: Sequence[str]) -> tuple[list[str], frozenset[Hemisphere]]:
-    """Remove side words ("L", "right", "lh", "left hemisphere") from anywhere in the
-    words, and say which sides were stated."""
-    sides: set[Hemisphere] = set()
+MAX_COMPANIONS_KEPT = 3
+"""Answers with more companions of side words than this are read only with all of them
+dropped or all kept (cost bound: each subset is one more reading)."""
+
+
+def _companions(words: Sequence[str]) -> list[int]:
+    """Where the companions of side words are ("side" in "left side")."""
     is_side = [w in LEFT_WORDS or w in RIGHT_WORDS for w in words]
+    return [
+        i
+        for i, word in enumerate(words)
+        if word in SIDE_COMPANIONS
+        and ((i > 0 and is_side[i - 1]) or (i + 1 < len(words) and is_side[i + 1]))
+    ]
+
+
+def _split_sides(
+    words: Sequence[str], keep: Iterable[int] = ()
+) -> tuple[list[str], frozenset[Hemisphere]]:
+    """Remove side words ("L", "right", "lh", "left hemisphere") from anywhere in the
+    words, and say which sides were stated. Companions of side words are removed too,
+    except those at the positions in ``keep`` (for names that contain one: "side lobe"
+    in "left side lobe")."""
+    sides: set[Hemisphere] = set()
+    dropped = set(_companions(words)) - set(keep)
     kept: list[str] = []
     for i, word in enumerate(words):
         if word in LEFT_WORDS:
             sides.add("left")
         elif word in RIGHT_WORDS:
             sides.add("right")
-        elif word in SIDE_COMPANIONS and (
-            (i > 0 and is_side[i - 1]) or (i + 1 < len(words) and is_side[i + 1])
-        ):
-            pass
-        else:
+        elif i not in dropped:
             kept.append(word)
     return kept, frozenset(sides)
 
@@ -134,15 +170,37 @@ def _drop_fillers(words: Sequence[str]) -> list[str]:
     return kept if kept else list(words)
 
 
+def _name_words(name: str) -> list[str]:
+    """A name's words as answers are compared with them: sides and fillers left out."""
+    return _drop_fillers(_split_sides(_words(name))[0])
+
+
+def _shortened(words: Sequence[str]) -> list[str] | None:
+    """A name's words without its head nouns, or None if it has none (or nothing else)."""
+    kept = [w for w in words if w not in HEAD_NOUNS]
+    return kept if kept and len(kept) < len(words) else None
+
+
 @dataclass(frozen=True, slots=True)
 class _Form:
-    """One name or synonym of a region, normalised once when the key is built."""
+    """One way of naming an entry (a name, a synonym, or one of them without its head
+    noun), normalised once when the key is built."""
 
-    region: int  # index into the key's regions
+    entry: int  # index into the key's entries: regions, then competitors, then parts
     words: tuple[str, ...]  # in the order written
     written: str  # the words joined in written order
     ordered: str  # the words sorted and joined: word order does not matter
     limit: int  # typos forgiven for this name
+
+    @classmethod
+    def of(cls, entry: int, words: Sequence[str]) -> _Form:
+        return cls(
+            entry=entry,
+            words=tuple(words),
+            written=" ".join(words),
+            ordered=" ".join(sorted(words)),
+            limit=allowed_distance(sum(len(w) for w in words)),
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,22 +214,41 @@ class _Answer:
     compact: tuple[str, ...]  # the forms an abbreviation is compared with
 
 
-def _parse(answer: str) -> _Answer | None:
-    """Normalise an answer, or None for one that cannot name anything (empty, only a
-    side, too long)."""
+def _parses(answer: str) -> list[_Answer]:
+    """The ways to read an answer, normalised: first with every companion of a side
+    word dropped ("left side" is a side), then keeping some of them, in case they
+    belong to the name ("left side lobe" is the K-5 "side lobe" too). No reading at
+    all for an answer that cannot name anything (empty, only a side, too long)."""
     if len(answer) > MAX_ANSWER_LENGTH:
-        return None
-    words, sides = _split_sides(_words(answer))
-    if not words:
-        return None
-    meaningful = _drop_fillers(words)
-    return _Answer(
-        sides=sides,
-        words=tuple(meaningful),
-        written=" ".join(meaningful),
-        ordered=" ".join(sorted(meaningful)),
-        compact=tuple(dict.fromkeys(("".join(meaningful), "".join(words)))),
-    )
+        return []
+    folded = _words(answer)
+    companions = _companions(folded)
+    if len(companions) > MAX_COMPANIONS_KEPT:
+        keeps: list[tuple[int, ...]] = [(), tuple(companions)]
+    else:
+        keeps = [
+            kept
+            for size in range(len(companions) + 1)
+            for kept in itertools.combinations(companions, size)
+        ]
+    readings: list[_Answer] = []
+    seen: list[list[str]] = []
+    for keep in keeps:
+        words, sides = _split_sides(folded, keep)
+        if not words or words in seen:
+            continue
+        seen.append(words)
+        meaningful = _drop_fillers(words)
+        readings.append(
+            _Answer(
+                sides=sides,
+                words=tuple(meaningful),
+                written=" ".join(meaningful),
+                ordered=" ".join(sorted(meaningful)),
+                compact=tuple(dict.fromkeys(("".join(meaningful), "".join(words)))),
+            )
+        )
+    return readings
 
 
 def _side_allows(hemisphere: Hemisphere, sides: frozenset[Hemisphere]) -> bool:
@@ -243,53 +320,129 @@ class _Distances:
 class AnswerKey:
     """The regions a quiz accepts answers for, with their names normalised up front.
 
-    Built from the regions of the active tag set (or all regions): which names count
-    as "another region's" depends on which regions are in the key.
+    ``regions`` are those of one tag set (a quiz is always taken within one): which
+    names count as "another region's" depends on which regions are in the key.
+
+    ``competitors`` are names that are wrong for every region: the atlas regions the
+    set leaves out ("pars orbitalis" in the full set). They are never accepted, keep
+    typos off themselves, and :meth:`competitor` says which one an answer names. A
+    competitor called exactly what a region is called is no rival of that region.
+
+    ``parts`` maps a region's id to the names of the atlas regions it is made of (the
+    K-5 frontal lobe's "Paracentral lobule"). A part is accepted only where it is also
+    a name of its region, and keeps the *other* regions' typos off itself ("paracentral"
+    is no typo of the K-5 movement strip's "precentral").
+
+    :meth:`AtlasContent.answer_key
+    <webapp.apps.brain_atlas.content.AtlasContent.answer_key>` builds a set's key with
+    both from the atlas names.
     """
 
-    def __init__(self, regions: Sequence[Region]) -> None:
-        self._ids: list[str] = []
-        self._hemispheres: list[Hemisphere] = []
+    def __init__(
+        self,
+        regions: Sequence[Region],
+        competitors: Iterable[str] = (),
+        parts: Mapping[str, Iterable[str]] | None = None,
+    ) -> None:
+        self._ids: list[str] = []  # the regions' ids; entries 0 .. len - 1
+        self._competitors: list[str] = []  # as given; the entries after the regions
         self._index: dict[str, int] = {}
-        self._forms: list[_Form] = []
-        self._own_forms: list[list[int]] = []
-        self._own_ordered: list[frozenset[str]] = []
-        self._own_abbreviations: list[frozenset[str]] = []
-        self._by_ordered: dict[str, set[int]] = {}
-        self._by_abbreviation: dict[str, set[int]] = {}
-        self._abbreviations: list[tuple[str, int]] = []
+        self._hemispheres: list[Hemisphere] = []  # per entry
+        names: list[list[str]] = []  # per entry
         for number, region in enumerate(regions):
             if region.id in self._index:
                 raise ValueError(f"region {region.id!r} is in the answer key twice")
             self._index[region.id] = number
             self._ids.append(region.id)
             self._hemispheres.append(region.hemisphere)
-            self._add_names(number, [region.name, *region.synonyms])
-            self._add_abbreviations(number, region.abbreviations)
-
-    def _add_names(self, region: int, names: Iterable[str]) -> None:
-        """Normalise a region's name and synonyms into forms (once each)."""
-        own: list[int] = []
+            names.append([region.name, *region.synonyms])
         seen: set[str] = set()
-        for name in names:
-            words = _drop_fillers(_split_sides(_words(name))[0])
-            ordered = " ".join(sorted(words))
-            if not words or ordered in seen:
-                continue
-            seen.add(ordered)
-            own.append(len(self._forms))
-            self._forms.append(
-                _Form(
-                    region=region,
-                    words=tuple(words),
-                    written=" ".join(words),
-                    ordered=ordered,
-                    limit=allowed_distance(sum(len(w) for w in words)),
-                )
-            )
-            self._by_ordered.setdefault(ordered, set()).add(region)
-        self._own_forms.append(own)
-        self._own_ordered.append(frozenset(seen))
+        for name in competitors:
+            ordered = " ".join(sorted(_name_words(name)))
+            if ordered and ordered not in seen:
+                seen.add(ordered)
+                self._competitors.append(name)
+                self._hemispheres.append("both")
+                names.append([name])
+        # Parts: one entry per name (left and right regions may share one), after the
+        # competitors; they accept nothing.
+        self._accepting = len(names)  # entries from here on are parts
+        self._owners: list[frozenset[int]] = [frozenset()] * len(names)  # per entry
+        owners: dict[str, tuple[str, set[int]]] = {}
+        for region_id, part_names in (parts or {}).items():
+            if region_id not in self._index:
+                raise ValueError(f"parts of {region_id!r}, which is not in the answer key")
+            for name in part_names:
+                ordered = " ".join(sorted(_name_words(name)))
+                if ordered:
+                    owners.setdefault(ordered, (name, set()))[1].add(self._index[region_id])
+        for name, owning in owners.values():
+            self._hemispheres.append("both")
+            self._owners.append(frozenset(owning))
+            names.append([name])
+        self._forms: list[_Form] = []
+        self._own: list[frozenset[str]] = []  # per entry: the forms accepted exactly
+        self._reach: list[list[int]] = []  # per entry: indices of its accepted forms
+        self._by_ordered: dict[str, set[int]] = {}
+        self._add_names(names)
+        self._abbreviations: list[tuple[str, int]] = []
+        self._by_abbreviation: dict[str, set[int]] = {}
+        self._own_abbreviations: list[frozenset[str]] = []
+        for number, region in enumerate(regions):
+            self._add_abbreviations(number, region.abbreviations)
+        self._own_abbreviations += [frozenset()] * (len(names) - len(self._ids))
+
+    def _add_names(self, names: Sequence[Sequence[str]]) -> None:
+        """Normalise every entry's names into forms, and decide which shortened forms
+        (head noun left out) are unambiguous enough to accept."""
+        full: list[dict[str, _Form]] = []
+        for entry, texts in enumerate(names):
+            own: dict[str, _Form] = {}
+            for text in texts:
+                words = _name_words(text)
+                if words:
+                    form = _Form.of(entry, words)
+                    own.setdefault(form.ordered, form)
+            full.append(own)
+        # Shortened forms, each with the names it shortens; and who claims each form.
+        shorts: list[dict[str, tuple[_Form, set[str]]]] = []
+        claims: dict[str, set[int]] = {}
+        for entry, own in enumerate(full):
+            mine: dict[str, tuple[_Form, set[str]]] = {}
+            for ordered, form in own.items():
+                claims.setdefault(ordered, set()).add(entry)
+                kept = _shortened(form.words)
+                if kept is not None:
+                    short = _Form.of(entry, kept)
+                    if short.ordered not in own:
+                        mine.setdefault(short.ordered, (short, set()))[1].add(ordered)
+            for ordered in mine:
+                claims.setdefault(ordered, set()).add(entry)
+            shorts.append(mine)
+        for entry, own in enumerate(full):
+            if entry >= self._accepting:
+                accepted: set[str] = set()  # a part: only ever a rival
+            else:
+                accepted = set(own)
+            for ordered in shorts[entry] if accepted else ():
+                # Unambiguous unless another entry is called that, or shortens to it
+                # from a name this entry does not share (left and right regions of
+                # one name share their shortened forms too), or a part of another
+                # region does.
+                if all(
+                    entry in self._owners[other]
+                    or (ordered not in full[other] and shorts[other][ordered][1] <= own.keys())
+                    for other in claims[ordered] - {entry}
+                ):
+                    accepted.add(ordered)
+            self._own.append(frozenset(accepted))
+            reach: list[int] = []
+            for form in [*own.values(), *(short for short, _ in shorts[entry].values())]:
+                if form.ordered in accepted:
+                    reach.append(len(self._forms))
+                    self._by_ordered.setdefault(form.ordered, set()).add(entry)
+                self._forms.append(form)  # ambiguous shortened forms keep typos off
+            self._reach.append(reach)
 
     def _add_abbreviations(self, region: int, abbreviations: Iterable[str]) -> None:
         """Abbreviations compare letters and digits only, in order: "M-1" is "m1"."""
@@ -305,64 +458,89 @@ class AnswerKey:
     def judge(self, region_id: str, answer: str) -> bool:
         """Whether ``answer`` names the region ``region_id`` (False for an unknown id)."""
         region = self._index.get(region_id)
-        parsed = _parse(answer)
-        if region is None or parsed is None:
+        if region is None:
             return False
-        return self._accepts(region, parsed, _Distances(parsed, self._forms))
+        return any(
+            self._accepts(region, parsed, _Distances(parsed, self._forms))
+            for parsed in _parses(answer)
+        )
 
     def best(self, answer: str) -> str | None:
-        """The id of the region ``answer`` names, or None if it names none.
+        """The id of the region ``answer`` names, or None if it names none of the key's
+        regions: nothing, a competitor, a part of a region that is not its name, or a
+        typo as near to another name (for the class's statistics).
 
         Always one that :meth:`judge` accepts the answer for; when several do (regions
         sharing a name, e.g. a left and a right one, and no side given), the one on
         the stated side wins, then the first in the key.
         """
-        parsed = _parse(answer)
-        if parsed is None:
+        accepted, sides = self._naming(answer)
+        regions = [entry for entry in accepted if entry < len(self._ids)]
+        if not regions:
             return None
-        distances = _Distances(parsed, self._forms)
-        accepted = [r for r in range(len(self._ids)) if self._accepts(r, parsed, distances)]
-        if not accepted:
-            return None
-        for region in accepted:
-            if self._hemispheres[region] in parsed.sides:
+        for region in regions:
+            if self._hemispheres[region] in sides:
                 return self._ids[region]
-        return self._ids[accepted[0]]
+        return self._ids[regions[0]]
 
-    def _accepts(self, region: int, answer: _Answer, distances: _Distances) -> bool:
-        """The rules: the side must not contradict; an exact name, synonym or
-        abbreviation counts; a typo counts only if no other region's name is as close."""
-        if not _side_allows(self._hemispheres[region], answer.sides):
+    def competitor(self, answer: str) -> str | None:
+        """The competitor ``answer`` names (as it was given to the key), when it names
+        no region of the key: "which region left out of the quiz did they mean"."""
+        accepted, _ = self._naming(answer)
+        if not accepted or accepted[0] < len(self._ids):
+            return None
+        return self._competitors[accepted[0] - len(self._ids)]
+
+    def _naming(self, answer: str) -> tuple[list[int], frozenset[Hemisphere]]:
+        """The entries (regions, then competitors) that accept ``answer`` in any of
+        its readings, in key order; and the sides it states."""
+        accepted: set[int] = set()
+        sides: frozenset[Hemisphere] = frozenset()
+        for parsed in _parses(answer):
+            distances = _Distances(parsed, self._forms)
+            sides = parsed.sides
+            accepted.update(
+                entry for entry in range(self._accepting) if self._accepts(entry, parsed, distances)
+            )
+        return sorted(accepted), sides
+
+    def _accepts(self, entry: int, answer: _Answer, distances: _Distances) -> bool:
+        """The rules: the side must not contradict; an exact name, synonym,
+        unambiguous shortened name or abbreviation counts; a typo counts only if no
+        other entry's name (nor an ambiguous shortened one) is as close."""
+        if not _side_allows(self._hemispheres[entry], answer.sides):
             return False
-        if region in self._by_ordered.get(answer.ordered, ()):
+        if entry in self._by_ordered.get(answer.ordered, ()):
             return True
-        if any(region in self._by_abbreviation.get(c, ()) for c in answer.compact):
+        if any(entry in self._by_abbreviation.get(c, ()) for c in answer.compact):
             return True
         reach = [
             (distance, self._forms[i].limit)
-            for i in self._own_forms[region]
+            for i in self._reach[entry]
             if (distance := distances.to_form(i)) <= self._forms[i].limit
         ]
         if not reach:
             return False
         # The nearest name within its reach sets the limit (the most lenient one if
-        # several are as near); any other region's name within that limit vetoes.
+        # several are as near); any rival name within that limit vetoes.
         nearest = min(distance for distance, _ in reach)
         allowed = max(limit for distance, limit in reach if distance == nearest)
-        return self._rival(region, distances, allowed) is None
+        return not self._rival(entry, distances, allowed)
 
-    def _rival(self, region: int, distances: _Distances, limit: int) -> int | None:
-        """Another region with a name (or abbreviation) within ``limit`` of the answer."""
-        own_ordered = self._own_ordered[region]
+    def _rival(self, entry: int, distances: _Distances, limit: int) -> bool:
+        """Whether a form this entry does not accept (another region's or competitor's
+        name, a part of another region, an ambiguous shortened name) or another
+        region's abbreviation lies within ``limit`` of the answer."""
+        own = self._own[entry]
         for index, form in enumerate(self._forms):
-            if form.region == region or form.ordered in own_ordered:
+            if form.ordered in own or entry in self._owners[form.entry]:
                 continue
             if distances.to_form(index) <= limit:
-                return form.region
-        own_abbreviations = self._own_abbreviations[region]
+                return True
+        own_abbreviations = self._own_abbreviations[entry]
         for abbreviation, other in self._abbreviations:
-            if other == region or abbreviation in own_abbreviations:
+            if other == entry or abbreviation in own_abbreviations:
                 continue
             if distances.to_abbreviation(abbreviation) <= limit:
-                return other
-        return None
+                return True
+        return False

@@ -16,9 +16,7 @@ from typing import TYPE_CHECKING
 from fastapi import APIRouter, Response
 from fastapi.concurrency import run_in_threadpool
 
-from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_payload
-from tag_service.sizing import code_size, min_module_mm
-from wall_client.layout import ROLES, Wall
+from wall_client.layout import Wall
 from webapp.apps import Scan, change_state
 from webapp.apps.census_map.charts import ChartStats
 from webapp.apps.census_map.dataset import DataSet, Tract
@@ -26,7 +24,7 @@ from webapp.apps.census_map.mapview import MapGeometry, code_anchors
 from webapp.apps.census_map.store import DataSets, current_id, seed
 from webapp.caching import SizedCache
 from webapp.publishing import Block, Publication
-from webapp.tags import TagSpec
+from webapp.tags import TagSpec, anchored_code_side_mm
 from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
@@ -111,7 +109,7 @@ class CensusApp:
             ),
         ]
         anchors = code_anchors(
-            self.geometry(dataset), wall, state.view, code_side_mm(services.base_url, wall)
+            self.geometry(dataset), wall, state.view, anchored_code_side_mm(services.base_url, wall)
         )
         tracts = [
             self._spec(
@@ -192,16 +190,6 @@ class CensusApp:
         from webapp.apps.census_map.routes import router
 
         return router
-
-
-def code_side_mm(base_url: str, wall: Wall) -> float:
-    """How wide a tract's code stands on this wall (the smallest symbol that carries a
-    tract's URL, on a display that is not a designated screen)."""
-    payload = url_payload(base_url, "0" * CODE_LENGTH)
-    modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
-    designated = {d.id for role in ROLES for d in wall.screen(role)}
-    display = next((d for d in wall.displays if d.id not in designated), wall.displays[0])
-    return code_size(display, modules, min_module_mm(wall.scan_distance_m)).side_mm
 
 
 async def switch_dataset(services: Services, dataset_id: int) -> None:

@@ -25,6 +25,10 @@ def write(directory: Path, name: str, data: object) -> None:
 def small(tmp_path: Path) -> Path:
     """A small, correct content folder: one quiz region and one K-5 region."""
     shutil.copy(ATLAS_DIR / "atlas-desikankilliany.csv", tmp_path)
+    shutil.copy(ATLAS_DIR / "atlas-names.yaml", tmp_path)
+    shutil.copy(ATLAS_DIR / "views.yaml", tmp_path)
+    for volume in ATLAS_DIR.glob("*.nii.gz"):
+        (tmp_path / volume.name).symlink_to(volume)
     write(
         tmp_path,
         "regions.yaml",
@@ -71,6 +75,43 @@ def test_the_shipped_content_is_complete() -> None:
     content = load_content()
     assert len(content.in_set("full")) == 23 and len(content.in_set("k5")) == 11
     assert check() == []
+    assert set(content.atlas_names) == {label.label for label in content.labels.values()}
+
+
+def test_competitors_are_the_atlas_regions_a_set_leaves_out() -> None:
+    content = load_content()
+    full = content.competitors("full")
+    assert "Pars orbitalis" in full and "Cuneus" in full and "Lingual gyrus" in full
+    # in the quiz (under a name of their own, or as part of a region): no competitors
+    for covered in ("Precentral gyrus", "Pars opercularis", "Rostral anterior cingulate cortex"):
+        assert covered not in full
+    assert content.competitors("k5") == [
+        "Caudal anterior cingulate cortex",
+        "Isthmus cingulate cortex",
+        "Posterior cingulate cortex",
+        "Rostral anterior cingulate cortex",
+        "Caudate nucleus",
+        "Putamen",
+        "Globus pallidus",
+        "Nucleus accumbens",
+    ]
+    parts = content.parts("k5")
+    assert parts["movement-strip"] == ["Precentral gyrus"]
+    assert "Paracentral lobule" in parts["frontal-lobe"]
+    assert content.parts("full")["brocas-area"] == ["Pars opercularis", "Pars triangularis"]
+
+
+def test_one_answer_key_per_set() -> None:
+    """Names are unique within a set only: "hippocampus" is the quiz's hippocampus and
+    the K-5 memory seahorse, each in its own set's key."""
+    content = load_content()
+    full, k5 = content.answer_key("full"), content.answer_key("k5")
+    assert full.best("hippocampus") == "hippocampus"
+    assert k5.best("hippocampus") == "memory-seahorse"
+    assert full.best("memory seahorse") is None
+    assert full.competitor("pars orbitalis") == "Pars orbitalis"
+    assert k5.competitor("pars orbitalis") is None  # part of the K-5 frontal lobe
+    assert k5.judge("frontal-lobe", "frontal") and full.best("frontal") is None
 
 
 def edit_regions(directory: Path, change: dict[str, object], index: int = 0) -> None:
@@ -88,13 +129,128 @@ def edit_regions(directory: Path, change: dict[str, object], index: int = 0) -> 
         ({"name": ""}, "regions.yaml: regions[precentral-gyrus]: name"),
         ({"sets": ["quiz"]}, "regions.yaml: regions[precentral-gyrus]: sets.0"),
         ({"colour": "red"}, "regions.yaml: regions[precentral-gyrus]: colour"),
-        ({"synonyms": ["Brainstem"]}, "'Brainstem' also names precentral-gyrus"),
+        (
+            {"synonyms": ["Pars orbitalis"]},
+            "regions.yaml: precentral-gyrus: 'Pars orbitalis' is the atlas name of "
+            "'parsorbitalis', which no full region includes",
+        ),
     ],
 )
 def test_region_problems_are_named(small: Path, change: dict[str, object], message: str) -> None:
     edit_regions(small, change)
     problems = check(small)
     assert any(message in problem for problem in problems), problems
+
+
+def add_region(directory: Path, region: dict[str, object], tutor: dict[str, object]) -> None:
+    data = yaml.safe_load((directory / "regions.yaml").read_text())
+    data["regions"].append(region)
+    write(directory, "regions.yaml", data)
+    write(directory, f"tutor/{region['id']}.yaml", tutor)
+
+
+def test_names_need_only_be_unique_within_a_set(small: Path) -> None:
+    # the quiz's precentral gyrus and the K-5 brainstem: different sets, no clash
+    edit_regions(small, {"synonyms": ["stalk", "Primary Motor Cortex"], "abbreviations": ["m1"]}, 1)
+    assert check(small) == []
+    # a second K-5 region answering to "brainstem" clashes
+    add_region(
+        small,
+        {
+            "id": "trunk",
+            "name": "Trunk",
+            "synonyms": ["BRAINSTEM"],
+            "hemisphere": "both",
+            "labels": [40],
+            "sets": ["k5"],
+        },
+        {"k5": {"text": TEXT}},
+    )
+    assert check(small) == ["regions.yaml: trunk: 'BRAINSTEM' also names brainstem (k5)"]
+
+
+def test_a_region_in_both_sets_clashes_in_each(small: Path) -> None:
+    group = {"text": TEXT, "references": ["purves"]}
+    research = {"text": TEXT, "references": ["purves"], "search": "motor"}
+    add_region(
+        small,
+        {
+            "id": "motor",
+            "name": "Motor strip",
+            "abbreviations": ["m1"],
+            "hemisphere": "right",
+            "labels": [64],
+            "sets": ["full", "k5"],
+        },
+        {"k5": group, "undergraduate": group, "medical": group, "research": research},
+    )
+    assert check(small) == ["regions.yaml: motor: 'm1' also names precentral-gyrus (full)"]
+    edit_regions(small, {"name": "Motor strip"}, index=1)  # the K-5 brainstem
+    assert set(check(small)) == {
+        "regions.yaml: motor: 'm1' also names precentral-gyrus (full)",
+        "regions.yaml: motor: 'Motor strip' also names brainstem (k5)",
+    }
+
+
+def test_a_name_of_an_atlas_region_the_set_leaves_out(small: Path) -> None:
+    # "Precentral gyrus" is the atlas name of label 23: fine in the full set, which
+    # has it, but not in the K-5 set, which only has the brainstem
+    edit_regions(small, {"synonyms": ["stalk", "precentral GYRUS"]}, index=1)
+    assert check(small) == [
+        "regions.yaml: brainstem: 'precentral GYRUS' is the atlas name of 'precentral', "
+        "which no k5 region includes (add the label, or drop the name)"
+    ]
+    edit_regions(small, {"synonyms": ["Precentral gyrus"]})
+    assert check(small) == [
+        "regions.yaml: brainstem: 'precentral GYRUS' is the atlas name of 'precentral', "
+        "which no k5 region includes (add the label, or drop the name)"
+    ]
+
+
+def test_the_small_folders_answer_keys(small: Path) -> None:
+    content = load_content(small)
+    assert len(content.competitors("full")) == 41  # every atlas region but one
+    key = content.answer_key("full")
+    assert key.judge("precentral-gyrus", "precentral")
+    assert key.competitor("postcentral gyrus") == "Postcentral gyrus"
+    assert not key.judge("precentral-gyrus", "paracentral")
+    k5 = content.answer_key("k5")
+    assert k5.best("primary motor cortex") is None  # the full set's precentral gyrus
+    assert k5.competitor("precentral") == "Precentral gyrus"
+
+
+def edit_atlas_names(directory: Path, change: dict[str, object]) -> None:
+    data = yaml.safe_load((directory / "atlas-names.yaml").read_text())
+    data.update(change)
+    write(directory, "atlas-names.yaml", {k: v for k, v in data.items() if v != "-"})
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"cuneus": "-"}, "atlas-names.yaml: no readable name for the atlas label 'cuneus'"),
+        ({"cerebellum": "Cerebellum"}, "atlas-names.yaml: cerebellum: not a label of the atlas"),
+        ({"cuneus": ""}, "atlas-names.yaml: cuneus: expected a name of 1 to 100 characters"),
+        ({"cuneus": ["Cuneus"]}, "atlas-names.yaml: cuneus: expected a name of 1 to 100"),
+        ({"cuneus": "x" * 101}, "atlas-names.yaml: cuneus: expected a name of 1 to 100"),
+        ({"lingual": "CUNEUS"}, "atlas-names.yaml: lingual: 'CUNEUS' also names cuneus"),
+    ],
+)
+def test_atlas_name_problems_are_named(
+    small: Path, change: dict[str, object], message: str
+) -> None:
+    edit_atlas_names(small, change)
+    problems = check(small)
+    assert any(message in problem for problem in problems), problems
+
+
+def test_atlas_names_file_missing_or_not_a_mapping(small: Path) -> None:
+    (small / "atlas-names.yaml").unlink()
+    assert check(small) == ["atlas-names.yaml: missing"]
+    (small / "atlas-names.yaml").write_text("- cuneus\n- lingual\n")
+    assert check(small) == ["atlas-names.yaml: expected a mapping of atlas label -> readable name"]
+    (small / "atlas-names.yaml").write_text("# nothing yet\n")
+    assert check(small) == ["atlas-names.yaml: empty"]
 
 
 def test_a_missing_text_and_an_unknown_region(small: Path) -> None:
@@ -135,8 +291,27 @@ def test_the_command_prints_a_summary_or_the_problems(small: Path) -> None:
     runner = CliRunner()
     good = runner.invoke(main, ["content", "check", "--dir", str(small)])
     assert good.exit_code == 0, good.output
-    assert "ok: 1 quiz regions, 1 K-5 regions, 2 tutor files, 1 references" in good.output
+    assert "ok: 1 quiz regions, 1 K-5 regions, 2 tutor files, 1 references, 5 views" in good.output
     edit_regions(small, {"labels": [99]})
     bad = runner.invoke(main, ["content", "check", "--dir", str(small)])
     assert bad.exit_code == 2
     assert "99 is not an atlas label" in bad.output and "1 problem(s) found" in bad.output
+
+
+def test_the_command_names_regions_no_view_shows(small: Path) -> None:
+    (small / "views.yaml").write_text(
+        "views:\n"
+        "  - id: top\n"
+        "    name: From above\n"
+        "    view: {yaw: 0, pitch: 90}\n"
+        "    layer: {mode: slice, slice: 0.6}\n"
+    )
+    result = CliRunner().invoke(main, ["content", "check", "--dir", str(small)])
+    assert result.exit_code == 2
+    assert "views.yaml: no view shows the pin of brainstem" in result.output
+
+
+def test_the_command_explains_a_broken_views_file(small: Path) -> None:
+    (small / "views.yaml").write_text("views:\n  - id: x\n    name: X\n    colour: red\n")
+    result = CliRunner().invoke(main, ["content", "check", "--dir", str(small)])
+    assert result.exit_code == 2 and "views.yaml" in result.output

@@ -1,0 +1,324 @@
+"""The brain atlas over HTTP, as the dashboard and phones use it; above all, who may
+learn a pin's name and when."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from webapp.apps.brain_atlas import BrainApp
+from webapp.tags import get_layout, wall_tags
+from webapp.wall_state import WallState, read_state
+
+
+def state_of(client: TestClient) -> WallState:
+    return read_state(services_of(client).db, "demo")[1]
+
+
+def brain(client: TestClient) -> BrainApp:
+    app = services_of(client).apps["brain"]
+    assert isinstance(app, BrainApp)
+    return app
+
+
+def show_brain(client: TestClient) -> WallState:
+    response = client.post(
+        "/api/walls/demo/state", json={"app": "brain"}, headers=operator_headers(client)
+    )
+    assert response.status_code == 200, response.text
+    return state_of(client)
+
+
+def control(client: TestClient, **choice: Any) -> dict[str, Any]:
+    response = client.post("/api/walls/demo/brain", json=choice, headers=operator_headers(client))
+    assert response.status_code == 200, response.text
+    body: dict[str, Any] = response.json()
+    return body
+
+
+def brain_codes(client: TestClient) -> dict[str, str]:
+    """Live brain tags by name -> code."""
+    tags = wall_tags(services_of(client).db, "demo")
+    return {t.name: t.code for t in tags if t.app == "brain" and t.active and t.name}
+
+
+def placed_codes(client: TestClient) -> set[str]:
+    state = state_of(client)
+    layout = get_layout(services_of(client).db, "demo", state.tag_layout)
+    assert layout is not None
+    return {p["code"] for p in layout.placed}
+
+
+def pins_on_wall(client: TestClient, tag_set: str) -> dict[int, str]:
+    """Pin number -> code of the set's pins placed on the wall now."""
+    on_wall = placed_codes(client)
+    prefix = f"brain:{tag_set}:pin:"
+    return {
+        int(name.removeprefix(prefix)): code
+        for name, code in brain_codes(client).items()
+        if name.startswith(prefix) and code in on_wall
+    }
+
+
+def every_pin(client: TestClient, tag_set: str) -> dict[int, str]:
+    """Pin number -> code of every pin of a set, turning the brain through the presets."""
+    found: dict[int, str] = {}
+    for preset in brain(client).views:
+        control(client, preset=preset.id)
+        found |= pins_on_wall(client, tag_set)
+    return found
+
+
+def answer(client: TestClient, code: str, text: str) -> Any:
+    return client.post(
+        f"/apps/brain/demo/pins/{code}/answer",
+        data={"answer": text, "csrf": csrf_of(client)},
+        follow_redirects=False,
+    )
+
+
+@pytest.fixture
+def on_wall(client: TestClient) -> TestClient:
+    show_brain(client)
+    return client
+
+
+def test_putting_the_brain_up_shows_the_template_with_pins_and_the_group_menu(
+    on_wall: TestClient,
+) -> None:
+    state = state_of(on_wall)
+    assert state.volume is not None and state.volume.volume == "mni152"
+    assert state.mode == "quiz" and state.tag_set == "brain-full"
+    codes = brain_codes(on_wall)
+    menu = [f"brain:group:{g}" for g in ("k5", "undergraduate", "medical", "research")]
+    assert set(menu) <= set(codes)
+    assert {codes[name] for name in menu} <= placed_codes(on_wall)
+    pins = pins_on_wall(on_wall, "full")
+    assert pins, "the first view shows some pins"
+    assert not pins_on_wall(on_wall, "k5"), "only the active set's pins are placed"
+
+
+def test_every_region_of_both_sets_gets_a_pin_in_some_preset(on_wall: TestClient) -> None:
+    app = brain(on_wall)
+    for tag_set in ("k5", "full"):
+        control(on_wall, tag_set=tag_set)
+        assert sorted(every_pin(on_wall, tag_set)) == list(range(1, len(app.regions(tag_set)) + 1))
+
+
+def test_pins_are_numbered_and_never_named_anywhere_a_student_can_read(
+    on_wall: TestClient,
+) -> None:
+    state = state_of(on_wall)
+    layout = on_wall.get(f"/api/walls/demo/layouts/{state.tag_layout}")
+    assert layout.status_code == 200
+    names = [r.name.casefold() for r in brain(on_wall).regions("full")]
+    text = json.dumps(layout.json()).casefold()
+    assert "pin 1" in text or "pin " in text
+    assert not [name for name in names if name in text]
+    register_student(on_wall)
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    page = on_wall.get(f"/t/{code}").text
+    assert "What is this? Please enter the name of the tagged region." in page
+    assert f"Pin {number}" in page
+    assert not [name for name in names if name in page.casefold()]
+    assert 'id="reveal"' not in page
+
+
+def test_a_student_cannot_get_an_answer_early_by_any_route(on_wall: TestClient) -> None:
+    register_student(on_wall)
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    region = brain(on_wall).region_of_pin("full", number)
+    assert region is not None
+    csrf = csrf_of(on_wall)
+
+    # the instructor's Answer button, posted by a student (a replayed URL and form)
+    reveal = on_wall.post(f"/apps/brain/demo/pins/{code}/reveal", data={"csrf": csrf})
+    assert reveal.status_code == 403
+    assert region.name not in reveal.text
+    # the staff API with the class's statistics and the CSV export
+    assert on_wall.get("/api/walls/demo/brain").status_code == 401
+    assert on_wall.get("/api/walls/demo/brain/answers.csv").status_code == 401
+    # the progress page before finishing, and finishing before answering everything
+    answer(on_wall, code, "no idea")
+    progress = on_wall.get("/apps/brain/demo/quiz/full")
+    assert progress.status_code == 200 and region.name not in progress.text
+    finish = on_wall.post("/apps/brain/demo/quiz/full/finish", data={"csrf": csrf})
+    assert "still need an answer" in finish.text and region.name not in finish.text
+    # the tutor page and its literature search while the quiz is on
+    assert on_wall.get(f"/apps/brain/demo/pins/{code}/literature").status_code == 409
+    # publishing the pin's page to the public screen
+    published = on_wall.post("/publish", data={"csrf": csrf, "code": code})
+    assert region.name not in published.text
+    public = state_of(on_wall).public
+    assert public is None or region.name not in public.html
+
+
+def test_an_instructor_sees_the_answer_at_once(on_wall: TestClient) -> None:
+    sign_in(on_wall, "instructor")
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    region = brain(on_wall).region_of_pin("full", number)
+    assert region is not None
+    page = on_wall.get(f"/t/{code}")
+    assert 'id="reveal"' in page.text
+
+    revealed = on_wall.post(f"/apps/brain/demo/pins/{code}/reveal", data={"csrf": csrf_of(on_wall)})
+
+    assert revealed.status_code == 200
+    assert region.name in revealed.text
+
+
+def test_the_reveal_needs_the_csrf_token(on_wall: TestClient) -> None:
+    sign_in(on_wall, "instructor")
+    _, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    assert on_wall.post(f"/apps/brain/demo/pins/{code}/reveal").status_code == 403
+
+
+def test_a_student_answers_every_k5_pin_finishes_and_sees_results(on_wall: TestClient) -> None:
+    app = brain(on_wall)
+    control(on_wall, tag_set="k5")
+    pins = every_pin(on_wall, "k5")
+    register_student(on_wall)
+    regions = app.regions("k5")
+    for number, code in sorted(pins.items()):
+        region = regions[number - 1]
+        text = region.name if number % 2 else "the wrong thing"
+        response = answer(on_wall, code, text)
+        assert response.status_code == 303
+        assert response.headers["location"] == "/apps/brain/demo/quiz/k5"
+    # answers may change until finishing
+    answer(on_wall, pins[2], regions[1].name.upper())
+
+    before = on_wall.get("/apps/brain/demo/quiz/k5").text
+    assert 'id="finish"' in before
+    assert regions[3].name not in before
+    on_wall.post("/apps/brain/demo/quiz/k5/finish", data={"csrf": csrf_of(on_wall)})
+
+    results = on_wall.get("/apps/brain/demo/quiz/k5").text
+    right = sum(1 for n in pins if n % 2) + 1
+    assert f"{right} of {len(regions)} right" in results
+    assert all(r.name in results for r in regions)
+    late = answer(on_wall, pins[4], regions[3].name)
+    assert late.status_code == 422 and "final" in late.text
+
+
+def test_answers_are_judged_tolerantly(on_wall: TestClient) -> None:
+    register_student(on_wall)
+    pins = pins_on_wall(on_wall, "full")
+    number, code = next(iter(pins.items()))
+    region = brain(on_wall).region_of_pin("full", number)
+    assert region is not None
+    answer(on_wall, code, f"  left {region.name.lower()}  ")
+
+    stats = control(on_wall)["quiz"]["full"]["regions"][number - 1]
+
+    assert stats["answered"] == 1 and stats["share_correct"] == 1.0
+
+
+@pytest.mark.parametrize(
+    "form",
+    [{}, {"answer": ""}, {"answer": "x" * 1001}],
+    ids=["missing", "empty", "too long"],
+)
+def test_malformed_answers_get_a_clear_error_and_store_nothing(
+    on_wall: TestClient, form: dict[str, str]
+) -> None:
+    register_student(on_wall)
+    _, code = next(iter(pins_on_wall(on_wall, "full").items()))
+
+    response = on_wall.post(
+        f"/apps/brain/demo/pins/{code}/answer", data={**form, "csrf": csrf_of(on_wall)}
+    )
+
+    assert response.status_code == 422
+    assert 'role="alert"' in response.text and 'id="answer-form"' in response.text
+    assert control(on_wall)["quiz"]["full"]["participants"] == 0
+
+
+def test_unknown_pins_and_sets_are_404(on_wall: TestClient) -> None:
+    register_student(on_wall)
+    assert on_wall.get("/apps/brain/demo/pins/NOPE0000").status_code == 404
+    assert on_wall.get("/apps/brain/demo/quiz/medical").status_code == 400
+    census_like = next(
+        t.code for t in wall_tags(services_of(on_wall).db, "demo") if t.app == "core"
+    )
+    assert on_wall.get(f"/apps/brain/demo/pins/{census_like}").status_code == 404
+
+
+def test_scanning_a_group_code_sets_the_visitors_group_and_the_walls_pins(
+    on_wall: TestClient,
+) -> None:
+    register_student(on_wall)
+    code = brain_codes(on_wall)["brain:group:k5"]
+
+    page = on_wall.get(f"/t/{code}")
+
+    assert page.status_code == 200 and "K-5" in page.text
+    assert state_of(on_wall).tag_set == "brain-k5"
+    assert pins_on_wall(on_wall, "k5") and not pins_on_wall(on_wall, "full")
+    assert 'value="k5" selected' in on_wall.get("/me").text
+
+
+def test_tutor_mode_shows_the_page_for_the_visitors_group_and_publishes_it_in_full(
+    on_wall: TestClient,
+) -> None:
+    control(on_wall, mode="tutor")
+    register_student(on_wall)
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    region = brain(on_wall).region_of_pin("full", number)
+    assert region is not None
+
+    page = on_wall.get(f"/t/{code}")
+
+    assert page.status_code == 200 and region.name in page.text
+    assert "For the Undergraduate group" in page.text
+    published = on_wall.post("/publish", data={"csrf": csrf_of(on_wall), "code": code})
+    assert published.status_code in (200, 303)
+    public = state_of(on_wall).public
+    assert public is not None and public.title == region.name
+    assert "<script" not in public.html
+
+
+def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(
+    on_wall: TestClient,
+) -> None:
+    app = brain(on_wall)
+    status = control(on_wall, mode="tutor", tag_set="k5", preset=app.views[1].id)
+    assert (status["mode"], status["tag_set"]) == ("tutor", "k5")
+    state = state_of(on_wall)
+    assert state.view == app.views[1].view
+    assert status["round"] == 1
+
+    reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+
+    assert reset.status_code == 200 and reset.json()["round"] == 2
+    bad = on_wall.post(
+        "/api/walls/demo/brain", json={"preset": "nowhere"}, headers=operator_headers(on_wall)
+    )
+    assert bad.status_code == 404
+    extra = on_wall.post(
+        "/api/walls/demo/brain", json={"colour": "red"}, headers=operator_headers(on_wall)
+    )
+    assert extra.status_code == 422
+
+
+def test_the_csv_export_lists_the_rounds_answers(on_wall: TestClient) -> None:
+    register_student(on_wall)
+    _, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    answer(on_wall, code, "thalamus")
+
+    export = on_wall.get("/api/walls/demo/brain/answers.csv", headers=operator_headers(on_wall))
+
+    assert export.status_code == 200
+    assert export.headers["content-type"].startswith("text/csv")
+    assert "thalamus" in export.text
+
+
+def test_controls_refuse_when_the_brain_is_not_on_the_wall(client: TestClient) -> None:
+    response = client.post(
+        "/api/walls/demo/brain", json={"mode": "tutor"}, headers=operator_headers(client)
+    )
+    assert response.status_code == 409
