@@ -119,3 +119,38 @@ def test_a_child_answers_every_k5_pin_off_the_tiles_and_sees_the_results(
     phone.context.close()
     for page in tiles.values():
         page.context.close()
+
+
+def test_the_instructor_turns_the_brain_and_follows_the_class_from_the_dashboard(
+    browser: Browser, atlas: ServerProcess
+) -> None:
+    [tile] = open_tiles(browser, atlas, "demo", ["r2c2"])
+    settle(atlas, {"r2c2": tile})
+    dashboard = browser.new_page()
+    dashboard.goto(f"{atlas.url}/login/operator?token={operator_token(atlas.secret)}")
+    panel = dashboard.locator("#brain-panel")
+    expect(panel.locator("#brain-now")).to_contain_text("quiz, full pins")
+    before = version_of(tile)
+
+    panel.get_by_role("button", name="Deep structures, axial slice").click()
+
+    wait_until(lambda: (version_of(tile) or 0) > (before or 0), what="the tile to turn")
+    assert atlas.status("demo")["state"]["view"]["pitch"] == 90
+    # a student answers a pin; the panel's table counts it
+    pin = next(c for c in layout_of(atlas).placed if c.label.startswith("Pin "))
+    phone = browser.new_context(**PHONE).new_page()
+    phone.goto(pin.payload)
+    phone.locator("#answer").fill("the wrong thing")
+    phone.get_by_role("button", name="Send").click()
+    number = pin.label.removeprefix("Pin ")
+    row = panel.locator("#brain-stats tbody tr").nth(int(number) - 1)
+    expect(row).to_contain_text("the wrong thing (1)", timeout=10_000)
+    expect(panel.locator("#brain-participants")).to_contain_text("1 taking part")
+
+    panel.get_by_role("button", name="Tutor").click()
+    expect(panel.locator("#brain-now")).to_contain_text("tutor")
+    phone.goto(pin.payload)
+    expect(phone.locator("#tutor-text")).to_be_visible()
+    phone.context.close()
+    tile.context.close()
+    dashboard.close()

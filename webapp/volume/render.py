@@ -329,6 +329,26 @@ def render(
     return image.reshape(rows, columns, 3)
 
 
+def steps_inside(
+    starts: Vector, stride: Vector, low: Vector, high: Vector
+) -> tuple[Vector, Vector]:
+    """Per ray the first and last ``k`` with ``start + k * stride`` in the box (half-open,
+    ``low <= p < high`` on every axis, whichever way the ray runs); first > last when
+    none."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        to_low = (low - starts) / stride
+        to_high = (high - starts) / stride
+        rising = stride > 0
+        first = np.where(rising, np.ceil(to_low), np.floor(to_high) + 1)
+        last = np.where(rising, np.ceil(to_high) - 1, np.floor(to_low))
+    still = stride == 0
+    inside = (starts >= low) & (starts < high)
+    limit = np.iinfo(np.int32).max
+    first = np.where(still, np.where(inside, -limit, limit), first)
+    last = np.where(still, np.where(inside, limit, -limit), last)
+    return first.max(axis=1).astype(np.int64), last.min(axis=1).astype(np.int64)
+
+
 class _March:
     """Rays stepping through the held voxels together.
 
@@ -462,22 +482,10 @@ class _Sampler:
     def steps_inside(
         self, starts: Vector, stride: Vector, box: tuple[Vector, Vector] | None = None
     ) -> tuple[Vector, Vector]:
-        """Per ray the first and last ``k`` with ``start + k * stride`` in ``box`` (the
-        kept box by default; half-open, ``low <= p < high`` on every axis, whichever
-        way the ray runs); first > last when none."""
+        """Per ray the steps inside ``box`` (the kept box by default), see
+        :func:`steps_inside`."""
         low, high = box if box is not None else (self.low_corner, self.high_corner)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            to_low = (low - starts) / stride
-            to_high = (high - starts) / stride
-            rising = stride > 0
-            first = np.where(rising, np.ceil(to_low), np.floor(to_high) + 1)
-            last = np.where(rising, np.ceil(to_high) - 1, np.floor(to_low))
-        still = stride == 0
-        inside = (starts >= low) & (starts < high)
-        limit = np.iinfo(np.int32).max
-        first = np.where(still, np.where(inside, -limit, limit), first)
-        last = np.where(still, np.where(inside, limit, -limit), last)
-        return first.max(axis=1).astype(np.int64), last.min(axis=1).astype(np.int64)
+        return steps_inside(starts, stride, low, high)
 
     def holds_axis(self, points: Vector) -> npt.NDArray[Any]:
         return (points >= self.low_corner) & (points < self.high_corner)

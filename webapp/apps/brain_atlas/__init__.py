@@ -19,6 +19,7 @@ from fastapi import APIRouter, Response
 from wall_client.layout import Wall
 from webapp.apps import Scan
 from webapp.apps.brain_atlas.content import (
+    ATLAS_DIR,
     AtlasContent,
     GroupText,
     Region,
@@ -28,10 +29,10 @@ from webapp.apps.brain_atlas.content import (
 )
 from webapp.apps.brain_atlas.literature import PubMed
 from webapp.apps.brain_atlas.matching import AnswerKey
-from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache, scene_pins
+from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.views import ViewPreset, load_views, showing
 from webapp.publishing import Block, Publication
-from webapp.settings import CONTENT_DIR, Settings, UserGroup
+from webapp.settings import Settings, UserGroup
 from webapp.tags import TagSpec, anchored_code_side_mm
 from webapp.volume.build import build_store, open_source
 from webapp.wall_state import WallState
@@ -40,8 +41,6 @@ if TYPE_CHECKING:
     from webapp.services import Services
 
 APP = "brain"
-VOLUME = "mni152"
-TEMPLATE = CONTENT_DIR / "brain_atlas" / "mni_icbm152_t1_tal_nlin_sym_09a.nii.gz"
 Mode = Literal["quiz", "tutor"]
 MODES: tuple[Mode, ...] = ("quiz", "tutor")
 TAG_SETS: dict[TagSetName, str] = {"k5": "brain-k5", "full": "brain-full"}
@@ -161,7 +160,7 @@ class BrainApp:
         in the first preset view, in quiz mode, unless it is already up."""
         if VOLUME not in services.volumes:
             build_store(
-                open_source(TEMPLATE),
+                open_source(ATLAS_DIR / TEMPLATE_FILE),
                 services.settings.resolved_volume_dir / VOLUME,
                 name=VOLUME,
             )
@@ -238,10 +237,9 @@ class BrainApp:
 
         if scan.tag.action != "pin":
             return None
-        found = await pages.tutor_subject(self, scan.services, scan.wall, scan.tag)
-        if found is None:
+        region = await pages.tutor_subject(self, scan.services, scan.wall, scan.tag)
+        if region is None:
             return None
-        region, _ = found
         person = await scan.person()
         text = self.tutor_text(region, person.user_group)
         if text is None:

@@ -39,6 +39,10 @@ _TAG = re.compile(r"<[^>]*>")
 _YEAR = re.compile(r"^\s*([0-9]{4})\b")
 
 
+RETRY_AFTER_FAILURE_S = 60.0
+"""After PubMed failed, how long searches answer offline at once before trying again."""
+
+
 class LiteratureUnavailable(Exception):
     """PubMed could not give an answer; ``reason`` says why, in plain words (shown to
     readers), ``detail`` what exactly failed (logged)."""
@@ -107,6 +111,9 @@ class PubMed:
         self.max_cached = max_cached
         self._transport = transport
         self._clock = clock
+        # after a failure, (until when, why): pages answer offline at once meanwhile
+        # instead of each waiting the whole timeout for a network that is not there
+        self._down: tuple[float, str] | None = None
         # query -> (when fetched, articles); insertion order is age order. Reads and
         # writes happen between awaits, so concurrent searches need no lock (two
         # concurrent misses for one query both ask PubMed; the later answer is kept).
@@ -120,6 +127,8 @@ class PubMed:
         cached = self._cached(query)
         if cached is not None:
             return cached
+        if self._down is not None and self._clock() < self._down[0]:
+            raise LiteratureUnavailable(self._down[1])  # still resting: answer at once
         try:
             try:
                 async with asyncio.timeout(self.timeout):
@@ -133,7 +142,9 @@ class PubMed:
                 error.reason,
                 f" ({error.detail})" if error.detail else "",
             )
+            self._down = (self._clock() + RETRY_AFTER_FAILURE_S, error.reason)
             raise
+        self._down = None
         self._store(query, articles)
         return list(articles)
 

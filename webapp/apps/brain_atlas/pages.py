@@ -87,14 +87,23 @@ async def wall_state(services: Services, wall: Wall) -> WallState:
 
 async def tutor_subject(
     app: BrainApp, services: Services, wall: Wall, tag: TagRecord
-) -> tuple[Region, TagSetName] | None:
+) -> Region | None:
     """The region a pin shows in tutor mode (None while the quiz is on: then a pin
     must not be named anywhere)."""
     state = await wall_state(services, wall)
     if state.app != APP or mode_of(state) != "tutor":
         return None
-    tag_set, _, region = region_of(app, tag)
-    return region, tag_set
+    return region_of(app, tag)[2]
+
+
+async def tutor_region(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Region:
+    """The region of a tutor page; 409 while the quiz is on."""
+    found = await tutor_subject(app, services, wall, tag)
+    if found is None:
+        raise HTTPException(
+            status.HTTP_409_CONFLICT, "The quiz is on: the tutor pages open when it is over."
+        )
+    return found
 
 
 def pin_views(app: BrainApp, region: Region) -> list[str]:
@@ -291,12 +300,7 @@ async def tutor_page(
 ) -> Response:
     """The region's page for the visitor's group: a summary here, the whole text on
     the public screen when published."""
-    found = await tutor_subject(app, services, wall, tag)
-    if found is None:
-        raise HTTPException(
-            status.HTTP_409_CONFLICT, "The quiz is on: the tutor pages open when it is over."
-        )
-    region, _ = found
+    region = await tutor_region(app, services, wall, tag)
     text = app.tutor_text(region, person.user_group)
     if text is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no page for you yet.")

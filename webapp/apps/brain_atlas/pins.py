@@ -37,7 +37,7 @@ from wall_client.layout import apply_affine, invert_affine
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.volume.build import DEFAULT_BRICK
 from webapp.volume.layer import VolumeLayer, lookup_table
-from webapp.volume.render import Camera, clip_box, scene_to_plane, slice_depth
+from webapp.volume.render import Camera, clip_box, scene_to_plane, slice_depth, steps_inside
 from webapp.volume.store import VolumeMeta
 from webapp.wall_state import View
 
@@ -296,23 +296,6 @@ class _Rays:
         return held
 
 
-def _steps_inside(starts: Array, stride: Array, low: Array, high: Array) -> tuple[Array, Array]:
-    """Per ray the first and last ``k`` with ``start + k * stride`` in the half-open box
-    (first > last when none)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        to_low = (low - starts) / stride
-        to_high = (high - starts) / stride
-        rising = stride > 0
-        first = np.where(rising, np.ceil(to_low), np.floor(to_high) + 1)
-        last = np.where(rising, np.ceil(to_high) - 1, np.floor(to_low))
-    still = stride == 0
-    inside = (starts >= low) & (starts < high)
-    limit = float(np.iinfo(np.int32).max)
-    first = np.where(still, np.where(inside, -limit, limit), first)
-    last = np.where(still, np.where(inside, limit, -limit), last)
-    return first.max(axis=1).astype(np.int64), last.min(axis=1).astype(np.int64)
-
-
 def _seen_points(volumes: AtlasVolumes, rays: _Rays, layer: VolumeLayer) -> tuple[Array, Array]:
     """Per ray whether its opacity crosses SEEN, and the sample index ``k`` where it
     first does (composite and mip: the same opacity, as the renderer accumulates it)."""
@@ -320,7 +303,7 @@ def _seen_points(volumes: AtlasVolumes, rays: _Rays, layer: VolumeLayer) -> tupl
     forward = rays.camera.forward
     stride = STEP * forward
     count = len(rays.starts)
-    first, last = _steps_inside(rays.starts, stride, rays.low, rays.high)
+    first, last = steps_inside(rays.starts, stride, rays.low, rays.high)
     table = lookup_table(layer.transfer)
     alpha_table = 1.0 - (1.0 - table[:, 3].astype(np.float64)) ** STEP
     low, high = meta.value_range

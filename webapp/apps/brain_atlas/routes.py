@@ -13,7 +13,6 @@ from webapp.apps import change_state
 from webapp.apps.brain_atlas import (
     APP,
     TAG_SETS,
-    VOLUME,
     BrainApp,
     Mode,
     mode_of,
@@ -22,6 +21,7 @@ from webapp.apps.brain_atlas import (
 )
 from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
+from webapp.apps.brain_atlas.pins import VOLUME
 from webapp.apps.brain_atlas.quiz import export_csv, start_round, statistics
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
@@ -98,12 +98,7 @@ async def literature(
     the query names the region)."""
     app = brain_app(services)
     tag = await run_in_threadpool(pages.tag_of, services, wall, code)
-    found = await pages.tutor_subject(app, services, wall, tag)
-    if found is None:
-        raise HTTPException(
-            status.HTTP_409_CONFLICT, "The quiz is on: the tutor pages open when it is over."
-        )
-    region, _ = found
+    region = await pages.tutor_region(app, services, wall, tag)
     if not app.has_research(region):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no literature list.")
     result = await literature_for(region.id, app.content, app.pubmed(services.settings))

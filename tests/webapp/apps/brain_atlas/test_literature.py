@@ -16,6 +16,7 @@ import pytest
 
 from webapp.apps.brain_atlas.content import AtlasContent, load_content
 from webapp.apps.brain_atlas.literature import (
+    RETRY_AFTER_FAILURE_S,
     LiteratureUnavailable,
     PubMed,
     format_authors,
@@ -276,19 +277,27 @@ async def test_cache_keeps_a_bounded_number_of_queries_dropping_the_oldest() -> 
     assert len(recorder.requests) == 8  # dropped as the oldest
 
 
-async def test_failures_are_not_cached() -> None:
+async def test_after_a_failure_searches_answer_offline_at_once_for_a_while() -> None:
     broken = True
+    asked: list[str] = []
 
     def flaky(request: httpx.Request) -> httpx.Response:
+        asked.append(request.url.path)
         if broken:
             return httpx.Response(503)
         return Recorder()(request)
 
-    client = PubMed(Settings(), transport=httpx.MockTransport(flaky))
-    with pytest.raises(LiteratureUnavailable):
+    clock = Clock()
+    client = PubMed(Settings(), transport=httpx.MockTransport(flaky), clock=clock)
+    with pytest.raises(LiteratureUnavailable, match="503"):
         await client.search(QUERY)
     broken = False
-    assert len(await client.search(QUERY)) == 4
+    clock.now += RETRY_AFTER_FAILURE_S - 1
+    with pytest.raises(LiteratureUnavailable, match="503"):
+        await client.search(QUERY)  # resting: no request, the same reason
+    assert len(asked) == 1
+    clock.now += 1
+    assert len(await client.search(QUERY)) == 4  # the failure was not cached
 
 
 async def test_each_instance_has_its_own_cache() -> None:

@@ -21,7 +21,7 @@ import pytest
 
 from wall_client.layout import apply_affine, parse_wall
 from webapp.apps.brain_atlas import pins as pins_module
-from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region, load_content
+from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import (
     LABELS_FILE,
     LOOKAHEAD,
@@ -38,7 +38,7 @@ from webapp.apps.brain_atlas.pins import (
     scene_pins,
     visible_regions,
 )
-from webapp.apps.brain_atlas.views import ViewPreset, load_views
+from webapp.apps.brain_atlas.views import ViewPreset
 from webapp.volume.layer import VolumeLayer, lookup_table
 from webapp.volume.render import Camera, Footprint, clip_box, scene_to_plane, slice_depth
 from webapp.volume.store import VolumeMeta
@@ -47,21 +47,6 @@ from webapp.wall_state import View
 Array = npt.NDArray[Any]
 ATLAS_SHIFT = (25, 27, 0)  # template voxel = atlas voxel + this (PROVENANCE.md)
 RIGHT_HEMISPHERE = range(42, 83)
-
-
-@pytest.fixture(scope="module")
-def volumes() -> AtlasVolumes:
-    return AtlasVolumes.load()
-
-
-@pytest.fixture(scope="module")
-def regions() -> list[Region]:
-    return load_content().regions
-
-
-@pytest.fixture(scope="module")
-def presets() -> list[ViewPreset]:
-    return load_views()
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from wall_client.layout import load_walls
-from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region, load_content
+from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache
 from webapp.apps.brain_atlas.views import (
     VIEWS_FILE,
@@ -22,21 +22,6 @@ from webapp.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer
 
 COMFORTABLE = 100.0  # mm²: every region shows at least this large in its best preset
-
-
-@pytest.fixture(scope="module")
-def volumes() -> AtlasVolumes:
-    return AtlasVolumes.load()
-
-
-@pytest.fixture(scope="module")
-def regions() -> list[Region]:
-    return load_content().regions
-
-
-@pytest.fixture(scope="module")
-def presets() -> list[ViewPreset]:
-    return load_views()
 
 
 @pytest.fixture(scope="module")
