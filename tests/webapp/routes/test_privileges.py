@@ -279,6 +279,14 @@ def matrix(client: TestClient) -> list[Row]:
             PUBLIC,
             form={},
         ),
+        Row("GET", "/apps/brain/{wall_id}/groups", "/apps/brain/irregular/groups", PUBLIC),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/groups/{group}",
+            "/apps/brain/irregular/groups/medical",
+            PUBLIC,
+            form={},
+        ),
         Row("GET", "/api/walls/{wall_id}/brain", "/api/walls/irregular/brain", STAFF_API),
         Row(
             "POST",

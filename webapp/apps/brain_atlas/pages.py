@@ -8,7 +8,7 @@ results need the visitor to have finished, tutor pages need tutor mode.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
@@ -324,30 +324,45 @@ async def tutor_page(
 
 async def choose_group(app: BrainApp, scan: Scan) -> Response:
     """A scanned group code: the visitor joins that group and the wall shows its pins."""
-    group = scan.tag.params.get("group")
-    if group not in USER_GROUPS:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "That group is not on the menu now.")
-    chosen = cast(UserGroup, group)
     person = await scan.person()
+    group = str(scan.tag.params.get("group", ""))
+    return await join_group(app, scan.request, scan.services, scan.wall, person, group)
+
+
+async def join_group(
+    app: BrainApp, request: Request, services: Services, wall: Wall, person: Person, group: str
+) -> Response:
+    """The visitor joins ``group`` and the wall shows that group's pins (from a menu
+    code, or from the phone's group list on walls whose menu screen has no room)."""
+    if group not in USER_GROUPS:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no user group {group!r}.")
+    chosen: UserGroup = group
     updated = await run_in_threadpool(
         update_profile,
-        scan.services.db,
+        services.db,
         person,
-        scan.services.settings,
+        services.settings,
         user_group=chosen,
         info_class=person.info_class,
         display_name=person.display_name,
     )
-    remember_person(scan.request, updated)
+    remember_person(request, updated)
     tag_set = set_of_group(chosen)
-    await show_set(scan.services, scan.wall, tag_set)
+    await show_set(services, wall, tag_set)
     return render(
-        scan.request,
+        request,
         "brain/group.html",
-        wall=scan.wall,
+        wall=wall,
         group=GROUP_LABELS[chosen],
         tag_set=tag_set,
         pins=len(app.regions(tag_set)),
+    )
+
+
+def groups_page(request: Request, wall: Wall, person: Person) -> Response:
+    """Every user group as a button: the menu screen's codes, for phones."""
+    return render(
+        request, "brain/groups.html", wall=wall, groups=GROUP_LABELS, current=person.user_group
     )
 
 

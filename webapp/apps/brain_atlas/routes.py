@@ -107,6 +107,21 @@ async def literature(
     )
 
 
+@router.get("/apps/brain/{wall_id}/groups", include_in_schema=False)
+async def groups(request: Request, wall: WallDep, person: PersonDep) -> Response:
+    return pages.groups_page(request, wall, person)
+
+
+@router.post(
+    "/apps/brain/{wall_id}/groups/{group}", include_in_schema=False, dependencies=[CsrfDep]
+)
+async def join_group(
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group: str
+) -> Response:
+    """A group chosen on the phone: as scanning its menu code."""
+    return await pages.join_group(brain_app(services), request, services, wall, person, group)
+
+
 # --- the instructor's controls -------------------------------------------------------
 
 

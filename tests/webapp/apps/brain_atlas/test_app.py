@@ -262,6 +262,22 @@ def test_scanning_a_group_code_sets_the_visitors_group_and_the_walls_pins(
     assert 'value="k5" selected' in on_wall.get("/me").text
 
 
+def test_phones_choose_a_group_without_the_menu_screen(on_wall: TestClient) -> None:
+    """Walls whose menu screen holds fewer codes (or none) still let phones switch."""
+    register_student(on_wall)
+    listed = on_wall.get("/apps/brain/demo/groups")
+    assert listed.status_code == 200
+    assert all(f'data-group="{g}"' in listed.text for g in ("k5", "research"))
+
+    chosen = on_wall.post("/apps/brain/demo/groups/k5", data={"csrf": csrf_of(on_wall)})
+
+    assert chosen.status_code == 200 and "K-5 group" in chosen.text
+    assert state_of(on_wall).tag_set == "brain-k5"
+    unknown = on_wall.post("/apps/brain/demo/groups/wizards", data={"csrf": csrf_of(on_wall)})
+    assert unknown.status_code == 404
+    assert on_wall.post("/apps/brain/demo/groups/k5").status_code == 403  # no CSRF token
+
+
 def test_tutor_mode_shows_the_page_for_the_visitors_group_and_publishes_it_in_full(
     on_wall: TestClient,
 ) -> None:
