@@ -275,13 +275,16 @@ class Voxels:
         """Per CELL^3 block of :attr:`wrapped`: whether it, or a voxel one beyond, reaches
         ``threshold``; and the same widened by one block in every direction."""
         if threshold not in self._cells:
-            self._cells[threshold] = _visible_cells(self.wrapped, threshold)
+            self._cells[threshold] = visible_cells(self.wrapped, threshold)
         return self._cells[threshold]
 
 
-def _visible_cells(
+def visible_cells(
     values: npt.NDArray[Any], threshold: float
 ) -> tuple[npt.NDArray[Any], npt.NDArray[Any]]:
+    """Per CELL^3 block of ``values``: whether it, or a voxel one beyond, reaches
+    ``threshold`` (a sample's interpolation touches its voxel and the next along each
+    axis); and the same widened by one block in every direction."""
     reach = values.copy()
     for axis in range(3):
         ahead: list[slice] = [slice(None)] * 3
@@ -432,9 +435,48 @@ def _maximum(sampler: _Sampler, march: _March) -> npt.NDArray[Any]:
     for _, live, grid in march.steps():
         best[live] = np.maximum(best[live], sampler.value(grid))
     seen = np.isfinite(best)
-    colours = sampler.colours(np.where(seen, best, sampler.low))[:, :3]
+    colours = sampler.colours(np.where(seen, best, sampler.value_range[0]))[:, :3]
     shown: npt.NDArray[Any] = colours * seen[:, None]
     return shown
+
+
+def visible_threshold(table: npt.NDArray[Any], value_range: tuple[float, float]) -> float:
+    """The smallest value a transfer table shows (inf: it shows nothing), halfway to
+    the entry before, so interpolated samples that round onto it count."""
+    visible_from = np.flatnonzero(table[:, 3] > 0)
+    if not visible_from.size:
+        return float(np.inf)
+    low, high = value_range
+    return float(low + (visible_from[0] - 0.5) * max(high - low, 1e-9) / (len(table) - 1))
+
+
+def table_index(
+    value: npt.NDArray[Any], value_range: tuple[float, float], entries: int
+) -> npt.NDArray[Any]:
+    """The transfer table row of each value (the nearest of ``entries`` rows)."""
+    low, high = value_range
+    scaled = (value - low) * ((entries - 1) / max(high - low, 1e-9))
+    return np.clip(np.rint(scaled), 0, entries - 1).astype(np.int64)
+
+
+def trilinear(
+    flat: npt.NDArray[Any], strides: npt.NDArray[Any], top: npt.NDArray[Any], grid: Vector
+) -> npt.NDArray[Any]:
+    """Trilinear values at voxel coordinates ``grid`` (already clamped to the array) of
+    the C-ordered array ``flat`` with ``strides``; ``top`` is its shape minus 2."""
+    base = np.minimum(grid.astype(np.int64), top)
+    frac = (grid - base).astype(np.float32)
+    index = base @ strides
+    fx, fy, fz = frac[:, 0], frac[:, 1], frac[:, 2]
+    sx, sy, sz = (int(s) for s in strides)
+    c00 = flat[index] + (flat[index + sz] - flat[index]) * fz
+    c01 = flat[index + sy] + (flat[index + sy + sz] - flat[index + sy]) * fz
+    c10 = flat[index + sx] + (flat[index + sx + sz] - flat[index + sx]) * fz
+    c11 = flat[index + sx + sy] + (flat[index + sx + sy + sz] - flat[index + sx + sy]) * fz
+    c0 = c00 + (c01 - c00) * fy
+    c1 = c10 + (c11 - c10) * fy
+    value: npt.NDArray[Any] = c0 + (c1 - c0) * fx
+    return value
 
 
 class _Sampler:
@@ -463,16 +505,9 @@ class _Sampler:
         # Samples run through the whole clip box: beyond the held voxels (and their
         # background wrapping) they clamp onto that wrapping and read background.
         self.low_corner, self.high_corner = clip_box(layer, meta)
-        self.low, high = meta.value_range
-        self.span = max(high - self.low, 1e-9)
+        self.value_range = meta.value_range
         self.table: npt.NDArray[Any] = lookup_table(layer.transfer)
-        visible_from = np.flatnonzero(self.table[:, 3] > 0)
-        threshold = (
-            self.low + (visible_from[0] - 0.5) * self.span / (len(self.table) - 1)
-            if visible_from.size
-            else np.inf
-        )
-        self.visible, self.near = voxels.cells(float(threshold))
+        self.visible, self.near = voxels.cells(visible_threshold(self.table, meta.value_range))
         self.last_cell = np.array(self.visible.shape) - 1
         # beyond this box (the held voxels and their wrapping) samples read background
         self.held_low = self.origin * self.voxel
@@ -502,20 +537,7 @@ class _Sampler:
     def value(self, grid: npt.NDArray[Any]) -> npt.NDArray[Any]:
         """Trilinear values at array coordinates."""
         grid = np.clip(grid, self.clamp_low, self.clamp_high)
-        base = np.minimum(grid.astype(np.int64), self.top)
-        frac = (grid - base).astype(np.float32)
-        index = base @ self.strides
-        fx, fy, fz = frac[:, 0], frac[:, 1], frac[:, 2]
-        sx, sy, sz = self.strides
-        flat = self.flat
-        c00 = flat[index] + (flat[index + sz] - flat[index]) * fz
-        c01 = flat[index + sy] + (flat[index + sy + sz] - flat[index + sy]) * fz
-        c10 = flat[index + sx] + (flat[index + sx + sz] - flat[index + sx]) * fz
-        c11 = flat[index + sx + sy] + (flat[index + sx + sy + sz] - flat[index + sx + sy]) * fz
-        c0 = c00 + (c01 - c00) * fy
-        c1 = c10 + (c11 - c10) * fy
-        value: npt.NDArray[Any] = c0 + (c1 - c0) * fx
-        return value
+        return trilinear(self.flat, self.strides, self.top, grid)
 
     def maybe_visible(self, grid: npt.NDArray[Any]) -> npt.NDArray[Any]:
         """False where every voxel a sample's interpolation touches is transparent."""
@@ -530,8 +552,7 @@ class _Sampler:
         return cell[:, 0], cell[:, 1], cell[:, 2]
 
     def index(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
-        scaled = (value - self.low) * ((len(self.table) - 1) / self.span)
-        return np.clip(np.rint(scaled), 0, len(self.table) - 1).astype(np.int64)
+        return table_index(value, self.value_range, len(self.table))
 
     def colours(self, value: npt.NDArray[Any]) -> npt.NDArray[Any]:
         return np.asarray(self.table[self.index(value)])

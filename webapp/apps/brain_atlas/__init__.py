@@ -31,6 +31,7 @@ from webapp.apps.brain_atlas.literature import PubMed
 from webapp.apps.brain_atlas.matching import AnswerKey
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.views import ViewPreset, load_views, showing
+from webapp.people import Person
 from webapp.publishing import Block, Publication
 from webapp.settings import Settings, UserGroup
 from webapp.tags import TagSpec, anchored_code_side_mm
@@ -68,10 +69,10 @@ def mode_of(state: WallState) -> Mode:
     return "tutor" if state.mode == "tutor" else "quiz"
 
 
-def reveals_answers(person_is_staff: bool) -> bool:
+def reveals_answers(person: Person) -> bool:
     """The one rule for early answers: instructors (and admins) see them at once;
     students only on their own results page, after finishing."""
-    return person_is_staff
+    return person.is_staff
 
 
 def pin_tag(tag_set: TagSetName, number: int) -> str:
@@ -93,6 +94,7 @@ class BrainApp:
         self._keys: dict[TagSetName, AnswerKey] = {}
         self._volumes: AtlasVolumes | None = None
         self._pubmed: PubMed | None = None
+        self._views_showing: dict[str, list[str]] | None = None
         self.pins = PinCache()
 
     # --- content, loaded on first use ------------------------------------------------
@@ -144,11 +146,20 @@ class BrainApp:
         regions = self.regions(tag_set)
         return regions[number - 1] if 1 <= number <= len(regions) else None
 
-    def presets_showing(self, region: Region) -> list[ViewPreset]:
-        """The preset views that show a region's pin, the one showing most of it first
-        (phones say where to find a pin not on the wall now)."""
-        ids = showing(self.views, self.content.regions, self.volumes, self.pins)[region.id]
-        return [preset for preset_id in ids if (preset := self.preset(preset_id))]
+    def views_showing(self) -> dict[str, list[str]]:
+        """Per region id, the names of the preset views that show its pin, the one
+        showing most of it first (phones say where to find a pin not on the wall
+        now). Presets and content do not change while the server runs: computed once."""
+        with self._lock:
+            if self._views_showing is not None:
+                return self._views_showing
+        presets = self.views
+        shown = showing(presets, self.content.regions, self.volumes, self.pins)
+        names = {preset.id: preset.name for preset in presets}
+        found = {region: [names[p] for p in ids] for region, ids in shown.items()}
+        with self._lock:
+            self._views_showing = found
+        return found
 
     def preset(self, preset_id: str) -> ViewPreset | None:
         return next((v for v in self.views if v.id == preset_id), None)

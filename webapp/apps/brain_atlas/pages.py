@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
-from sqlalchemy import select
+from fastapi.responses import RedirectResponse
 
 from tag_service.codes import normalize_code
 from wall_client.layout import Wall
@@ -35,6 +35,7 @@ from webapp.models import TagRecord
 from webapp.people import Person, update_profile
 from webapp.routes.pages import render
 from webapp.settings import USER_GROUPS, UserGroup
+from webapp.tags import find, wall_tags
 from webapp.wall_state import WallState, read_state
 
 if TYPE_CHECKING:
@@ -50,8 +51,7 @@ def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
     """A brain pin of this wall by its code (switched off ones too: an answer to a
     pin the wall no longer shows still counts); 404 otherwise."""
     normal = normalize_code(code)
-    with services.db.session() as session:
-        tag = session.get(TagRecord, normal) if normal else None
+    tag = find(services.db, normal) if normal else None
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a pin of this wall's brain.")
     return tag
@@ -60,15 +60,11 @@ def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
 def pin_codes(services: Services, wall: Wall, tag_set: TagSetName) -> dict[int, str]:
     """The codes of a set's pins on this wall by pin number (pins ever declared)."""
     prefix = pin_tag(tag_set, 0).removesuffix("0")
-    with services.db.session() as session:
-        rows = session.execute(
-            select(TagRecord.name, TagRecord.code).where(
-                TagRecord.wall_id == wall.id,
-                TagRecord.app == APP,
-                TagRecord.name.startswith(prefix),
-            )
-        ).all()
-    return {int(name.removeprefix(prefix)): code for name, code in rows if name}
+    return {
+        int(tag.name.removeprefix(prefix)): tag.code
+        for tag in wall_tags(services.db, wall.id)
+        if tag.app == APP and tag.name and tag.name.startswith(prefix)
+    }
 
 
 def region_of(app: BrainApp, tag: TagRecord) -> tuple[TagSetName, int, Region]:
@@ -108,7 +104,7 @@ async def tutor_region(app: BrainApp, services: Services, wall: Wall, tag: TagRe
 
 def pin_views(app: BrainApp, region: Region) -> list[str]:
     """The names of the preset views that show a region's pin."""
-    return [preset.name for preset in app.presets_showing(region)]
+    return app.views_showing()[region.id]
 
 
 # --- pins --------------------------------------------------------------------------
@@ -149,7 +145,7 @@ async def question_page(
         finished=now.finished,
         answered=len(now.answers),
         total=len(app.regions(tag_set)),
-        may_reveal=reveals_answers(person.is_staff),
+        may_reveal=reveals_answers(person),
         problem=problem,
     )
 
@@ -193,10 +189,7 @@ async def answer(
 
 
 def progress_redirect(wall: Wall, tag_set: TagSetName) -> Response:
-    return Response(
-        status_code=status.HTTP_303_SEE_OTHER,
-        headers={"Location": f"/apps/brain/{wall.id}/quiz/{tag_set}"},
-    )
+    return RedirectResponse(f"/apps/brain/{wall.id}/quiz/{tag_set}", status.HTTP_303_SEE_OTHER)
 
 
 async def revealed(
@@ -204,7 +197,7 @@ async def revealed(
 ) -> Response:
     """The correct name of a pin, for instructors only (checked here, for this
     session: a URL copied from an instructor's phone gives a student nothing)."""
-    if not reveals_answers(person.is_staff):
+    if not reveals_answers(person):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
             "Only instructors see answers before the end: answer every pin, then finish.",

@@ -37,7 +37,18 @@ from wall_client.layout import apply_affine, invert_affine
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.volume.build import DEFAULT_BRICK
 from webapp.volume.layer import VolumeLayer, lookup_table
-from webapp.volume.render import Camera, clip_box, scene_to_plane, slice_depth, steps_inside
+from webapp.volume.render import (
+    CELL,
+    Camera,
+    clip_box,
+    scene_to_plane,
+    slice_depth,
+    steps_inside,
+    table_index,
+    trilinear,
+    visible_cells,
+    visible_threshold,
+)
 from webapp.volume.store import VolumeMeta
 from webapp.wall_state import View
 
@@ -52,7 +63,6 @@ SEEN = 0.5  # the accumulated opacity at which a ray shows what it has reached
 LOOKAHEAD = 3.0  # mm further along the ray to look for a label when that voxel has none
 LOOKAHEAD_STEP = 0.5
 CHUNK = 8  # samples per ray and pass
-CELL = 4  # voxels per side of the blocks empty-space skipping tests
 CACHED = 64  # orientations a PinCache keeps
 
 Array = npt.NDArray[Any]
@@ -173,7 +183,7 @@ class AtlasVolumes:
         with self._lock:
             found = self._cells.get(threshold)
         if found is None:
-            found = _near_cells(self.template, threshold)
+            found = visible_cells(self.template, threshold)[1]
             with self._lock:
                 self._cells[threshold] = found
         return found
@@ -185,21 +195,7 @@ class AtlasVolumes:
 
     def sample(self, points: Array) -> Array:
         """Trilinear template values at world points (clamped at the faces)."""
-        grid = self.grid(points)
-        base = np.minimum(grid.astype(np.int64), self.top)
-        frac = (grid - base).astype(np.float32)
-        index = base @ self.strides
-        sx, sy, sz = (int(s) for s in self.strides)
-        flat = self.flat
-        fx, fy, fz = frac[:, 0], frac[:, 1], frac[:, 2]
-        c00 = flat[index] + (flat[index + sz] - flat[index]) * fz
-        c01 = flat[index + sy] + (flat[index + sy + sz] - flat[index + sy]) * fz
-        c10 = flat[index + sx] + (flat[index + sx + sz] - flat[index + sx]) * fz
-        c11 = flat[index + sx + sy] + (flat[index + sx + sy + sz] - flat[index + sx + sy]) * fz
-        c0 = c00 + (c01 - c00) * fy
-        c1 = c10 + (c11 - c10) * fy
-        value: Array = c0 + (c1 - c0) * fx
-        return value
+        return trilinear(self.flat, self.strides, self.top, self.grid(points))
 
     def label(self, points: Array) -> Array:
         """The atlas label of the voxel holding each world point (0 outside)."""
@@ -247,23 +243,6 @@ def _template_meta(template: Array, spacing: tuple[float, float, float]) -> Volu
     )
 
 
-def _near_cells(values: Array, threshold: float) -> Array:
-    reach = values.copy()
-    for axis in range(3):  # a sample touches its voxel and the next along each axis
-        ahead: list[slice] = [slice(None)] * 3
-        behind: list[slice] = [slice(None)] * 3
-        ahead[axis], behind[axis] = slice(1, None), slice(None, -1)
-        np.maximum(reach[tuple(behind)], reach[tuple(ahead)], out=reach[tuple(behind)])
-    reach = np.pad(reach, [(0, -n % CELL) for n in reach.shape], mode="edge")
-    x, y, z = (n // CELL for n in reach.shape)
-    cells = reach.reshape(x, CELL, y, CELL, z, CELL).max(axis=5).max(axis=3).max(axis=1)
-    near = np.pad(cells >= threshold, 1)
-    for axis in range(3):
-        near = near | np.roll(near, 1, axis) | np.roll(near, -1, axis)
-    result: Array = near[1:-1, 1:-1, 1:-1]
-    return result
-
-
 @dataclass(frozen=True)
 class _Rays:
     """The rays of one orientation: one per plane pixel, row-major over (v, u)."""
@@ -306,16 +285,12 @@ def _seen_points(volumes: AtlasVolumes, rays: _Rays, layer: VolumeLayer) -> tupl
     first, last = steps_inside(rays.starts, stride, rays.low, rays.high)
     table = lookup_table(layer.transfer)
     alpha_table = 1.0 - (1.0 - table[:, 3].astype(np.float64)) ** STEP
-    low, high = meta.value_range
-    span = max(high - low, 1e-9)
-    entries = len(table) - 1
-    visible_from = np.flatnonzero(table[:, 3] > 0)
     crossed = np.zeros(count, dtype=bool)
     at = np.zeros(count, dtype=np.int64)
-    if not visible_from.size:
+    threshold = visible_threshold(table, meta.value_range)
+    if threshold == np.inf:
         return crossed, at
-    threshold = low + (visible_from[0] - 0.5) * span / entries
-    near = volumes.cells(float(threshold))
+    near = volumes.cells(threshold)
     last_cell = np.array(near.shape) - 1
 
     # Coarse: every CELL steps, the first sample near anything visible (the samples
@@ -341,7 +316,7 @@ def _seen_points(volumes: AtlasVolumes, rays: _Rays, layer: VolumeLayer) -> tupl
         valid = ks <= last[live, None]
         points = rays.starts[live, None, :] + (ks * STEP)[..., None] * forward
         values = volumes.sample(points.reshape(-1, 3)).reshape(ks.shape)
-        index = np.clip(np.rint((values - low) * (entries / span)), 0, entries).astype(np.int64)
+        index = table_index(values, meta.value_range, len(table))
         alpha = np.where(valid, alpha_table[index], 0.0)
         through = transmit[live, None] * np.cumprod(1.0 - alpha, axis=1)
         over = through <= 1.0 - SEEN
