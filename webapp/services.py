@@ -4,14 +4,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from anyio import CapacityLimiter
+
 from wall_client.layout import Wall
 from webapp.apps import WallApp
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.ratelimit import Backoff, RateLimiter
+from webapp.ratelimit import RateLimiter
 from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
+from webapp.signin import SignInThrottle
 from webapp.urls import tile_url
 from webapp.volume.catalog import VolumeCatalog
 
@@ -27,7 +30,8 @@ class Services:
     codes: CodeDirectory = field(init=False)
     scan_log: ScanLog = field(init=False)
     scan_feed: ScanFeed = field(init=False)
-    login_backoff: Backoff = field(init=False)
+    login_throttle: SignInThrottle = field(init=False)
+    password_checks: CapacityLimiter = field(init=False)
     publish_limit: RateLimiter = field(init=False)
     volumes: VolumeCatalog = field(init=False)
 
@@ -39,10 +43,13 @@ class Services:
             RateLimiter(self.settings.scan_rate_per_minute),
             RateLimiter(self.settings.scan_rate_per_address_per_minute),
         )
-        # Keyed by "account:NAME" and by "client:ADDRESS": both must be allowed.
-        self.login_backoff = Backoff(
-            self.settings.login_free_attempts, max_s=self.settings.login_max_delay_s
+        self.login_throttle = SignInThrottle(
+            self.settings.login_free_attempts,
+            self.settings.login_client_free_attempts,
+            self.settings.login_max_delay_s,
         )
+        # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn.
+        self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
         self.publish_limit = RateLimiter(self.settings.publish_rate_per_minute)
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels

@@ -68,7 +68,9 @@ class Settings(BaseSettings):
     )
     pairing_ttl_s: int = Field(default=60, ge=10, le=3_600)
     login_free_attempts: int = Field(default=3, ge=1)
+    login_client_free_attempts: int = Field(default=10, ge=1)
     login_max_delay_s: float = Field(default=300.0, ge=1)
+    login_parallel_checks: int = Field(default=2, ge=1, le=64)
     publish_rate_per_minute: int = Field(default=3, ge=1)
     balloon_seconds: int = Field(default=30, ge=1, le=3_600)
     volume_dir: Path | None = None
