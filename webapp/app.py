@@ -15,9 +15,11 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
 from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
+from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.layout import load_walls
+from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
 from webapp.db import Database
@@ -41,6 +43,8 @@ from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
 from webapp.tags import declare, show_tag_set
+from webapp.tokens import REFRESH_S as TOKEN_REFRESH_S
+from webapp.tokens import load_tokens
 from webapp.visitors import SessionCookieMiddleware
 from webapp.wall_state import WallState, read_state
 
@@ -70,12 +74,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        services.tokens = await run_in_threadpool(load_tokens, db, services.secret)
         await prepare_walls(services)
-        recorder = asyncio.create_task(services.scan_log.run())
+        tasks = [
+            asyncio.create_task(services.scan_log.run()),
+            asyncio.create_task(_keep_tokens_fresh(services)),
+        ]
         yield
-        recorder.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await recorder
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
         await run_in_threadpool(services.scan_log.flush)
         await hub.close()
         db.dispose()
@@ -86,6 +96,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.templates.env.filters["markdown"] = markdown_html
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
+    app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     for router in (
         health.router,
@@ -130,6 +141,18 @@ async def prepare_walls(services: Services) -> None:
         if not state.tag_layout and state.app in services.apps:
             tag_set = services.apps[state.app].default_tag_set
         await show_tag_set(services.hub, wall, tag_set, services.base_url)
+
+
+async def _keep_tokens_fresh(services: Services) -> None:
+    """Read the token salts again every few seconds: a rotation by the CLI (or another
+    process) takes effect here too. A database that does not answer keeps the tokens
+    as they were."""
+    while True:
+        await asyncio.sleep(TOKEN_REFRESH_S)
+        try:
+            services.tokens = await run_in_threadpool(load_tokens, services.db, services.secret)
+        except SQLAlchemyError as error:
+            log.warning("could not read the token salts: %s", error.__class__.__name__)
 
 
 def _becomes(new: WallState) -> Callable[[WallState], WallState]:

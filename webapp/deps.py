@@ -14,7 +14,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-from webapp.addresses import client_address
+from webapp.addresses import address_of
 from webapp.people import Person, load_person
 from webapp.security import csrf_token, token_matches
 from webapp.services import Services
@@ -69,11 +69,9 @@ BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 
 
-async def get_client_address(request: Request, services: ServicesDep) -> str:
+async def get_client_address(request: Request) -> str:
     """The client's address (``X-Forwarded-For`` only from trusted proxies)."""
-    peer = request.client.host if request.client else ""
-    forwarded = request.headers.get("x-forwarded-for")
-    return client_address(peer, forwarded, services.settings.trusted_proxies)
+    return address_of(request)
 
 
 ClientAddressDep = Annotated[str, Depends(get_client_address)]
@@ -159,7 +157,7 @@ async def require_staff(request: Request, services: ServicesDep, credentials: Be
             "The bearer token is not the operator token.",
             headers={"WWW-Authenticate": "Bearer"},
         )
-    person = await get_person(request, services, await get_client_address(request, services))
+    person = await get_person(request, services, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
@@ -185,7 +183,7 @@ async def require_tile_or_staff_for_detail(
     instructors get them; the instant fallback is for everyone (the overview)."""
     if detail == "fallback" or token_matches(services.tile_token(wall.id), token):
         return
-    person = await get_person(request, services, await get_client_address(request, services))
+    person = await get_person(request, services, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,

@@ -12,9 +12,9 @@ from webapp.db import Database
 from webapp.hub import WallHub
 from webapp.ratelimit import RateLimiter
 from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
-from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
 from webapp.signin import SignInThrottle
+from webapp.tokens import Tokens
 from webapp.urls import tile_url
 from webapp.volume.catalog import VolumeCatalog
 
@@ -34,6 +34,7 @@ class Services:
     password_checks: CapacityLimiter = field(init=False)
     publish_limit: RateLimiter = field(init=False)
     volumes: VolumeCatalog = field(init=False)
+    tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.tokens)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)
@@ -51,6 +52,7 @@ class Services:
         # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn.
         self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
         self.publish_limit = RateLimiter(self.settings.publish_rate_per_minute)
+        self.tokens = Tokens(self.secret)
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
@@ -71,11 +73,11 @@ class Services:
         return self.settings.resolved_secret_key
 
     def tile_token(self, wall_id: str) -> str:
-        return tile_token(self.secret, wall_id)
+        return self.tokens.tile(wall_id)
 
     @property
     def operator_token(self) -> str:
-        return operator_token(self.secret)
+        return self.tokens.operator
 
     def tile_url(self, wall_id: str, tile_id: str) -> str:
-        return tile_url(self.settings, wall_id, tile_id)
+        return tile_url(self.settings, self.tokens, wall_id, tile_id)

@@ -84,7 +84,7 @@ def test_broken_wall_configs_stop_commands_with_a_message(
 
 def test_invalid_setting_exits_2(env: dict[str, str]) -> None:
     code, _, err = run({**env, "TAGWALL_PORT": "seventy"}, "tiles")
-    assert code == 2 and "port" in err
+    assert code == 2 and "TAGWALL_PORT" in err
 
 
 def test_db_upgrade_creates_tables(env: dict[str, str], database_url: str) -> None:
