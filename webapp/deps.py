@@ -16,9 +16,10 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from wall_client.layout import Display, Wall
 from webapp.addresses import address_of
 from webapp.people import Person, load_person
+from webapp.ratelimit import WallAction
 from webapp.security import csrf_token, token_matches
 from webapp.services import Services
-from webapp.visitors import adopt, visitor_of
+from webapp.visitors import Visitor, adopt, visitor_of
 
 
 async def get_services(request: Request) -> Services:
@@ -75,6 +76,25 @@ async def get_client_address(request: Request) -> str:
 
 
 ClientAddressDep = Annotated[str, Depends(get_client_address)]
+
+
+def too_fast(wait: float) -> HTTPException:
+    """The 429 for a phone that acts faster than its limits allow."""
+    seconds = int(wait) + 1
+    return HTTPException(
+        status.HTTP_429_TOO_MANY_REQUESTS,
+        f"That was a lot in a short time. Try again in {seconds} seconds.",
+        headers={"Retry-After": str(seconds)},
+    )
+
+
+def limit_action(
+    services: Services, kind: WallAction, visitor: Visitor, address: str, wall_id: str
+) -> None:
+    """Count one ``kind`` of action on the wall; 429 when it is one too many."""
+    wait = services.action_allowed(kind, visitor, address, wall_id)
+    if wait is not None:
+        raise too_fast(wait)
 
 
 def remember_person(request: Request, person: Person) -> None:

@@ -10,7 +10,10 @@ import time
 from collections import OrderedDict, deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
+
+if TYPE_CHECKING:
+    from webapp.visitors import Visitor
 
 
 class RateLimiter:
@@ -128,6 +131,10 @@ class Actor:
     visitor_id: str
     address: str
     age_s: float | None
+
+    @classmethod
+    def of(cls, visitor: Visitor, address: str) -> Actor:
+        return cls(visitor.id, address, visitor.age_s())
 
 
 @dataclass(frozen=True)

@@ -58,6 +58,11 @@ class Settings(BaseSettings):
     max_frame_bytes: int = Field(default=4_096, ge=256)
     scan_rate_per_minute: int = Field(default=30, ge=1)
     scan_rate_per_address_per_minute: int = Field(default=600, ge=1)
+    visitor_settle_s: int = Field(default=10, ge=0, le=3_600)
+    wall_action_rate_per_minute: int = Field(default=12, ge=1)
+    new_visitor_actions_per_address_per_minute: int = Field(default=6, ge=1)
+    actions_per_address_per_minute: int = Field(default=300, ge=1)
+    actions_per_wall_per_minute: int = Field(default=120, ge=1)
     scan_upload_max_bytes: int = Field(default=10_000_000, ge=10_000)
     trusted_proxies: Annotated[list[IPvAnyNetwork], NoDecode] = Field(default_factory=list)
     address_rules_grant_roles: bool = False

@@ -30,7 +30,7 @@ from webapp.visitors import visitor_of
 router = APIRouter(include_in_schema=False)
 
 STATUS_INTERVAL_S = 1.0
-AUTHORITY_CHECK_S = 2.0  # how often an open dashboard socket checks who it serves
+AUTHORITY_CHECK_S = 1.0  # how often an open dashboard socket checks who it serves
 
 
 @router.get("/dashboard")

@@ -157,7 +157,7 @@ async def change_profile(
     services: ServicesDep,
     user_group: Annotated[str, Form()],
     info_class: Annotated[int, Form(ge=1, le=5)],
-    display_name: Annotated[str, Form(max_length=60)] = "",
+    display_name: Annotated[str, Form(max_length=1_000)] = "",  # made plain and short
 ) -> HTMLResponse:
     if user_group not in USER_GROUPS:
         return render(

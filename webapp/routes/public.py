@@ -44,7 +44,7 @@ async def publish(
     app = services.apps.get(tag.app) if tag else None
     if tag is None or wall is None or app is None or not is_live(tag):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is nothing to publish for that code.")
-    wait = services.publish_limit.hit(person.visitor.id)
+    wait = services.action_allowed("publish", person.visitor, address, wall.id)
     if wait is not None:
         response = render(
             request,

@@ -29,7 +29,7 @@ from webapp.apps.brain_atlas import (
 )
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, finish, progress, record_answer
-from webapp.deps import remember_person
+from webapp.deps import limit_action, remember_person
 from webapp.markdown import markdown_html
 from webapp.models import TagRecord
 from webapp.people import Person, update_profile
@@ -319,16 +319,25 @@ async def choose_group(app: BrainApp, scan: Scan) -> Response:
     """A scanned group code: the visitor joins that group and the wall shows its pins."""
     person = await scan.person()
     group = str(scan.tag.params.get("group", ""))
-    return await join_group(app, scan.request, scan.services, scan.wall, person, group)
+    return await join_group(
+        app, scan.request, scan.services, scan.wall, person, group, scan.address
+    )
 
 
 async def join_group(
-    app: BrainApp, request: Request, services: Services, wall: Wall, person: Person, group: str
+    app: BrainApp,
+    request: Request,
+    services: Services,
+    wall: Wall,
+    person: Person,
+    group: str,
+    address: str,
 ) -> Response:
     """The visitor joins ``group`` and the wall shows that group's pins (from a menu
     code, or from the phone's group list on walls whose menu screen has no room)."""
     if group not in USER_GROUPS:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no user group {group!r}.")
+    limit_action(services, "group", person.visitor, address, wall.id)
     chosen: UserGroup = group
     updated = await run_in_threadpool(
         update_profile,

@@ -23,7 +23,7 @@ from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
 from webapp.apps.brain_atlas.pins import VOLUME
 from webapp.apps.brain_atlas.quiz import export_csv, start_round, statistics
-from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
+from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
 from webapp.services import Services
 from webapp.wall_state import WallState
@@ -116,10 +116,16 @@ async def groups(request: Request, wall: WallDep, person: PersonDep) -> Response
     "/apps/brain/{wall_id}/groups/{group}", include_in_schema=False, dependencies=[CsrfDep]
 )
 async def join_group(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group: str
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: PersonDep,
+    address: ClientAddressDep,
+    group: str,
 ) -> Response:
     """A group chosen on the phone: as scanning its menu code."""
-    return await pages.join_group(brain_app(services), request, services, wall, person, group)
+    app = brain_app(services)
+    return await pages.join_group(app, request, services, wall, person, group, address)
 
 
 # --- the instructor's controls -------------------------------------------------------

@@ -19,7 +19,16 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.store import list_datasets, make_current
-from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffOnly, TileDep, WallDep
+from webapp.deps import (
+    ClientAddressDep,
+    CsrfDep,
+    PersonDep,
+    ServicesDep,
+    StaffOnly,
+    TileDep,
+    WallDep,
+    limit_action,
+)
 from webapp.models import TagRecord
 from webapp.routes.pages import render
 from webapp.services import Services
@@ -155,29 +164,24 @@ async def tract_here(
     return await pages.tract_here(census_app(services), request, services, wall, geoid, person)
 
 
-def _slow_down(services: Services, person_id: str, address: str) -> None:
-    wait = services.scan_allowed(person_id, address)
-    if wait is not None:
-        raise HTTPException(
-            status.HTTP_429_TOO_MANY_REQUESTS,
-            f"That was a lot in a short time. Try again in {int(wait) + 1} seconds.",
-            headers={"Retry-After": str(int(wait) + 1)},
-        )
-
-
 @router.post(
     "/apps/census/{wall_id}/tracts/{geoid}/balloon",
     include_in_schema=False,
     dependencies=[CsrfDep],
 )
 async def show_on_wall(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: PersonDep,
+    address: ClientAddressDep,
+    geoid: str,
 ) -> Response:
     """ "Show on the wall": the tract's balloon opens beside it on every tile."""
     app = census_app(services)
     _, dataset = await pages.shown_dataset(app, services, wall)
     tract = pages.tract_of(dataset, geoid)
-    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
+    limit_action(services, "balloon", person.visitor, address, wall.id)
     balloon = await open_balloon(app, services, wall, dataset, tract)
     return render(
         request,
@@ -196,11 +200,16 @@ async def show_on_wall(
     dependencies=[CsrfDep],
 )
 async def toggle_group(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group_id: str
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: PersonDep,
+    address: ClientAddressDep,
+    group_id: str,
 ) -> Response:
     _, dataset = await pages.shown_dataset(census_app(services), services, wall)
-    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
-    return await pages.toggled(request, services, wall, dataset, group_id)
+    actor = (person.visitor, address)
+    return await pages.toggled(request, services, wall, dataset, group_id, actor)
 
 
 # --- Google Earth --------------------------------------------------------------------
