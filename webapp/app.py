@@ -8,11 +8,13 @@ import logging
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
+from fastapi.routing import APIRoute, iter_route_contexts
 from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
 from sqlalchemy.exc import SQLAlchemyError
@@ -23,6 +25,7 @@ from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
 from webapp.db import Database
+from webapp.deps import DEPENDENCY_ERRORS
 from webapp.hub import WallHub
 from webapp.markdown import markdown_html
 from webapp.routes import (
@@ -39,6 +42,7 @@ from webapp.routes import (
     walls,
     ws,
 )
+from webapp.schemas import ERROR_MEANINGS, Problem
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
@@ -117,7 +121,61 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if (app_router := wall_app.router()) is not None:
             app.include_router(app_router)
     _add_error_pages(app)
+    _document_errors(app, services)
     return app
+
+
+def _example_names(schema: dict[str, Any], services: Services) -> None:
+    """Give the ``wall_id`` and ``tile_id`` parameters this server's names as examples,
+    for people reading the document and for tools that try the API."""
+    walls = list(services.walls.values())
+    names = {
+        "wall_id": [wall.id for wall in walls],
+        "tile_id": [display.id for display in walls[0].displays] if walls else [],
+    }
+    for operation in (op for path in schema["paths"].values() for op in path.values()):
+        for parameter in operation.get("parameters", []):
+            if names.get(parameter["name"]):
+                parameter["schema"]["examples"] = names[parameter["name"]]
+
+
+def _document_errors(app: FastAPI, services: Services) -> None:
+    """The OpenAPI document lists, for every operation, the errors its dependencies
+    answer with (``deps.DEPENDENCY_ERRORS``), 400 where it reads a body (one that is
+    not JSON) and 503 (the database may be down), beside those its route declares."""
+    problem = {"$ref": "#/components/schemas/Problem"}
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = FastAPI.openapi(app)
+        schema.setdefault("components", {}).setdefault("schemas", {})["Problem"] = (
+            Problem.model_json_schema()
+        )
+        for route in iter_route_contexts(app.routes):
+            if not isinstance(route.original_route, APIRoute) or not route.include_in_schema:
+                continue
+            codes = {400, 503} if route.body_field is not None else {503}
+            pending = list(route.dependant.dependencies)
+            while pending:
+                dependency = pending.pop()
+                codes.update(DEPENDENCY_ERRORS.get(dependency.call, ()))
+                pending.extend(dependency.dependencies)
+            for method in route.methods or ():
+                responses = schema["paths"][route.path_format][method.lower()]["responses"]
+                for code in sorted(codes):
+                    responses.setdefault(
+                        str(code),
+                        {
+                            "description": ERROR_MEANINGS[code],
+                            "content": {"application/json": {"schema": problem}},
+                        },
+                    )
+        _example_names(schema, services)
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
 
 
 async def prepare_walls(services: Services) -> None:
@@ -160,7 +218,11 @@ def _becomes(new: WallState) -> Callable[[WallState], WallState]:
 
 
 def _wants_json(request: Request) -> bool:
-    return request.url.path.startswith("/api/") or request.url.path == "/healthz"
+    """Whether errors are JSON: on /api/ paths, /healthz and whatever else the OpenAPI
+    document lists (the census KML feeds); pages get an error page."""
+    route = request.scope.get("route")
+    listed = isinstance(route, APIRoute) and route.include_in_schema
+    return listed or request.url.path.startswith("/api/") or request.url.path == "/healthz"
 
 
 def _add_error_pages(app: FastAPI) -> None:

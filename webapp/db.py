@@ -6,8 +6,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+from annotated_types import Interval
 from sqlalchemy import Engine, MetaData, create_engine, event, text
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import (
@@ -27,6 +28,15 @@ NAMING_CONVENTION = {
     "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
     "pk": "pk_%(table_name)s",
 }
+
+
+ROW_ID_MAX = 2**31 - 1
+"""The largest id an INTEGER column holds on PostgreSQL (SQLite holds more): the API
+takes only ids both databases can look up, and answers anything larger like any
+unknown id, instead of failing in the driver."""
+
+RowId = Annotated[int, Interval(ge=1, le=ROW_ID_MAX)]
+"""A row id (publication, layout, census data set, quiz round) as the API accepts it."""
 
 
 class Base(DeclarativeBase):

@@ -6,7 +6,8 @@ the thread pool, a hop that cost more than the work itself on every request.
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Callable
+from typing import Annotated, Any
 from urllib.parse import quote
 
 from fastapi import Depends, Header, HTTPException, Query, Request, status
@@ -213,3 +214,14 @@ async def require_tile_or_staff_for_detail(
 
 DetailedRenderAccess = Depends(require_tile_or_staff_for_detail)
 StaffOnly = Depends(require_staff)
+
+
+DEPENDENCY_ERRORS: dict[Callable[..., Any], tuple[int, ...]] = {
+    get_wall: (404,),
+    get_tile: (404,),
+    require_tile_token: (403,),
+    require_staff: (401, 403),
+    require_tile_or_staff_for_detail: (403,),
+}
+"""The error statuses each dependency answers with: every API route that uses one lists
+them in the OpenAPI document (see ``webapp.app``)."""

@@ -61,6 +61,11 @@ class Services:
         return self.limits.hit(kind, Actor.of(visitor, address), wall_id)
 
     @property
+    def wall_apps(self) -> dict[str, WallApp]:
+        """The apps a wall can show (the core app only adds the registration codes)."""
+        return {name: app for name, app in self.apps.items() if name != "core"}
+
+    @property
     def base_url(self) -> str:
         """Where phones reach this server: the base of every URL code."""
         return self.settings.resolved_public_base_url

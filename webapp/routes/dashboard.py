@@ -43,7 +43,7 @@ def dashboard_page(
     walls = list(services.walls.values())
     current = services.walls.get(wall or "") or services.walls.get(services.settings.default_wall)
     current = current or walls[0]
-    apps = [app for app in services.apps.values() if app.name != "core"]
+    apps = list(services.wall_apps.values())
     panels = [panel for app in apps if (panel := app.dashboard_panel(current))]
     return render(
         request,

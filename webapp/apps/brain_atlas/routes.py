@@ -23,8 +23,10 @@ from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
 from webapp.apps.brain_atlas.pins import VOLUME
 from webapp.apps.brain_atlas.quiz import export_csv, start_round, statistics
+from webapp.db import RowId
 from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
+from webapp.schemas import errors
 from webapp.services import Services
 from webapp.wall_state import WallState
 
@@ -204,7 +206,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
     )
 
 
-@router.post("/api/walls/{wall_id}/brain")
+@router.post("/api/walls/{wall_id}/brain", responses=errors(404, 409))
 async def control(
     choice: BrainControl, wall: WallDep, services: ServicesDep, staff: StaffDep
 ) -> BrainStatus:
@@ -246,7 +248,7 @@ async def answers_csv(
     wall: WallDep,
     services: ServicesDep,
     staff: StaffDep,
-    round_number: Annotated[int | None, Query(alias="round", ge=1)] = None,
+    round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
     """Every answer of a round (default: the current one), for a spreadsheet."""
     body = await run_in_threadpool(export_csv, services.db, wall.id, round_number)

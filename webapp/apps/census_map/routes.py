@@ -9,7 +9,7 @@ from typing import Annotated, Literal, cast
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
 
 from wall_client.layout import Wall
@@ -19,6 +19,7 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.store import list_datasets, make_current
+from webapp.db import ROW_ID_MAX, RowId
 from webapp.deps import (
     ClientAddressDep,
     CsrfDep,
@@ -31,6 +32,7 @@ from webapp.deps import (
 )
 from webapp.models import TagRecord
 from webapp.routes.pages import render
+from webapp.schemas import errors
 from webapp.services import Services
 from webapp.tags import get_layout
 from webapp.wall_state import View, WallState, now_ms, read_state
@@ -48,7 +50,7 @@ def census_app(services: Services) -> CensusApp:
 class DataSetChoice(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    dataset: int = Field(ge=1)
+    dataset: RowId
 
 
 class DataSetEntry(BaseModel):
@@ -63,13 +65,13 @@ class DataSetEntry(BaseModel):
 # --- tiles ---------------------------------------------------------------------------
 
 
-@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census")
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census", responses=errors(404))
 async def tile_map(
     wall: WallDep,
     tile: TileDep,
     services: ServicesDep,
-    dataset: Annotated[int, Query(ge=1)],
-    layout: Annotated[int, Query(ge=0)] = 0,
+    dataset: RowId,
+    layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
     cx: float = 0.5,
     cy: float = 0.5,
     zoom: float = 1.0,
@@ -274,7 +276,7 @@ async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
 WallQuery = Annotated[str | None, Query(alias="wall", max_length=64)]
 
 
-@router.get("/apps/census/census.kml")
+@router.get("/apps/census/census.kml", responses=errors(404))
 async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     """The map as Google Earth shows it: tracts, groups as folders, open balloons."""
     inputs = await _kml_of(services, wall_id)
@@ -282,7 +284,7 @@ async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     return Response(body, media_type=KML_TYPE)
 
 
-@router.get("/apps/census/census.kmz")
+@router.get("/apps/census/census.kmz", responses=errors(404))
 async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     inputs = await _kml_of(services, wall_id)
     body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
@@ -293,7 +295,7 @@ async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     )
 
 
-@router.get("/apps/census/network-link.kml")
+@router.get("/apps/census/network-link.kml", responses=errors(404))
 async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     """Open once in Google Earth Pro: it fetches census.kml every few seconds, so
     Earth follows the wall's groups and balloons."""
@@ -328,7 +330,7 @@ async def datasets(services: ServicesDep) -> list[DataSetEntry]:
     ]
 
 
-@router.post("/api/census/current", dependencies=[StaffOnly])
+@router.post("/api/census/current", dependencies=[StaffOnly], responses=errors(404))
 async def choose_dataset(choice: DataSetChoice, services: ServicesDep) -> DataSetChoice:
     """Make a data set the one the census map shows; walls showing it switch in sync."""
     try:
@@ -354,8 +356,8 @@ class DataSetDetail(BaseModel):
     groups: list[GroupEntry]
 
 
-@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly])
-async def dataset_detail(dataset_id: int, services: ServicesDep) -> DataSetDetail:
+@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
+async def dataset_detail(dataset_id: RowId, services: ServicesDep) -> DataSetDetail:
     """A data set's groups, for the dashboard's toggles."""
     dataset = await run_in_threadpool(census_app(services).dataset, services, dataset_id)
     if dataset is None:
