@@ -24,7 +24,7 @@ from wall_client.layout import load_walls
 from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
-from webapp.db import Database
+from webapp.db import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
 from webapp.hub import WallHub
 from webapp.markdown import markdown_html
@@ -54,6 +54,7 @@ from webapp.wall_state import WallState, read_state
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"
+OUTAGE_RETRY_S = 5
 STATIC_DIR = PROJECT_ROOT / "static"
 
 
@@ -247,6 +248,17 @@ def _add_error_pages(app: FastAPI) -> None:
         if _wants_json(request):
             return JSONResponse({"detail": jsonable_errors(error)}, 422)
         return error_page(request, 400, "The request was malformed.")
+
+    @app.exception_handler(SQLAlchemyError)
+    async def database_error(request: Request, error: SQLAlchemyError) -> Response:
+        """The database down or unreachable is an outage, not a bug: 503, one log line."""
+        if not is_outage(error):
+            return await server_error(request, error)
+        url = request.app.state.services.db.url
+        log.warning("%s (on %s)", database_problem(error, url), request.url.path)
+        response = error_page(request, 503, "The database is not answering. Try again in a moment.")
+        response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
+        return response
 
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:

@@ -116,6 +116,12 @@ class Settings(BaseSettings):
 
     @model_validator(mode="after")
     def _refuse_known_secrets(self) -> Settings:
+        if self.env == "production" and not self.secret_key:
+            raise ValueError(
+                "TAGWALL_SECRET_KEY is required in production: sessions, tile URLs and the "
+                "operator link are signed with it, and every process of a wall must share "
+                "it. Make one with: python3 -c 'import secrets; print(secrets.token_urlsafe(32))'"
+            )
         if self.env != "dev" and self.secret_key:
             if self.secret_key.lower() in KNOWN_DEFAULT_SECRETS:
                 raise ValueError("TAGWALL_SECRET_KEY is a well-known default; set a random one")
@@ -152,7 +158,8 @@ class Settings(BaseSettings):
 
     @cached_property
     def resolved_secret_key(self) -> str:
-        """The signing secret: configured, else generated once into ``var_dir``."""
+        """The signing secret: configured, else (in dev only) generated once into
+        ``var_dir``."""
         if self.secret_key:
             return self.secret_key
         path = self.var_dir / "secret_key"

@@ -8,7 +8,7 @@ import time
 from typing import Annotated
 from urllib.parse import urlsplit
 
-from fastapi import APIRouter, Form, Query, Request, WebSocket, status
+from fastapi import APIRouter, Form, HTTPException, Query, Request, WebSocket, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
@@ -41,6 +41,12 @@ def dashboard_page(
     wall: Annotated[str | None, Query(max_length=64)] = None,
 ) -> HTMLResponse:
     walls = list(services.walls.values())
+    if not walls:
+        raise HTTPException(
+            status.HTTP_503_SERVICE_UNAVAILABLE,
+            "No walls are configured. Point TAGWALL_WALL_CONFIGS at wall config files "
+            "(see docs/wall-config.md) and start the server again.",
+        )
     current = services.walls.get(wall or "") or services.walls.get(services.settings.default_wall)
     current = current or walls[0]
     apps = list(services.wall_apps.values())

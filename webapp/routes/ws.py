@@ -15,11 +15,13 @@ import time
 from anyio import to_thread
 from fastapi import APIRouter, WebSocket
 from pydantic import ValidationError
+from sqlalchemy.exc import SQLAlchemyError
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from wall_client.layout import Wall
 from webapp.addresses import address_of
 from webapp.bus import SubscriberTooSlow, Subscription
+from webapp.db import is_outage
 from webapp.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
@@ -121,6 +123,11 @@ class Connection:
             await self.close(CLOSE_POLICY, "no hello in time")
         except WebSocketDisconnect:
             pass  # the peer went away; nothing to tell it
+        except SQLAlchemyError as error:
+            if not is_outage(error):
+                raise
+            log.warning("tile socket of %s: the database is not answering", self.wall.id)
+            await self.close(CLOSE_TRY_AGAIN, "the database is not answering: reconnect")
 
     async def catch_up(self, hello: Hello) -> None:
         """Replay what the tile missed, or send a snapshot when history is too short."""

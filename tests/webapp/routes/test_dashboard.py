@@ -4,6 +4,7 @@ socket, which closes when its instructor's authority ends."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 from fastapi.testclient import TestClient
@@ -12,7 +13,10 @@ from starlette.websockets import WebSocketDisconnect
 from tests.conftest import TEST_PASSWORD, csrf_of, register_student, services_of, sign_in
 from webapp.accounts import authenticate, list_accounts, remove_account, set_password
 from webapp.address_rules import list_rules
+from webapp.app import create_app
+from webapp.migrate import upgrade
 from webapp.protocol import CLOSE_POLICY
+from webapp.settings import Settings
 
 
 def test_the_dashboard_includes_each_apps_panel(client: TestClient) -> None:
@@ -133,3 +137,15 @@ def test_an_open_dashboard_socket_closes_when_its_authority_ends(
             for _ in range(60):  # status arrives every second until the socket closes
                 socket.receive_json()
         assert closed.value.code == CLOSE_POLICY
+
+
+def test_without_walls_the_dashboard_says_so(settings: Settings, tmp_path: Path) -> None:
+    empty = tmp_path / "no-walls"
+    empty.mkdir()
+    bare = settings.model_copy(update={"wall_configs": [empty]})
+    upgrade(bare.resolved_database_url)
+    with TestClient(create_app(bare)) as browser:
+        sign_in(browser, "instructor")
+        page = browser.get("/dashboard")
+    assert page.status_code == 503
+    assert "No walls are configured" in page.text and "TAGWALL_WALL_CONFIGS" in page.text
