@@ -24,7 +24,7 @@ from webapp.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 
-EXAMPLES_PER_OPERATION = 25
+EXAMPLES_PER_OPERATION = 10
 SEED = 1
 
 
