@@ -43,6 +43,7 @@ def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
 
 
 def schemathesis(server: ServerProcess, *headers: str) -> tuple[int, str]:
+    """Run the CLI in the server's folder (it keeps a cache where it runs)."""
     command = [
         str(Path(sys.executable).with_name("schemathesis")),
         "run",
@@ -56,7 +57,7 @@ def schemathesis(server: ServerProcess, *headers: str) -> tuple[int, str]:
         "--no-color",
         *(f"--header={header}" for header in headers),
     ]
-    done = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    done = subprocess.run(command, capture_output=True, text=True, timeout=600, cwd=server.var_dir)
     return done.returncode, done.stdout + done.stderr
 
 
