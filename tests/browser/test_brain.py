@@ -277,8 +277,11 @@ def test_the_instructor_turns_the_brain_and_follows_the_class_from_the_dashboard
     expect(row).to_contain_text("the wrong thing (1)", timeout=10_000)
     expect(panel.locator("#brain-participants")).to_contain_text("1 taking part")
 
+    # tutor pages name every pin: the panel asks before closing the running round
+    dashboard.once("dialog", lambda dialog: dialog.accept())
     panel.get_by_role("button", name="Tutor").click()
     expect(panel.locator("#brain-now")).to_contain_text("tutor")
+    expect(panel.locator("#brain-round-state")).to_contain_text("closed")
     phone.goto(pin.payload)
     expect(phone.locator("#tutor-text")).to_be_visible()
     phone.context.close()

@@ -4,6 +4,7 @@ learn a pin's name and when."""
 from __future__ import annotations
 
 import json
+import re
 from typing import Any
 
 import pytest
@@ -304,6 +305,30 @@ def test_each_round_numbers_the_pins_afresh_under_new_codes(on_wall: TestClient)
     assert again.status_code == 200 and "A new round has started" in again.text
     stale = answer(on_wall, next(iter(old.values())), "thalamus")
     assert stale.status_code == 409 and "A new round has started" in stale.text
+
+
+def test_my_quiz_sends_students_only_to_views_where_the_pin_has_a_code(
+    on_wall: TestClient,
+) -> None:
+    """Issue 17: hints named views where the pin had no code (pin 9 -> "Left side",
+    unplaced there). Every view named for an open pin places that pin's code."""
+    register_student(on_wall)
+    page = on_wall.get("/apps/brain/demo/quiz/full").text
+    hints = re.findall(r"<li>([^<:]+): ([^<]+)</li>", page.split('id="open-by-view"')[1])
+    assert hints
+    named = {str(escape(p.name)): p.id for p in brain(on_wall).views}
+    for view, pins in hints:
+        control(on_wall, preset=named[view])
+        placed = pins_on_wall(on_wall, "full")
+        numbers = {int(n.removeprefix("pin ")) for n in pins.split(", ")}
+        assert numbers <= set(placed), f"{view}: pins {numbers - set(placed)} have no code"
+    # and the pins placed now are the ones "on the wall now"
+    now = on_wall.get("/apps/brain/demo/quiz/full").text
+    shown = re.search(r'id="open-now">On the wall now: ([^<]+)</p>', now)
+    assert shown is not None
+    assert {int(n.removeprefix("pin ")) for n in shown.group(1).split(", ")} == set(
+        pins_on_wall(on_wall, "full")
+    )
 
 
 def test_a_round_starts_with_the_brain_and_pin_one_is_not_always_the_same_region(
