@@ -82,6 +82,7 @@ class Settings(BaseSettings):
     pubmed_results: int = Field(default=8, ge=1, le=50)
     pubmed_cache_seconds: int = Field(default=86_400, ge=0)
     pubmed_email: str | None = None  # sent with tool=tagwall, as NCBI asks of clients
+    brain_group_switch_cooldown: float = Field(default=30.0, ge=0, le=3_600)
 
     @field_validator("wall_configs", mode="before")
     @classmethod

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal
 
@@ -21,6 +22,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from tag_service.codes import (
+    ALPHABET,
     CODE_LENGTH,
     Contact,
     PayloadKind,
@@ -350,10 +352,73 @@ def layout_for(db: Database, wall: Wall, tag_set: str | None, base_url: str) -> 
         return record.id
 
 
+@dataclass(frozen=True)
+class Preview:
+    """A tag set as it would be placed if one app declared other tags: what a view the
+    wall does not show yet would carry (phones are told where a thing can be scanned)."""
+
+    wall: Wall
+    digest: str  # the placement's inputs: equal digests, equal placements
+    tags: list[TagRecord]  # detached; the app's new tags carry stand-in codes
+    payloads: list[str]
+
+    def placed_names(self) -> set[str]:
+        """The names of the tags that would get a place on the wall."""
+        placed, _ = compute_layout(self.wall, self.tags, self.payloads)
+        by_code = {tag.code: tag.name for tag in self.tags}
+        return {name for p in placed if (name := by_code[p["code"]]) is not None}
+
+
+def preview(
+    db: Database, wall: Wall, tag_set: str | None, base_url: str, app: str, specs: Sequence[TagSpec]
+) -> Preview:
+    """``tag_set`` placed as :func:`layout_for` would place it after ``app`` declared
+    exactly ``specs``, without touching the registry. Tags the app has keep their
+    codes; new ones get stand-in codes of the same length (so the same symbol size),
+    derived from their names so that equal inputs give equal digests."""
+    now = datetime.now(UTC)
+    with db.session() as session:
+        others = [
+            tag
+            for tag in _tags_to_place(session, wall.id, tag_set)
+            if tag.app != app or not tag.name
+        ]
+        known = {
+            tag.name: tag
+            for tag in session.scalars(
+                select(TagRecord).where(TagRecord.wall_id == wall.id, TagRecord.app == app)
+            )
+            if tag.name
+        }
+    staged = []
+    for spec in specs:
+        if not spec.active or spec.tag_set not in (None, tag_set):
+            continue
+        existing = known.get(spec.name or "")
+        record = TagRecord(
+            code=existing.code if existing else _stand_in_code(spec.name or spec.label),
+            wall_id=wall.id,
+            created_at=as_utc(existing.created_at) if existing else now,
+        )
+        _fill(record, spec)
+        staged.append(record)
+    tags = sorted(others + staged, key=lambda t: (-(t.priority or 0), as_utc(t.created_at), t.code))
+    payloads = [payload_of(tag, base_url) for tag in tags]
+    return Preview(wall, _inputs_hash(wall, tag_set, tags, payloads), tags, payloads)
+
+
+def _stand_in_code(name: str) -> str:
+    digest = hashlib.sha256(name.encode()).digest()
+    return "".join(ALPHABET[byte % len(ALPHABET)] for byte in digest[:CODE_LENGTH])
+
+
 def compute_layout(
     wall: Wall, tags: Sequence[TagRecord], payloads: Sequence[str]
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Place ``tags`` on ``wall``: what tiles draw, and what could not be placed and why."""
+    """Place ``tags`` on ``wall``: what tiles draw, and what could not be placed and why.
+
+    Both lists are in code order: codes are random, so the order says nothing about
+    which tag came first (a quiz's pins are placed in an order that must stay secret)."""
     module_mm = min_module_mm(wall.scan_distance_m)
     variants = {tag.code: symbol_variants(p) for tag, p in zip(tags, payloads, strict=True)}
     requests = [
@@ -389,11 +454,11 @@ def compute_layout(
             anchor=anchor_of(by_code[p.key]) or p.rect.center,
             leader=p.leader,
         ).model_dump(mode="json")
-        for p in result.placed
+        for p in sorted(result.placed, key=lambda p: p.key)
     ]
     unplaced = [
         UnplacedCode(code=u.key, label=by_code[u.key].label, reason=u.reason).model_dump()
-        for u in result.unplaced
+        for u in sorted(result.unplaced, key=lambda u: u.key)
     ]
     return placed, unplaced
 

@@ -90,6 +90,7 @@ class WallState(BaseModel):
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
     dataset: int | None = Field(default=None, ge=1)  # the census map's data set
+    quiz_round: int | None = Field(default=None, ge=1)  # the brain quiz's round (its pin codes)
 
 
 class StatePatch(BaseModel):

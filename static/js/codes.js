@@ -3,6 +3,7 @@
 
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
+const MIN_CAPTION_PX = 14;
 
 // Layouts (placements of a tag set) by id. They never change once made, so each is
 // fetched once; a tile asks only for its own display's codes.
@@ -74,19 +75,39 @@ function drawPins(ctx, codes, pxPerMm) {
   }
 }
 
-// Screen codes (registration, menu) carry their label underneath, in the cell they stand in.
-function drawLabels(ctx, codes, matrix) {
-  ctx.save();
-  ctx.setTransform(1, 0, 0, 1, 0, 0);
+// A code's caption: its label on a dark plate right under the code's box (quiet zone
+// included), or right above it where the display ends below, so it reads on any
+// background (the brain, the map) and stays with its code on the same display. `box`
+// is the code's box in device pixels; returns the plate's box.
+export function drawCaption(ctx, text, [left, top, width, height]) {
+  const size = Math.max(MIN_CAPTION_PX, Math.round(width / 8));
+  ctx.font = `bold ${size}px sans-serif`;
+  const pad = Math.round(size / 4);
+  const textWidth = Math.ceil(ctx.measureText(text).width);
+  const plateHeight = Math.round(size * 1.3);
+  const below = top + height + plateHeight <= ctx.canvas.height;
+  const plate = [
+    Math.round(left + width / 2 - textWidth / 2) - pad, below ? top + height : top - plateHeight,
+    textWidth + 2 * pad, plateHeight,
+  ];
+  ctx.fillStyle = "#000";
+  ctx.fillRect(...plate);
   ctx.fillStyle = "#fff";
   ctx.textAlign = "center";
   ctx.textBaseline = "top";
+  ctx.fillText(text, Math.round(left + width / 2), plate[1] + Math.round(size * 0.15));
+  return plate;
+}
+
+// Every code carries its label as its caption: screen codes their menu entry, pins
+// their number, so students find the pins they have not answered yet.
+function drawLabels(ctx, codes, matrix) {
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) {
-    if (!code.label || code.leader) continue;
+    if (!code.label) continue;
     const [x, y, w] = code.rect;
-    const [left, top, width, height] = pixelBox(matrix, x, y, w, w);
-    ctx.font = `bold ${Math.round(width / 8)}px sans-serif`;
-    ctx.fillText(code.label, left + width / 2, top + height + width / 20);
+    drawCaption(ctx, code.label, pixelBox(matrix, x, y, w, w));
   }
   ctx.restore();
 }

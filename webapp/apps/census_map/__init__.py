@@ -80,7 +80,7 @@ class CensusApp:
 
     # --- the WallApp interface -----------------------------------------------------
 
-    def settle(self, services: Services, state: WallState) -> WallState:
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the shipped one until an
         import): seeded on first use, so walls that never show the map pay nothing."""
         dataset_id = current_id(services.db) or seed(services.db)
@@ -156,6 +156,9 @@ class CensusApp:
                 self, scan.request, scan.services, scan.wall, scan.tag.params.get("geoid", "")
             )
         return await pages.index(self, scan.request, scan.services, scan.wall)
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         """The tract page as its publisher sees it: the values of their class."""
