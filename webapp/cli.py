@@ -14,7 +14,7 @@ from pydantic import ValidationError
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
 from webapp.db import Database
-from webapp.settings import Settings
+from webapp.settings import Settings, lan_address
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
 if TYPE_CHECKING:
@@ -83,11 +83,10 @@ def serve(host: str | None, port: int | None) -> None:
 
 
 def print_urls(settings: Settings, walls: dict[str, Wall]) -> None:
-    click.echo(
-        f"tagwall on {settings.server_url}"
-        f"  (codes send phones to {settings.resolved_public_base_url})"
-    )
+    for line in reach(settings):
+        click.echo(line)
     click.echo(f"  dashboard: {dashboard_url(settings)}")
+    click.echo("    (the operator's admin sign-in: keep it private, open it on this machine)")
     for wall in walls.values():
         if wall.id != settings.default_wall and len(walls) > 1:
             continue
@@ -97,6 +96,44 @@ def print_urls(settings: Settings, walls: dict[str, Wall]) -> None:
     others = sorted(set(walls) - {settings.default_wall})
     if others and settings.default_wall in walls:
         click.echo(f"  other walls: {', '.join(others)} (tagwall tiles --wall NAME)")
+
+
+def reach(settings: Settings) -> list[str]:
+    """Where the server listens and whether the phones that scan its codes get there:
+    the first thing `serve` says, so a first scan that cannot work is explained."""
+    codes = settings.resolved_public_base_url
+    if settings.listens_everywhere:
+        where = f"listening on every network interface, port {settings.port}"
+    elif settings.listens_locally_only:
+        where = f"listening on this machine only ({settings.host}:{settings.port})"
+    else:
+        where = f"listening on {settings.host}:{settings.port} only"
+    lines = [f"tagwall on {settings.server_url}, {where}"]
+    if settings.public_base_url:
+        lines.append(
+            f"  phones: codes send them to {codes} (TAGWALL_PUBLIC_BASE_URL); "
+            "it must lead phones to this server"
+        )
+    elif settings.listens_locally_only:
+        lines += [
+            f"  phones: cannot reach it; codes send them to {codes}, which a phone takes "
+            "for itself",
+            "  to let phones in: TAGWALL_HOST=0.0.0.0 make run (on a network you trust)",
+        ]
+    elif settings.listens_everywhere and lan_address() == "127.0.0.1":
+        lines += [
+            f"  phones: cannot reach it: this machine has no network address; codes send "
+            f"them to {codes}",
+            "  to let phones in: join the network the phones use and start again",
+        ]
+    else:
+        lines.append(
+            f"  phones on this network: codes send them to {codes} "
+            f"(a firewall here must let port {settings.port} in)"
+        )
+        if settings.listens_everywhere:
+            lines.append("  to keep it on this machine only: TAGWALL_HOST=127.0.0.1 make run")
+    return lines
 
 
 @main.command()
@@ -243,7 +280,7 @@ def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
-    server_url = (server or settings.server_url).rstrip("/")
+    server_url = (server or settings.local_url).rstrip("/")
     try:
         executable = browser or find_browser()
         version, layout = fetch_layout(
@@ -515,7 +552,7 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
 
     from webapp.security import operator_token
 
-    url = f"{settings.server_url.rstrip('/')}/api/census/current"
+    url = f"{settings.local_url}/api/census/current"
     token = operator_token(settings.resolved_secret_key)
     try:
         response = httpx.post(
@@ -526,12 +563,12 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
         )
     except (httpx.ConnectError, httpx.TimeoutException):
         return (
-            f"the server ({settings.server_url}) is not reachable; "
+            f"the server ({settings.local_url}) is not reachable; "
             f"the map switches to data set {dataset_id} when it next starts"
         )
     except httpx.HTTPError as error:
         return (
-            f"could not tell the server ({settings.server_url}) to switch the map: {error}; "
+            f"could not tell the server ({settings.local_url}) to switch the map: {error}; "
             f"it shows data set {dataset_id} when it next starts"
         )
     if response.is_error:

@@ -22,9 +22,10 @@ def overview_url(settings: Settings, wall_id: str) -> str:
 
 def dashboard_url(settings: Settings) -> str:
     """The operator's sign-in link: it signs the browser in as admin and opens the
-    dashboard (for a new installation, before any account exists)."""
+    dashboard (for a new installation, before any account exists). On this machine's
+    loopback where the server listens there: the token never crosses the network."""
     token = operator_token(settings.resolved_secret_key)
-    return f"{settings.server_url}/login/operator?token={token}"
+    return f"{settings.local_url}/login/operator?token={token}"
 
 
 def code_image_path(code: str, payload: str, extension: str) -> str:
