@@ -277,14 +277,21 @@ def brain_pages(tour: Tour, student: Page, instructor: Page, retired: str) -> No
     student.goto(f"{url}/apps/brain/{WALL}/quiz/full")
     expect(student.locator("#finish")).to_be_visible()
     tour.look("quiz-all-answered", student)
-    submit(student, "Finish and see my results")
-    expect(student.locator("#score")).to_be_visible()
-    tour.look("quiz-results", student)
+    submit(student, "Finish")
+    expect(student.locator("#waiting")).to_be_visible()
+    tour.look("quiz-finished", student)
 
     tour.visit("question-instructor", instructor, first)
     submit(instructor, "Answer")
     expect(instructor.locator("#correct-name")).to_be_visible()
     tour.look("revealed", instructor)
+
+    httpx.post(
+        f"{url}/api/walls/{WALL}/brain/quiz/close", headers=server.operator()
+    ).raise_for_status()
+    student.goto(f"{url}/apps/brain/{WALL}/quiz/full")
+    expect(student.locator("#score")).to_be_visible()
+    tour.look("quiz-results", student)
 
     httpx.post(
         f"{url}/api/walls/{WALL}/brain", json={"mode": "tutor"}, headers=server.operator()
@@ -298,6 +305,13 @@ def brain_pages(tour: Tour, student: Page, instructor: Page, retired: str) -> No
         student.get_by_role("link", name="Search the literature").tap()
     expect(student.locator("#source")).to_contain_text("Offline")
     tour.look("literature", student)
+
+    httpx.post(
+        f"{url}/api/walls/{WALL}/brain", json={"mode": "quiz"}, headers=server.operator()
+    ).raise_for_status()
+    student.goto(first)  # a code of the round before
+    expect(student.locator("h1")).to_have_text("A new round has started")
+    tour.look("new-round", student)
 
 
 def all_pin_codes(server: ServerProcess) -> dict[int, str]:
@@ -346,7 +360,7 @@ def test_every_phone_page_fits_phones_and_passes_the_accessibility_audit(tour: T
     desk = dashboard_first_use(tour)
     retired = census_pages(tour, student, instructor)
     brain_pages(tour, student, instructor, retired)
-    expect(desk.locator("#brain-participants")).to_contain_text("1 taking part")
+    expect(desk.locator("#brain-participants")).to_contain_text("0 taking part")  # the new round
     if tour.shots:
         desk.screenshot(path=tour.shots / "dashboard.png", full_page=True)
     tour.violations["dashboard with the brain quiz"] = axe_violations(desk)
@@ -354,7 +368,7 @@ def test_every_phone_page_fits_phones_and_passes_the_accessibility_audit(tour: T
     instructor.goto(f"{tour.server.url}/me")
     with instructor.expect_navigation():
         instructor.get_by_role("link", name="Dashboard").tap()
-    expect(instructor.locator("#brain-participants")).to_contain_text("1 taking part")
+    expect(instructor.locator("#brain-participants")).to_contain_text("0 taking part")  # the new round
     tour.look("dashboard-on-a-phone", instructor, open_details=True, tables_scroll=True)
     desk.goto(f"{tour.server.url}/dashboard/admin")
     expect(desk.locator("#audit tbody tr").first).to_be_visible()
