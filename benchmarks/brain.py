@@ -73,7 +73,7 @@ def run() -> dict[str, Any]:
             plane = cache.get(volumes, regions, preset.view, preset.layer())
             for tag_set in ("full", "k5"):
                 ids = {r.id for r in content.in_set(tag_set)}
-                points = scene_pins(plane, (wall.width, wall.height), preset.view, volumes.meta)
+                points = scene_pins(plane, wall, preset.view, volumes.meta)
                 requests = [
                     PlacementRequest(
                         key=f"group-{i}", sizes=sizes, module_mm=module, screen="menu", slot=i

@@ -117,7 +117,9 @@ class ServerProcess:
     def change(self, wall: str, patch: dict[str, Any], client: httpx.Client | None = None) -> int:
         """Change a wall's state as the operator does; returns the new version."""
         post = client.post if client is not None else httpx.post
-        response = post(f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator())
+        response = post(
+            f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator(), timeout=60
+        )
         response.raise_for_status()
         return int(response.json()["version"])
 

@@ -20,7 +20,7 @@ from tag_service.codes import (
     vcard_payload,
 )
 from tag_service.sizing import min_module_mm
-from tag_service.verify import as_seen_from
+from tag_service.verify import Shot, phone_frame
 from webapp.app import create_app
 from webapp.migrate import upgrade
 from webapp.routes import scan
@@ -85,11 +85,10 @@ def test_any_host_and_case_still_goes_to_our_own_page(client: TestClient, payloa
 
 
 def test_a_photo_like_jpeg_still_works(client: TestClient) -> None:
-    """The code as a phone at the design distance sees it, in a bigger, greyish frame."""
+    """The code as a phone at the design distance sees it: a full, tilted, noisy frame."""
     code = Image.open(io.BytesIO(png_of(url_payload(BASE_URL, CODE), 4)))
-    seen = as_seen_from(code, 4, min_module_mm(2.0), distance_m=2.0)
-    frame = Image.new("L", (640, 480), 150)
-    frame.paste(seen, (200, 150))
+    shot = Shot(distance_m=2.0, tilt_deg=20, roll_deg=5, aim_mm=(60.0, 20.0))
+    frame = phone_frame(code, min_module_mm(2.0) / 4, (code.width / 2, code.height / 2), shot)
     response = post_photo(client, jpeg_of(frame), "IMG_0042.jpg", "image/jpeg")
     assert response.status_code == 303
     assert response.headers["location"] == f"/t/{CODE}"
