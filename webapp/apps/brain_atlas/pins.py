@@ -434,14 +434,17 @@ def scene_pins(
     meta: VolumeMeta,
 ) -> dict[str, tuple[float, float]]:
     """The pins on the scene (mm) for ``view`` of the picture framed on ``wall``'s
-    stage, through the inverse of the renderer's scene -> plane map; pins off the wall
-    are left out."""
+    stage, through the inverse of the renderer's scene -> plane map. Pins off the wall
+    are left out, and so are pins under a designated screen (a zoomed picture reaches
+    beyond the stage): a panel or a publication covers them there."""
     to_scene = invert_affine(scene_to_plane(view, wall.stage, meta))
     width, height = wall.width, wall.height
+    panels = [wall.viewport(d).scene_rect for d in wall.designated()]
     placed: dict[str, tuple[float, float]] = {}
     for region_id, pin in plane_pins.items():
         x, y = apply_affine(to_scene, pin.u, pin.v)
-        if 0.0 <= x <= width and 0.0 <= y <= height:
+        on_wall = 0.0 <= x <= width and 0.0 <= y <= height
+        if on_wall and not any(panel.contains((x, y)) for panel in panels):
             placed[region_id] = (x, y)
     return placed
 

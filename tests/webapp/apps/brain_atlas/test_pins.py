@@ -391,17 +391,21 @@ def test_pins_go_plane_to_scene_and_back(volumes: AtlasVolumes, wall_id: str, vi
     placed = scene_pins(plane, wall, view, volumes.meta)
     to_plane = scene_to_plane(view, wall.stage, volumes.meta)
     width, height = wall.width, wall.height
+    panels = [wall.viewport(d).scene_rect for d in wall.designated()]
     for region_id, pin in plane.items():
         if region_id not in placed:
-            # left out only when off the scene
+            # left out only when off the wall or under a designated screen
             to_scene = np.linalg.inv(
                 np.array([[to_plane[0], to_plane[2]], [to_plane[1], to_plane[3]]])
             ) @ (np.array([pin.u, pin.v]) - np.array(to_plane[4:]))
             x, y = to_scene
-            assert not (0 <= x <= width and 0 <= y <= height)
+            assert not (0 <= x <= width and 0 <= y <= height) or any(
+                panel.contains((x, y)) for panel in panels
+            )
             continue
         x, y = placed[region_id]
         assert 0 <= x <= width and 0 <= y <= height
+        assert not any(panel.contains((x, y)) for panel in panels)
         assert apply_affine(to_plane, x, y) == pytest.approx((pin.u, pin.v))
     assert placed  # some always land
 
