@@ -16,8 +16,6 @@ from __future__ import annotations
 import io
 import itertools
 import math
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import httpx
@@ -30,7 +28,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.sizing import min_module_mm
 from tag_service.verify import Decoded, decode_image, phone_frame, random_shots
-from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.conftest import open_tiles, version_of
 from wall_client.layout import Wall, apply_affine, load_wall
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo, PlacedCode
@@ -43,13 +41,6 @@ PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touc
 TRACTS = 403
 V2_MODULES = 25  # a version-2 symbol between its outer edges, as zbar's rectangle spans it
 Pixels = npt.NDArray[np.uint8]
-
-
-@pytest.fixture
-def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
-    process = serve(tmp_path, database_url)
-    yield process
-    process.stop()
 
 
 @pytest.fixture(scope="module")
