@@ -85,20 +85,19 @@ def module_mm(found: Decoded, wall: Wall, tile: str) -> float:
 
 
 def reads_from(picture: Pixels, found: Decoded, wall: Wall, tile: str, distance_m: float) -> bool:
-    """Whether a phone at ``distance_m`` reads ``found`` off the photographed tile, in
-    each of two frames (tilted, blurred, noisy, JPEG), with both decoders."""
+    """Whether a phone at ``distance_m`` reads ``found`` off the photographed tile: in
+    three frames (tilted, blurred, noisy, JPEG) a ZXing-class decoder reads every one
+    and zbar at least two (it reads 99 in 100 at the design distance, docs/codes.md)."""
     screen = Image.fromarray(picture)
     x, y, w, h = found.rect
-    for n, shot in enumerate(random_shots(distance_m, 2, seed=x + y)):
-        frame = phone_frame(
-            screen, wall.display(tile).mm_per_px, (x + w / 2, y + h / 2), shot, seed=n
-        )
-        by_zxing = zxingcpp.read_barcodes(frame, formats=zxingcpp.BarcodeFormat.QRCode)
-        if found.payload not in {r.text for r in by_zxing}:
-            return False
-        if found.payload not in {d.payload for d in decode_image(frame)}:
-            return False
-    return True
+    centre = (x + w / 2, y + h / 2)
+    by_zxing = by_zbar = 0
+    for n, shot in enumerate(random_shots(distance_m, 3, seed=x + y)):
+        frame = phone_frame(screen, wall.display(tile).mm_per_px, centre, shot, seed=n)
+        read = zxingcpp.read_barcodes(frame, formats=zxingcpp.BarcodeFormat.QRCode)
+        by_zxing += found.payload in {r.text for r in read}
+        by_zbar += found.payload in {d.payload for d in decode_image(frame)}
+    return by_zxing == 3 and by_zbar >= 2
 
 
 def test_every_tract_is_reached_from_the_wall_by_codes_sized_for_their_use(
