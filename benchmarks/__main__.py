@@ -11,7 +11,7 @@ import platform
 import sys
 from pathlib import Path
 
-BENCHMARKS = ("fanout", "codes", "placement", "scans", "volume", "census", "brain")
+BENCHMARKS = ("fanout", "codes", "camera", "placement", "scans", "volume", "census", "brain")
 RESULTS = Path(__file__).parent / "results"
 
 

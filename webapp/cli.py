@@ -12,7 +12,7 @@ import click
 from pydantic import ValidationError
 
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
-from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
+from wall_client.layout import CodePurpose, Wall, WallConfigError, load_wall, load_walls
 from webapp.db import Database
 from webapp.settings import Settings, lan_address
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
@@ -230,7 +230,14 @@ def codes() -> None:
     "--distance",
     type=click.FloatRange(min=0.1, max=100),
     default=None,
-    help="Scanning distance in metres (default: the wall's scan_distance_m).",
+    help="Scanning distance in metres (default: the wall's distance for --purpose).",
+)
+@click.option(
+    "--purpose",
+    type=click.Choice(["walk-up", "seat"]),
+    default="seat",
+    show_default=True,
+    help="Codes marking the scene (walk-up) or serving the room (seat).",
 )
 @click.option(
     "--qr-version",
@@ -239,18 +246,21 @@ def codes() -> None:
     show_default=True,
     help="QR version to size (2 holds a typical LAN URL code).",
 )
-def codes_size(wall_id: str | None, distance: float | None, qr_version: int) -> None:
-    """Print the code size on each display for a scanning distance."""
+def codes_size(
+    wall_id: str | None, distance: float | None, purpose: CodePurpose, qr_version: int
+) -> None:
+    """Print the code size on each display for a purpose's design distance."""
     from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
-    distance = distance or wall.scan_distance_m
+    distance = distance or wall.design_distance_m(purpose)
     camera = Camera()
     module_mm = min_module_mm(distance, camera)
     modules = symbol_modules(17 + 4 * qr_version)
     click.echo(
-        f"wall {wall.id}, scanning distance {distance:g} m: modules of at least {module_mm:.2f} mm"
+        f"wall {wall.id}, {purpose} codes, scanning distance {distance:g} m:"
+        f" modules of at least {module_mm:.2f} mm"
         f" ({camera.field_of_view_deg:g} deg field of view, {camera.frame_px} px frames,"
         f" {camera.px_per_module:g} camera px per module)"
     )

@@ -22,7 +22,7 @@ from webapp.volume.layer import VolumeLayer
 
 
 class View(BaseModel):
-    """Where the scene looks: centre as a fraction of the wall, zoom, orientation."""
+    """Where the scene looks: centre as a fraction of the wall's stage, zoom, orientation."""
 
     model_config = ConfigDict(extra="forbid")
 

@@ -3,7 +3,7 @@
 
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
-const MIN_CAPTION_PX = 14;
+const CAPTION_BACKING = "#10161f";
 
 // Layouts (placements of a tag set) by id. They never change once made, so each is
 // fetched once; a tile asks only for its own display's codes.
@@ -75,39 +75,34 @@ function drawPins(ctx, codes, pxPerMm) {
   }
 }
 
-// A code's caption: its label on a dark plate right under the code's box (quiet zone
-// included), or right above it where the display ends below, so it reads on any
-// background (the brain, the map) and stays with its code on the same display. `box`
-// is the code's box in device pixels; returns the plate's box.
-export function drawCaption(ctx, text, [left, top, width, height]) {
-  const size = Math.max(MIN_CAPTION_PX, Math.round(width / 8));
-  ctx.font = `bold ${size}px sans-serif`;
-  const pad = Math.round(size / 4);
-  const textWidth = Math.ceil(ctx.measureText(text).width);
-  const plateHeight = Math.round(size * 1.3);
-  const below = top + height + plateHeight <= ctx.canvas.height;
-  const plate = [
-    Math.round(left + width / 2 - textWidth / 2) - pad, below ? top + height : top - plateHeight,
-    textWidth + 2 * pad, plateHeight,
-  ];
-  ctx.fillStyle = "#000";
-  ctx.fillRect(...plate);
-  ctx.fillStyle = "#fff";
-  ctx.textAlign = "center";
-  ctx.textBaseline = "top";
-  ctx.fillText(text, Math.round(left + width / 2), plate[1] + Math.round(size * 0.15));
-  return plate;
-}
-
-// Every code carries its label as its caption: screen codes their menu entry, pins
-// their number, so students find the pins they have not answered yet.
-function drawLabels(ctx, codes, matrix) {
+// Every labelled code carries its caption in the strip placement reserved under it (same
+// display, clear of other codes and captions): on a dark backing, so nothing drawn
+// before shows through, upright as the panel hangs, in the largest type that fits.
+function drawCaptions(ctx, codes, matrix) {
+  const [a, b] = matrix;
+  const angle = Math.atan2(b, a);  // the panel's rotation: text turns with the scene
+  const turned = Math.abs(Math.sin(angle)) > 0.5;
   ctx.save();
-  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
   for (const code of codes) {
-    if (!code.label) continue;
-    const [x, y, w] = code.rect;
-    drawCaption(ctx, code.label, pixelBox(matrix, x, y, w, w));
+    if (!code.label || !code.caption) continue;
+    const [left, top, boxW, boxH] = pixelBox(matrix, ...code.caption);
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.fillStyle = CAPTION_BACKING;
+    ctx.fillRect(left, top, boxW, boxH);
+    const [width, height] = turned ? [boxH, boxW] : [boxW, boxH];
+    ctx.setTransform(Math.cos(angle), Math.sin(angle), -Math.sin(angle), Math.cos(angle),
+      left + boxW / 2, top + boxH / 2);
+    let size = Math.floor(height * 0.8);
+    ctx.font = `bold ${size}px sans-serif`;
+    const measured = ctx.measureText(code.label).width;
+    if (measured > width * 0.96) {
+      size = Math.floor(size * (width * 0.96) / measured);
+      ctx.font = `bold ${size}px sans-serif`;
+    }
+    ctx.fillStyle = "#fff";
+    ctx.fillText(code.label, 0, 0);
   }
   ctx.restore();
 }
@@ -126,5 +121,5 @@ export function drawCodes(ctx, layout, matrix, hidden = null) {
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) drawCode(ctx, code, matrix);
   ctx.restore();
-  drawLabels(ctx, codes, matrix);
+  drawCaptions(ctx, codes, matrix);
 }

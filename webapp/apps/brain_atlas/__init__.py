@@ -292,7 +292,7 @@ class BrainApp:
         assert state.volume is not None
         store = services.volumes.get(state.volume.volume)
         on_plane = self.pin_cache.get(self.volumes, regions, state.view, state.volume)
-        return scene_pins(on_plane, (wall.width, wall.height), state.view, store.meta)
+        return scene_pins(on_plane, wall, state.view, store.meta)
 
     async def on_scan(self, scan: Scan) -> Response:
         from webapp.apps.brain_atlas import pages
