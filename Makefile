@@ -9,13 +9,14 @@ SYSTEM_STAMP := var/.system-packages
 SYSTEM_PACKAGES := chromium libzbar0
 MNI := content/brain_atlas/mni_icbm152_t1_tal_nlin_sym_09a.nii.gz
 DEMO_VOLUME := var/volumes/mni152
+AXE := node_modules/axe-core/axe.min.js
 
 .PHONY: run test lint bench system clean
 
 run: $(STAMP) $(DEMO_VOLUME)/volume.json
 	$(BIN)/tagwall serve
 
-test: $(STAMP) $(SYSTEM_STAMP) lint
+test: $(STAMP) $(SYSTEM_STAMP) $(AXE) lint
 	$(BIN)/pytest -q
 
 lint: $(STAMP)
@@ -34,6 +35,14 @@ $(STAMP): pyproject.toml $(SYSTEM_STAMP)
 # The demo's volume: the MNI brain template as a brick store (seconds to build).
 $(DEMO_VOLUME)/volume.json: $(MNI) $(STAMP)
 	$(BIN)/tagwall volume build $(MNI) $(DEMO_VOLUME)
+
+# axe-core from the npm registry, pinned by package-lock.json: the accessibility audit
+# the browser tests inject into pages (never served to users). npm comes with Node.js;
+# Debian's npm package where it does not.
+$(AXE): package.json package-lock.json
+	@command -v npm >/dev/null || $(MAKE) --no-print-directory system SYSTEM_PACKAGES=npm
+	npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
+	touch $@
 
 # Debian packages: the browser for tests and kiosks, and zbar for decoding QR codes.
 system $(SYSTEM_STAMP):
@@ -55,4 +64,4 @@ system $(SYSTEM_STAMP):
 	@mkdir -p var && touch $(SYSTEM_STAMP)
 
 clean:
-	rm -rf $(VENV) var .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) var node_modules .pytest_cache .mypy_cache .ruff_cache

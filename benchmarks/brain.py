@@ -66,22 +66,33 @@ def run() -> dict[str, Any]:
     sizes = tuple(modules_across(s) for s in symbol_variants(payload))
     for name in WALLS:
         wall = load_wall(CONTENT_DIR / "walls" / f"{name}.toml")
-        module = min_module_mm(wall.scan_distance_m)
+        seat = min_module_mm(wall.seat_distance_m)
+        walk_up = min_module_mm(wall.walk_up_distance_m)
         clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(BASE_URL, wall)
         per_preset = {}
         for preset in presets:
             plane = cache.get(volumes, regions, preset.view, preset.layer())
             for tag_set in ("full", "k5"):
                 ids = {r.id for r in content.in_set(tag_set)}
-                points = scene_pins(plane, (wall.width, wall.height), preset.view, volumes.meta)
+                points = scene_pins(plane, wall, preset.view, volumes.meta)
                 requests = [
                     PlacementRequest(
-                        key=f"group-{i}", sizes=sizes, module_mm=module, screen="menu", slot=i
+                        key=f"group-{i}",
+                        sizes=sizes,
+                        module_mm=seat,
+                        screen="menu",
+                        slot=i,
+                        caption=True,
                     )
                     for i in range(1, 5)
                 ] + [
                     PlacementRequest(
-                        key=rid, sizes=sizes, module_mm=module, anchor=point, clear_mm=clear
+                        key=rid,
+                        sizes=sizes,
+                        module_mm=walk_up,
+                        anchor=point,
+                        clear_mm=clear,
+                        caption=True,
                     )
                     for rid, point in points.items()
                     if rid in ids

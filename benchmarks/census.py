@@ -2,6 +2,8 @@
 
 * Import of the shipped Sacramento data set into SQLite, and the one-off geometry
   (the plane, label points, the room for codes) per data set.
+* Tract coverage at the whole-map view on every shipped wall: the share of tracts
+  with their own code and with a cluster code once the wall's codes are placed.
 * Codes for a view: which tracts carry one and placing them with the wall's other
   codes (the menu's toggles, the registration codes), for ``demo`` and ``hiperwall``
   at zoom 1 and 3.
@@ -18,20 +20,27 @@ import statistics
 import tempfile
 import time
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
-from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_payload
-from tag_service.placement import PlacementRequest, place
-from tag_service.sizing import min_module_mm
-from wall_client.layout import Wall, load_wall
+from wall_client.layout import Wall, load_walls
+from webapp.apps.census_map import APP, CENSUS_SET, CensusApp
 from webapp.apps.census_map.importer import import_files
-from webapp.apps.census_map.mapview import MapGeometry, code_anchors, tile_view
+from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
+from webapp.apps.core import CoreApp
 from webapp.db import Database
 from webapp.migrate import upgrade
 from webapp.settings import CONTENT_DIR
-from webapp.tags import anchored_code_side_mm
-from webapp.wall_state import View
+from webapp.tags import (
+    anchored_code_side_mm,
+    anchored_footprint_mm,
+    declare,
+    get_layout,
+    layout_for,
+    wall_tags,
+)
+from webapp.wall_state import View, WallState
 
 WALLS = ("demo", "hiperwall")
 ZOOMS = (1.0, 3.0)
@@ -42,29 +51,41 @@ def _ms(seconds: float) -> float:
     return round(seconds * 1000, 1)
 
 
-def _codes(wall: Wall, geometry: MapGeometry, view: View, side_mm: float) -> dict[str, Any]:
-    """Which tracts carry a code at ``view``, then placing them with ten menu toggles."""
+def _codes(db: Database, wall: Wall, dataset_id: int, total: int, view: View) -> dict[str, Any]:
+    """The census map's codes for ``view`` as the server makes them (the app declares
+    its tags, the wall's tag set is placed with the registration codes): how many
+    tracts carry their own code, how many a cluster code, and how long that took."""
+    services = SimpleNamespace(db=db, base_url=BASE_URL)
+    state = WallState(app=APP, dataset=dataset_id, view=view, tag_set=CENSUS_SET)
     started = time.perf_counter()
-    anchors = code_anchors(geometry, wall, view, side_mm)
+    specs = CensusApp().declare_tags(services, wall, state)  # type: ignore[arg-type]
     chosen = time.perf_counter()
-    payload = url_payload(BASE_URL, "0" * CODE_LENGTH)
-    sizes = tuple(modules_across(s) for s in symbol_variants(payload))
-    module = min_module_mm(wall.scan_distance_m)
-    requests = [
-        PlacementRequest(key=f"toggle-{i}", sizes=sizes, module_mm=module, screen="menu", slot=i)
-        for i in range(10)
-    ] + [
-        PlacementRequest(key=geoid, sizes=sizes, module_mm=module, anchor=anchor)
-        for geoid, anchor in anchors.items()
-    ]
-    layout = place(wall, requests)
-    placed = time.perf_counter()
+    declare(db, wall.id, "core", CoreApp().declare_tags(services, wall, state))  # type: ignore[arg-type]
+    declare(db, wall.id, APP, specs)
+    layout = get_layout(db, wall.id, layout_for(db, wall, CENSUS_SET, BASE_URL))
+    placed_at = time.perf_counter()
+    assert layout is not None
+    placed = {p["code"] for p in layout.placed}
+    by_name = {tag.name: tag for tag in wall_tags(db, wall.id) if tag.active}
+    own = clustered = 0
+    for spec in specs:
+        tag = by_name[spec.name]
+        if tag.code not in placed:
+            continue
+        if spec.action == "tract":
+            own += 1
+        elif spec.action == "cluster":
+            clustered += len(spec.params["geoids"])
     return {
-        "tracts_with_codes": len(anchors),
+        "own_code": own,
+        "cluster_code": clustered,
+        "own_share": round(own / total, 3),
+        "cluster_share": round(clustered / total, 3),
+        "unreached": total - own - clustered,
+        "codes_placed": len(layout.placed),
+        "codes_unplaced": [u["label"] for u in layout.unplaced],
         "choose_ms": _ms(chosen - started),
-        "place_ms": _ms(placed - chosen),
-        "placed": len(layout.placed),
-        "unplaced": len(layout.unplaced),
+        "place_ms": _ms(placed_at - chosen),
     }
 
 
@@ -105,12 +126,18 @@ def run() -> dict[str, Any]:
         url = f"sqlite:///{Path(scratch) / 'bench.db'}"
         upgrade(url)
         db = Database(url)
-        started = time.perf_counter()
-        report = import_files(db, shapes=SHIPPED, key=SHIPPED_KEY)
-        imported = time.perf_counter()
-        dataset = load(db, report.dataset_id)
-        loaded = time.perf_counter()
-        db.dispose()
+        try:
+            return _measure(db)
+        finally:
+            db.dispose()
+
+
+def _measure(db: Database) -> dict[str, Any]:
+    started = time.perf_counter()
+    report = import_files(db, shapes=SHIPPED, key=SHIPPED_KEY)
+    imported = time.perf_counter()
+    dataset = load(db, report.dataset_id)
+    loaded = time.perf_counter()
     assert dataset is not None
     geometry = MapGeometry.of(dataset)
     planed = time.perf_counter()
@@ -119,21 +146,31 @@ def run() -> dict[str, Any]:
         "import_s": round(imported - started, 2),
         "load_s": round(loaded - imported, 2),
         "geometry_s": round(planed - loaded, 2),
+        "coverage": {},
         "walls": {},
     }
+    walls = load_walls([CONTENT_DIR / "walls"])
+    for name, wall in sorted(walls.items()):
+        result["coverage"][name] = _codes(db, wall, dataset.id, len(dataset.tracts), View())
     for name in WALLS:
-        wall = load_wall(CONTENT_DIR / "walls" / f"{name}.toml")
-        side = anchored_code_side_mm(BASE_URL, wall)
+        wall = walls[name]
         per_view = {}
         for zoom in ZOOMS:
             geometry = MapGeometry.of(dataset)  # cold simplification per view, as after a restart
             view = View(center=(0.5, 0.5), zoom=zoom)
-            codes = _codes(wall, geometry, view, side)
-            anchors = code_anchors(geometry, wall, view, side)
+            codes = _codes(db, wall, dataset.id, len(dataset.tracts), view)
+            own = tract_codes(
+                geometry,
+                wall,
+                view,
+                anchored_code_side_mm(BASE_URL, wall),
+                anchored_footprint_mm(BASE_URL, wall),
+            ).own
             per_view[f"zoom {zoom:g}"] = {
                 "codes": codes,
-                **_tiles(dataset, geometry, wall, view, {g: "ABCDEFG" for g in anchors}),
+                **_tiles(dataset, geometry, wall, view, {g: "ABCDEFG" for g in own}),
             }
+        side = anchored_code_side_mm(BASE_URL, wall)
         result["walls"][name] = {"code_side_mm": round(side, 1), **per_view}
     return result
 
@@ -141,18 +178,27 @@ def run() -> dict[str, Any]:
 def summary(result: dict[str, Any]) -> str:
     lines = [
         f"   {result['tracts']} tracts: import {result['import_s']} s, load {result['load_s']} s, "
-        f"geometry {result['geometry_s']} s"
+        f"geometry {result['geometry_s']} s",
+        "   whole-map view, tracts reached by pointing at the wall:",
     ]
+    for wall, c in result["coverage"].items():
+        lines.append(
+            f"     {wall}: {c['own_share']:.0%} their own code ({c['own_code']}),"
+            f" {c['cluster_share']:.0%} a cluster code ({c['cluster_code']}),"
+            f" {c['unreached']} unreached; {c['codes_placed']} codes placed,"
+            f" unplaced: {', '.join(c['codes_unplaced']) or 'none'}"
+        )
     for wall, views in result["walls"].items():
         for view, r in views.items():
             if not isinstance(r, dict):
                 continue
             c = r["codes"]
             lines.append(
-                f"   {wall} {view}: {c['tracts_with_codes']} tracts with codes "
-                f"(choose {c['choose_ms']} ms, place {c['place_ms']} ms, {c['unplaced']} unplaced);"
-                f" tile view cold {r['cold_ms']} ms, warm median {r['warm_median_ms']} ms, max "
-                f"{r['warm_max_ms']} ms; {r['bytes_mean'] / 1e3:.0f} kB per tile on average "
-                f"(max {r['bytes_max'] / 1e3:.0f} kB, gzip {r['gzip_bytes_mean'] / 1e3:.0f} kB)"
+                f"   {wall} {view}: {c['own_code']} tracts with their own code, {c['cluster_code']}"
+                f" under cluster codes (choose {c['choose_ms']} ms, place {c['place_ms']} ms,"
+                f" {len(c['codes_unplaced'])} unplaced); tile view cold {r['cold_ms']} ms,"
+                f" warm median {r['warm_median_ms']} ms, max {r['warm_max_ms']} ms;"
+                f" {r['bytes_mean'] / 1e3:.0f} kB per tile on average"
+                f" (max {r['bytes_max'] / 1e3:.0f} kB, gzip {r['gzip_bytes_mean'] / 1e3:.0f} kB)"
             )
     return "\n".join(lines)

@@ -6,6 +6,11 @@ Rules, in scene millimetres (the wall canvas; physical wall mm in overlay mode):
   display's pixel grid, with whole pixels per module (see :mod:`tag_service.sizing`);
 * it overlaps no other code and no reserved rectangle (touching is fine: the quiet
   zone is part of the code);
+* a code with a caption (its label) has the caption's strip reserved under it, on the
+  same display: a caption is never cut by a display edge and never overlaps another
+  code or caption. Anchored codes keep a gap of :data:`SPREAD_OF_SIDE` code sides
+  from each other, so neighbouring codes read as separate things and their pins stay
+  apart;
 * an anchored code never stands on a designated screen (public, menu, registration:
   those show panels) and stands as near its anchor as possible, at most
   ``max_offset_codes`` code sides plus its clearance (``clear_mm``) away, centre to
@@ -33,13 +38,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
 
 from tag_service.sizing import CodeSize, code_size
 from wall_client.layout import ROLES, Display, Rect, Wall
+
+CAPTION_OF_SIDE = 0.2
+"""A caption strip's height, in code sides (its text fills most of it)."""
+SLOT_CAPTION_OF_SIDE = 2.0
+"""How wide a slot code's caption may be, in code sides (within its cell): menu labels
+run longer than tract numbers."""
+SPREAD_OF_SIDE = 0.25
+"""The gap kept between anchored codes (and their captions), in code sides."""
 
 Point = tuple[float, float]
 Ints = npt.NDArray[np.int64]
@@ -57,6 +70,7 @@ class PlacementRequest:
     slot: int = 0
     preferred_mm: float | None = None
     clear_mm: float = 0.0  # half the side of the square around the anchor kept free of codes
+    caption: bool = False  # the code's label stands under it
 
     def __post_init__(self) -> None:
         if (self.anchor is None) == (self.screen is None):
@@ -82,7 +96,18 @@ class Placement:
     px_per_module: int
     modules: int
     variant: int  # index into the request's sizes
-    leader: tuple[Point, Point] | None  # from the code's edge to the anchor
+    leader: tuple[Point, Point] | None  # from the edge of code and caption to the anchor
+    caption: Rect | None = None  # scene mm, under the code, on the display's pixel grid
+    caption_pixels: tuple[int, int, int, int] | None = None  # x, y, width, height
+
+    @property
+    def footprint(self) -> Rect:
+        """The code with its caption: what nothing else may overlap."""
+        if self.caption is None:
+            return self.rect
+        x0, y0 = min(self.rect.x, self.caption.x), self.rect.y
+        x1 = max(self.rect.right, self.caption.right)
+        return Rect(x0, y0, x1 - x0, self.caption.bottom - y0)
 
 
 @dataclass(frozen=True)
@@ -107,8 +132,9 @@ class _Canvas:
         self.sx = self.rect.width / self.pw
         self.sy = self.rect.height / self.ph
         self.boxes: list[Box] = []
-        # Boxes are only ever added, so once no spot fits a side, none fits a larger one.
-        self.no_room_from = min(self.pw, self.ph) + 1
+        # Boxes are only ever added, so once no spot fits a side, none fits a larger one
+        # (per caption kind: none, or as wide as the code).
+        self.no_room_from = {False: min(self.pw, self.ph) + 1, True: min(self.pw, self.ph) + 1}
         self._sizes: dict[tuple[int, float, float | None], CodeSize] = {}
 
     def size(self, request: PlacementRequest, modules: int) -> CodeSize:
@@ -138,17 +164,17 @@ class _Canvas:
         )
 
     def nearest(
-        self, anchor: Point, side: int, height: int | None = None
+        self, anchor: Point, width: int, height: int, centre_y: float | None = None
     ) -> tuple[float, int, int] | None:
-        """The free spot for a ``side`` px code (or a ``side`` x ``height`` px box)
-        whose centre is nearest ``anchor``."""
-        square = height is None
-        width, height = side, side if height is None else height
-        if (square and side >= self.no_room_from) or width > self.pw or height > self.ph:
+        """The free spot for a ``width`` x ``height`` px box whose point ``centre_y`` px
+        below its top edge, horizontally centred (default: the box's centre), is
+        nearest ``anchor``: the top-left corner and that distance in mm."""
+        if width > self.pw or height > self.ph:
             return None
+        cy = height / 2 if centre_y is None else centre_y
         ax, ay = anchor
         ideal_x = (ax - self.rect.x) / self.sx - width / 2
-        ideal_y = (ay - self.rect.y) / self.sy - height / 2
+        ideal_y = (ay - self.rect.y) / self.sy - cy
         boxes = np.array(self.boxes, dtype=np.int64).reshape(-1, 4)
         xs = _candidates(ideal_x, boxes[:, 0], boxes[:, 2], width, self.pw)
         ys = _candidates(ideal_y, boxes[:, 1], boxes[:, 3], height, self.ph)
@@ -162,15 +188,41 @@ class _Canvas:
             ).any(axis=1)
             grid_x, grid_y = grid_x[~overlap], grid_y[~overlap]
         if not len(grid_x):
-            if square:
-                self.no_room_from = side
             return None
         distance = np.hypot(
             self.rect.x + (grid_x + width / 2) * self.sx - ax,
-            self.rect.y + (grid_y + height / 2) * self.sy - ay,
+            self.rect.y + (grid_y + cy) * self.sy - ay,
         )
         best = np.lexsort((grid_x, grid_y, distance))[0]
         return float(distance[best]), int(grid_x[best]), int(grid_y[best])
+
+    def nearest_code(
+        self, anchor: Point, side: int, caption_width: int | None, *, centre_box: bool = False
+    ) -> tuple[float, int, int] | None:
+        """The free spot for a ``side`` px code (with its caption strip under it when
+        ``caption_width`` is given) whose centre (or, with ``centre_box``, the centre
+        of code and caption together) is nearest ``anchor``: the box's top-left."""
+        monotone = caption_width in (None, side)
+        kind = caption_width is not None
+        if monotone and side >= self.no_room_from[kind]:
+            return None
+        width, height = _box(side, caption_width)
+        spot = self.nearest(anchor, width, height, centre_y=None if centre_box else side / 2)
+        if spot is None and monotone:
+            self.no_room_from[kind] = side
+        return spot
+
+
+def caption_height(side: int) -> int:
+    """The caption strip under a ``side`` px code, in pixels."""
+    return max(1, math.ceil(side * CAPTION_OF_SIDE))
+
+
+def _box(side: int, caption_width: int | None) -> tuple[int, int]:
+    """Width and height of a code with its caption (``None``: no caption)."""
+    if caption_width is None:
+        return side, side
+    return max(side, caption_width), side + caption_height(side)
 
 
 def _candidates(ideal: float, starts: Ints, ends: Ints, side: int, extent: int) -> Ints:
@@ -279,14 +331,20 @@ def _place_anchored(
             reach = max(reach, limit)
             if gap > limit:
                 continue
-            spot = canvas.nearest(anchor, size.side_px)
+            caption = size.side_px if request.caption else None
+            spot = canvas.nearest_code(anchor, size.side_px, caption)
             if spot is None or spot[0] > limit:
                 continue
             if best is None or spot[0] < best[0]:
                 best = (spot[0], canvas, spot[1], spot[2], size.side_px, size.px_per_module)
         if best is not None:
             _, canvas, x, y, side, ppm = best
-            return _commit(request, canvas, x, y, side, ppm, modules, variant, anchor)
+            caption = side if request.caption else None
+            placed = _commit(request, canvas, (x, y), side, caption, ppm, modules, variant, anchor)
+            gap = math.ceil(side * SPREAD_OF_SIDE)
+            x0, y0, x1, y1 = canvas.boxes[-1]
+            canvas.boxes[-1] = (x0 - gap, y0 - gap, x1 + gap, y1 + gap)
+            return placed
     if smallest_side is not None and all(
         c.size(request, m).side_px > min(c.pw, c.ph) for c in canvases for m in request.sizes
     ):
@@ -315,70 +373,115 @@ def _place_on_screen(
     per_display = math.ceil(len(requests) / len(displays))
     for index, display in enumerate(displays):
         chunk = requests[index * per_display : (index + 1) * per_display]
+        if not chunk:
+            break
         canvas = canvases[display.id]
-        for request, anchor in zip(chunk, _cell_centres(canvas.rect, len(chunk)), strict=True):
-            outcome[request.key] = _place_in_cell(request, anchor, canvas, role, len(chunk))
+        centres, cell_width = _cells(canvas.rect, len(chunk))
+        for request, anchor in zip(chunk, centres, strict=True):
+            outcome[request.key] = _place_in_cell(
+                request, anchor, math.floor(cell_width / canvas.sx), canvas, role, len(chunk)
+            )
 
 
 def _place_in_cell(
-    request: PlacementRequest, anchor: Point, canvas: _Canvas, role: str, count: int
+    request: PlacementRequest,
+    anchor: Point,
+    cell_px: int,
+    canvas: _Canvas,
+    role: str,
+    count: int,
 ) -> Placement | Unplaced:
+    """A slot code in its cell: its caption as wide as the cell allows (up to
+    :data:`SLOT_CAPTION_OF_SIDE` code sides), never narrower than the code."""
     side_mm = 0.0
     for variant, modules in enumerate(request.sizes):
         size = canvas.size(request, modules)
-        side_mm = side_mm or size.side_px * canvas.sx
-        spot = canvas.nearest(anchor, size.side_px)
+        side = size.side_px
+        side_mm = side_mm or side * canvas.sx
+        caption = (
+            max(side, min(cell_px, math.floor(side * SLOT_CAPTION_OF_SIDE)))
+            if request.caption
+            else None
+        )
+        spot = canvas.nearest_code(anchor, side, caption, centre_box=True)
         if spot is not None:
             _, x, y = spot
             return _commit(
-                request, canvas, x, y, size.side_px, size.px_per_module, modules, variant, None
+                request, canvas, (x, y), side, caption, size.px_per_module, modules, variant, None
             )
     return Unplaced(
         request.key,
         f"the {role} screen ({canvas.display.id}) has no room for"
-        f" {count} codes of {side_mm:.0f} mm",
+        f" {count} codes of {side_mm:.0f} mm with their captions",
     )
 
 
-def _cell_centres(rect: Rect, count: int) -> list[Point]:
-    """Centres of ``count`` near-square cells filling ``rect`` in reading order."""
+def _cells(rect: Rect, count: int) -> tuple[list[Point], float]:
+    """Centres of ``count`` near-square cells filling ``rect`` in reading order, and
+    the cells' width."""
     columns = max(1, math.ceil(math.sqrt(count * rect.width / rect.height)))
     columns = min(columns, count)
     rows = math.ceil(count / columns)
     width, height = rect.width / columns, rect.height / rows
-    return [
+    centres = [
         (rect.x + (i % columns + 0.5) * width, rect.y + (i // columns + 0.5) * height)
         for i in range(count)
     ]
+    return centres, width
 
 
 def _commit(
     request: PlacementRequest,
     canvas: _Canvas,
-    x: int,
-    y: int,
+    box: tuple[int, int],
     side: int,
+    caption_width: int | None,
     ppm: int,
     modules: int,
     variant: int,
     anchor: Point | None,
 ) -> Placement:
-    canvas.boxes.append((x, y, x + side, y + side))
-    rect = canvas.to_scene(x, y, side)
-    leader = None
-    if anchor is not None and (request.clear_mm > 0 or not rect.contains(anchor)):
-        edge = (min(max(anchor[0], rect.x), rect.right), min(max(anchor[1], rect.y), rect.bottom))
-        leader = (edge, anchor)
-    return Placement(
+    """Take the spot: the code at the top of its box, centred, its caption under it."""
+    width, height = _box(side, caption_width)
+    bx, by = box
+    canvas.boxes.append((bx, by, bx + width, by + height))
+    x = bx + (width - side) // 2
+    rect = canvas.to_scene(x, by, side)
+    caption = caption_pixels = None
+    if caption_width is not None:
+        caption_pixels = (
+            bx + (width - caption_width) // 2,
+            by + side,
+            caption_width,
+            height - side,
+        )
+        cx, cy, cw, ch = caption_pixels
+        caption = Rect(
+            canvas.rect.x + cx * canvas.sx,
+            canvas.rect.y + cy * canvas.sy,
+            cw * canvas.sx,
+            ch * canvas.sy,
+        )
+    placement = Placement(
         key=request.key,
         display_id=canvas.display.id,
         rect=rect,
-        pixels=(x, y, side),
+        pixels=(x, by, side),
         px_per_module=ppm,
         modules=modules,
         variant=variant,
-        leader=leader,
+        leader=None,
+        caption=caption,
+        caption_pixels=caption_pixels,
     )
+    footprint = placement.footprint
+    if anchor is not None and (request.clear_mm > 0 or not footprint.contains(anchor)):
+        edge = (
+            min(max(anchor[0], footprint.x), footprint.right),
+            min(max(anchor[1], footprint.y), footprint.bottom),
+        )
+        return replace(placement, leader=(edge, anchor))
+    return placement
 
 
 def _clear_square(anchor: Point, clear_mm: float) -> Rect:

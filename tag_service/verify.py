@@ -10,9 +10,11 @@ from the design distance.
 from __future__ import annotations
 
 import io
+import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 from PIL import Image, ImageFilter, ImageOps
 from pyzbar.pyzbar import ZBarSymbol  # type: ignore[import-untyped]
 from pyzbar.pyzbar import decode as zbar_decode
@@ -24,9 +26,9 @@ MAX_PIXELS = 40_000_000  # phones deliver 12 MP by default, 24 or 48 MP in some 
 # multi-picture MPO files); others, such as EPS (which runs Ghostscript), are never opened.
 ACCEPTED_FORMATS = ("JPEG", "PNG", "WEBP", "GIF", "BMP", "TIFF")
 SECOND_PASS_SIDE = 1200  # zbar sometimes misses a code in a huge, soft photo
-CAMERA_BLUR_PX = 0.6
-CAMERA_NOISE_GREY_LEVELS = 6.0
 DEFAULT_CAMERA = Camera()
+MAX_TILT_DEG = 30.0  # people stand off to the side, or hold the phone below the code
+SURROUND_GREY = 20  # a display's dark surround, beyond the picture given
 
 
 class NotAnImage(ValueError):
@@ -120,35 +122,163 @@ def open_image(data: bytes, max_pixels: int = MAX_PIXELS) -> Image.Image:
         raise NotAnImage("the file is not a picture that can be read") from error
 
 
-def as_seen_from(
-    image: Image.Image,
-    px_per_module: int,
-    module_mm: float,
-    distance_m: float,
+@dataclass(frozen=True)
+class Shot:
+    """How a phone is held for one frame of a code on a display.
+
+    ``tilt_deg`` is the angle between the camera's line of sight and the display's
+    normal (people rarely stand square to a code), in the direction ``tilt_towards_deg``
+    (0: from the right, 90: from above); ``roll_deg`` turns the phone about its line of
+    sight; ``aim_mm`` is where on the display the camera points, relative to the code's
+    centre (the code lands off the frame's centre). Blur (lens, focus, a steady hand),
+    sensor noise and JPEG compression are what a phone's pipeline adds; ``contrast``
+    is the share of the grey range between the display's white and its black as the
+    camera exposes them (a lit room, glare, a display's grey black).
+    """
+
+    distance_m: float
+    tilt_deg: float = 0.0
+    tilt_towards_deg: float = 0.0
+    roll_deg: float = 0.0
+    aim_mm: tuple[float, float] = (0.0, 0.0)
+    blur_px: float = 0.8
+    noise_grey_levels: float = 4.0
+    jpeg_quality: int = 85
+    contrast: float = 0.75
+
+
+def random_shots(
+    distance_m: float, count: int, seed: int, max_tilt_deg: float = MAX_TILT_DEG
+) -> list[Shot]:
+    """``count`` shots a phone takes from ``distance_m``, drawn from a fixed ``seed``:
+    tilts up to ``max_tilt_deg`` in any direction, a phone held within 20 degrees of
+    upright, the code within the middle third of the frame, blur between 0.6 and 1.2
+    camera pixels, noise of 2 to 6 grey levels, JPEG quality 70 to 90, contrast 0.6 to
+    0.9."""
+    rng = np.random.default_rng(seed)
+    half_field = distance_m * 1000 * math.tan(math.radians(DEFAULT_CAMERA.field_of_view_deg) / 2)
+    return [
+        Shot(
+            distance_m=distance_m,
+            tilt_deg=float(max_tilt_deg * math.sqrt(rng.uniform())),
+            tilt_towards_deg=float(rng.uniform(0, 360)),
+            roll_deg=float(rng.uniform(-20, 20)),
+            aim_mm=(
+                float(rng.uniform(-1, 1) * half_field / 3),
+                float(rng.uniform(-1, 1) * half_field / 3 * 9 / 16),
+            ),
+            blur_px=float(rng.uniform(0.6, 1.2)),
+            noise_grey_levels=float(rng.uniform(2, 6)),
+            jpeg_quality=int(rng.integers(70, 91)),
+            contrast=float(rng.uniform(0.6, 0.9)),
+        )
+        for _ in range(count)
+    ]
+
+
+def phone_frame(
+    screen: Image.Image,
+    mm_per_px: float,
+    center_px: tuple[float, float],
+    shot: Shot,
     camera: Camera = DEFAULT_CAMERA,
     seed: int = 0,
 ) -> Image.Image:
-    """``image`` (a code drawn with ``px_per_module`` pixels per module, each module
-    ``module_mm`` wide on the display) as a phone camera ``distance_m`` away sees it.
+    """The frame a phone camera takes of ``screen`` (a display's picture, ``mm_per_px``
+    its pixel pitch) when it looks at the point ``center_px`` of it as ``shot`` says:
+    a full ``camera.frame_px`` x 9/16 greyscale frame, as barcode readers analyse.
 
-    Why: sizing promises that a module covers ``camera.px_per_module`` camera pixels at
-    the design distance. A crisp rendering proves nothing about that, so this imitates
-    the three things a camera does to the code: it samples it onto its own, coarser
-    pixel grid (scaled so a module spans ``module_mm / camera.mm_per_camera_px(d)``
-    camera pixels, at no particular phase, area-averaged like a sensor), the lens and
-    demosaicing soften edges (a Gaussian blur of about 0.6 camera pixels) and the
-    sensor adds noise (Gaussian, sigma of 6 grey levels, from a fixed ``seed`` so a
-    test gives the same answer every run). The result is a greyscale picture.
+    A pinhole camera with the camera's field of view stands ``shot.distance_m`` from
+    that point along the tilted line of sight; every frame pixel sees the display
+    point its ray meets (a perspective map, computed at three samples per pixel and
+    area-averaged like a sensor), outside the picture the display's dark surround.
+    Then contrast, blur, noise (from ``seed``) and JPEG, in the order a phone applies
+    them. Sizing promises that at the design distance, square on, a module covers
+    ``camera.px_per_module`` frame pixels; this is the test of that promise.
     """
-    if px_per_module <= 0 or module_mm <= 0:
-        raise ValueError("px_per_module and module_mm must be positive")
-    camera_px_per_module = module_mm / camera.mm_per_camera_px(distance_m)
-    factor = camera_px_per_module / px_per_module
-    grey = _greyscale(image)
-    size = (max(1, round(grey.width * factor)), max(1, round(grey.height * factor)))
-    resample = Image.Resampling.BOX if factor < 1 else Image.Resampling.BILINEAR
-    seen = grey.resize(size, resample).filter(ImageFilter.GaussianBlur(CAMERA_BLUR_PX))
+    width = camera.frame_px
+    height = round(width * 9 / 16)
+    homography = _frame_to_screen(screen.size, mm_per_px, center_px, shot, camera, (width, height))
+    frame = Image.new("L", (width, height), SURROUND_GREY)
+    # Only the part of the frame the picture covers is computed (the rest is surround).
+    sw, sh = screen.size
+    corners = np.linalg.inv(homography) @ np.array([[0, sw, 0, sw], [0, 0, sh, sh], [1, 1, 1, 1]])
+    us, vs = corners[0] / corners[2], corners[1] / corners[2]
+    x0, y0 = max(0, math.floor(us.min()) - 2), max(0, math.floor(vs.min()) - 2)
+    x1, y1 = min(width, math.ceil(us.max()) + 2), min(height, math.ceil(vs.max()) + 2)
+    if x1 > x0 and y1 > y0:
+        supersample = 3
+        to_crop = np.array(
+            [[1 / supersample, 0, x0], [0, 1 / supersample, y0], [0, 0, 1]], dtype=np.float64
+        )
+        a, b, c, d, e, f, g, h, i = (homography @ to_crop).ravel()
+        fine = _greyscale(screen).transform(
+            ((x1 - x0) * supersample, (y1 - y0) * supersample),
+            Image.Transform.PERSPECTIVE,
+            (a / i, b / i, c / i, d / i, e / i, f / i, g / i, h / i),
+            Image.Resampling.BILINEAR,
+            fillcolor=SURROUND_GREY,
+        )
+        frame.paste(fine.resize((x1 - x0, y1 - y0), Image.Resampling.BOX), (x0, y0))
+    low = 255 * (1 - shot.contrast) / 2
+    pixels = low + np.asarray(frame, dtype=np.float64) * shot.contrast
+    blurred = Image.fromarray(np.clip(np.rint(pixels), 0, 255).astype(np.uint8)).filter(
+        ImageFilter.GaussianBlur(shot.blur_px)
+    )
     rng = np.random.default_rng(seed)
-    pixels = np.asarray(seen, dtype=np.float64)
-    noisy = pixels + rng.normal(0.0, CAMERA_NOISE_GREY_LEVELS, pixels.shape)
-    return Image.fromarray(np.clip(np.rint(noisy), 0, 255).astype(np.uint8))
+    noisy = np.asarray(blurred, dtype=np.float64) + rng.normal(
+        0.0, shot.noise_grey_levels, (height, width)
+    )
+    buffer = io.BytesIO()
+    Image.fromarray(np.clip(np.rint(noisy), 0, 255).astype(np.uint8)).save(
+        buffer, "JPEG", quality=shot.jpeg_quality
+    )
+    buffer.seek(0)
+    return Image.open(buffer).convert("L")
+
+
+def _frame_to_screen(
+    screen_size: tuple[int, int],
+    mm_per_px: float,
+    center_px: tuple[float, float],
+    shot: Shot,
+    camera: Camera,
+    frame_size: tuple[int, int],
+) -> npt.NDArray[np.float64]:
+    """The homography from frame pixels to screen pixels (3x3, acting on ``(u, v, 1)``).
+
+    World: the display in the plane z = 0, x right and y down in mm, z towards the
+    viewer; the code's centre at the origin.
+    """
+    tilt, towards = math.radians(shot.tilt_deg), math.radians(shot.tilt_towards_deg)
+    away = np.array(
+        [
+            math.sin(tilt) * math.cos(towards),
+            -math.sin(tilt) * math.sin(towards),
+            math.cos(tilt),
+        ]
+    )
+    position = away * shot.distance_m * 1000
+    aim = np.array([shot.aim_mm[0], shot.aim_mm[1], 0.0])
+    forward = aim - position
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 1.0, 0.0])
+    right /= np.linalg.norm(right)
+    down = np.cross(right, forward)
+    roll = math.radians(shot.roll_deg)
+    right, down = (
+        right * math.cos(roll) + down * math.sin(roll),
+        -right * math.sin(roll) + down * math.cos(roll),
+    )
+    width, height = frame_size
+    focal = (width / 2) / math.tan(math.radians(camera.field_of_view_deg) / 2)
+    # a ray through frame pixel (u, v) (centres at +0.5) runs along
+    # forward * focal + right * (u + 0.5 - width / 2) + down * (v + 0.5 - height / 2)
+    origin = forward * focal - right * (width / 2 - 0.5) - down * (height / 2 - 0.5)
+    ray = np.column_stack((right, down, origin))  # rows x, y, z over (u, v, 1)
+    px, py, pz = position
+    to_mm = np.vstack((px * ray[2] - pz * ray[0], py * ray[2] - pz * ray[1], ray[2]))
+    cx, cy = center_px
+    to_px = np.array([[1 / mm_per_px, 0, cx], [0, 1 / mm_per_px, cy], [0, 0, 1]])
+    result: npt.NDArray[np.float64] = to_px @ to_mm
+    return result

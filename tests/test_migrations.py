@@ -2,7 +2,7 @@
 
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
-from sqlalchemy import inspect
+from sqlalchemy import inspect, text
 
 from webapp.db import Base, make_engine
 from webapp.migrate import upgrade
@@ -25,3 +25,24 @@ def test_upgrade_is_idempotent(database_url: str) -> None:
         inspect(engine).get_table_names()
     )
     engine.dispose()
+
+
+def test_rounds_from_before_0007_are_closed_their_key_was_public(database_url: str) -> None:
+    """Before 0007 pins were numbered in the content's order: such a round must not go
+    on counting answers after the upgrade."""
+    upgrade(database_url, "0006")
+    engine = make_engine(database_url)
+    with engine.begin() as connection:
+        connection.execute(
+            text(
+                "INSERT INTO brain_quiz_rounds (wall_id, number, started_at, started_by)"
+                " VALUES ('demo', 1, CURRENT_TIMESTAMP, 'ann')"
+            )
+        )
+    upgrade(database_url)
+    with engine.connect() as connection:
+        row = connection.execute(
+            text("SELECT closed_at, reveal, orders FROM brain_quiz_rounds")
+        ).one()
+    engine.dispose()
+    assert row.closed_at is not None and row.reveal == "close"

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any, Literal, cast
 
 BezelMode = Literal["overlay", "offset"]
+CodePurpose = Literal["walk-up", "seat"]
 Rotation = Literal[0, 90, 180, 270]
 ROLES: tuple[str, ...] = ("public", "menu", "registration")
 
@@ -52,14 +53,16 @@ TOP_KEYS: tuple[str, ...] = (
     "id",
     "name",
     "bezel_mode",
-    "scan_distance_m",
+    "seat_distance_m",
+    "walk_up_distance_m",
     "screens",
     "wall",
     "grid",
     "display",
 )
 WALL_KEYS: tuple[str, ...] = ("width_mm", "height_mm")
-SCREEN_KEYS: tuple[str, ...] = ROLES
+STAGE = "stage"  # the [screens] key naming the displays the scene is framed on
+SCREEN_KEYS: tuple[str, ...] = (*ROLES, STAGE)
 GRID_KEYS: tuple[str, ...] = (
     "columns",
     "rows",
@@ -85,7 +88,10 @@ DISPLAY_KEYS: tuple[str, ...] = (
     "desktop_origin",
 )
 
-DEFAULT_SCAN_DISTANCE_M = 2.0
+DEFAULT_SEAT_DISTANCE_M = 2.0
+DEFAULT_WALK_UP_DISTANCE_M = 0.8
+STAGE_ASPECT = (4, 3)  # the picture the default stage is chosen for: a bit wider than tall
+RENAMED_KEYS = {"scan_distance_m": "seat_distance_m"}
 DEFAULT_NODE = "node1"
 # Largest tolerated difference between horizontal and vertical pixel pitch.
 ASPECT_TOLERANCE = 0.03
@@ -207,10 +213,13 @@ class Wall:
     displays: tuple[Display, ...]
     bezel_mode: BezelMode
     screens: dict[str, tuple[str, ...]]  # role -> display ids
-    scan_distance_m: float  # design scanning distance (tag sizing uses it)
+    seat_distance_m: float  # where people scan seat codes (registration, menus) from
+    walk_up_distance_m: float = DEFAULT_WALK_UP_DISTANCE_M  # codes marking the scene
+    stage_ids: tuple[str, ...] = ()  # displays the scene is framed on (empty: computed)
     source: Path | None = None
     _by_id: dict[str, Display] = field(init=False, repr=False, compare=False)
     _viewports: dict[str, Viewport] = field(init=False, repr=False, compare=False)
+    _stage: Rect = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         by_id = {display.id: display for display in self.displays}
@@ -218,6 +227,26 @@ class Wall:
             raise ValueError(f"wall {self.id!r}: display ids are not unique")
         object.__setattr__(self, "_by_id", by_id)
         object.__setattr__(self, "_viewports", _compute_viewports(self))
+        if not self.stage_ids:
+            object.__setattr__(self, "stage_ids", _free_stage(self))
+        object.__setattr__(self, "_stage", _bounding(self, self.stage_ids))
+
+    @property
+    def stage(self) -> Rect:
+        """The scene rectangle (scene mm) a scene is framed on at zoom 1 and centre
+        (0.5, 0.5): by default the largest block of displays free of designated
+        screens, so the picture does not lie under panels and codes can stand beside
+        what they mark."""
+        return self._stage
+
+    def design_distance_m(self, purpose: CodePurpose) -> float:
+        """How far people stand from a code of ``purpose``: *walk-up* codes mark things
+        on the scene (people step up to them), *seat* codes serve the room."""
+        return self.walk_up_distance_m if purpose == "walk-up" else self.seat_distance_m
+
+    def designated(self) -> set[str]:
+        """Ids of the displays that carry panels (public, menu, registration)."""
+        return {display_id for role in ROLES for display_id in self.screens.get(role, ())}
 
     def display(self, display_id: str) -> Display:
         """The display called ``display_id``; KeyError naming the wall otherwise."""
@@ -387,6 +416,47 @@ def _compute_viewports(wall: Wall) -> dict[str, Viewport]:
             to_wall=to_wall,
         )
     return viewports
+
+
+def _bounding(wall: Wall, display_ids: Sequence[str]) -> Rect:
+    """The scene rectangle around the viewports of ``display_ids`` (all of them: the
+    whole wall, margins and outer bezels included)."""
+    if set(display_ids) == set(wall._by_id):
+        return Rect(0.0, 0.0, wall.width, wall.height)
+    rects = [wall.viewport(i).scene_rect for i in display_ids]
+    x0, y0 = min(r.x for r in rects), min(r.y for r in rects)
+    x1, y1 = max(r.right for r in rects), max(r.bottom for r in rects)
+    return Rect(x0, y0, x1 - x0, y1 - y0)
+
+
+def _free_stage(wall: Wall) -> tuple[str, ...]:
+    """The displays inside the largest rectangle of the wall that no designated screen
+    overlaps: the one holding the largest 4:3 picture (a brain seen from the side, a
+    county; a bit wider than tall), then the largest, then the topmost-leftmost. All
+    displays when none is free."""
+    designated = [d.rect for d in wall.displays if d.id in wall.designated()]
+    free = [d for d in wall.displays if d.id not in wall.designated()]
+    if not designated or not free:
+        return tuple(d.id for d in wall.displays)
+    xs = sorted({v for d in free for v in (d.rect.x, d.rect.right)})
+    ys = sorted({v for d in free for v in (d.rect.y, d.rect.bottom)})
+    best: tuple[float, float, float, float] | None = None
+    chosen: tuple[str, ...] = ()
+    for i, x0 in enumerate(xs):
+        for x1 in xs[i + 1 :]:
+            for j, y0 in enumerate(ys):
+                for y1 in ys[j + 1 :]:
+                    area = Rect(x0, y0, x1 - x0, y1 - y0)
+                    if any(area.intersects(r) for r in designated):
+                        break  # a taller rectangle from the same top overlaps too
+                    inside = tuple(d.id for d in free if area.contains(d.rect))
+                    if not inside:
+                        continue
+                    picture = min(area.width / STAGE_ASPECT[0], area.height / STAGE_ASPECT[1])
+                    score = (picture, area.width * area.height, -y0, -x0)
+                    if best is None or score > best:
+                        best, chosen = score, inside
+    return chosen or tuple(d.id for d in free)
 
 
 # --- parsing -----------------------------------------------------------------------
@@ -837,13 +907,15 @@ def _check_placement(
 
 def _parse_screens(
     problems: _Problems, value: Any, parsed: _Parsed | None
-) -> dict[str, tuple[str, ...]]:
+) -> tuple[dict[str, tuple[str, ...]], tuple[str, ...]]:
+    """The displays of each role, and the stage's (empty: the wall computes it)."""
     screens: dict[str, tuple[str, ...]] = {}
+    stage: tuple[str, ...] = ()
     table = problems.table(value, "screens") if value is not None else {}
     for role, ids in (table or {}).items():
         path = f"screens.{role}"
-        if role not in ROLES:
-            problems.add(path, f"unknown role (roles: {', '.join(ROLES)})")
+        if role not in SCREEN_KEYS:
+            problems.add(path, f"unknown role (roles: {', '.join(SCREEN_KEYS)})")
             continue
         listed = [ids] if isinstance(ids, str) else ids
         if not isinstance(listed, list) or not all(isinstance(i, str) for i in listed):
@@ -854,20 +926,28 @@ def _parse_screens(
                 problems.add(path, f"unknown display {display_id!r}")
         if len(set(listed)) != len(listed):
             problems.add(path, "lists a display more than once")
-        screens[role] = tuple(listed)
+        if role == STAGE:
+            if not listed:
+                problems.add(path, "give at least one display (leave it out for the default)")
+            stage = tuple(listed)
+        else:
+            screens[role] = tuple(listed)
     if parsed is not None and "registration" not in screens and parsed.displays:
         # Lower left: people register where they walk up, usually a corner at eye level.
         lower_left = min(parsed.displays, key=lambda d: (-d.rect.bottom, d.rect.x))
         screens["registration"] = (lower_left.id,)
     for role in ROLES:
         screens.setdefault(role, ())
-    return {role: screens[role] for role in ROLES}
+    return {role: screens[role] for role in ROLES}, stage
 
 
 def parse_wall(data: Mapping[str, Any], source: str | Path | None = None) -> Wall:
     """Validate a parsed TOML document into a Wall; WallConfigError lists every problem."""
     problems = _Problems(str(source) if source is not None else "<string>")
-    problems.unknown_keys(data, TOP_KEYS, "")
+    for old, new in RENAMED_KEYS.items():
+        if old in data:
+            problems.add(old, f"renamed: use {new} (walk-up codes have walk_up_distance_m)")
+    problems.unknown_keys({k: v for k, v in data.items() if k not in RENAMED_KEYS}, TOP_KEYS, "")
     wall_id = problems.string(
         data, "id", "id", pattern=_WALL_ID, describe="lowercase letters, digits and '-'"
     )
@@ -875,8 +955,11 @@ def parse_wall(data: Mapping[str, Any], source: str | Path | None = None) -> Wal
     bezel_mode = data.get("bezel_mode", "overlay")
     if bezel_mode not in BEZEL_MODES:
         problems.add("bezel_mode", f"must be one of {', '.join(BEZEL_MODES)} (got {bezel_mode!r})")
-    scan_distance = problems.number(
-        data, "scan_distance_m", "scan_distance_m", default=DEFAULT_SCAN_DISTANCE_M
+    seat_distance = problems.number(
+        data, "seat_distance_m", "seat_distance_m", default=DEFAULT_SEAT_DISTANCE_M
+    )
+    walk_up_distance = problems.number(
+        data, "walk_up_distance_m", "walk_up_distance_m", default=DEFAULT_WALK_UP_DISTANCE_M
     )
 
     parsed: _Parsed | None = None
@@ -902,7 +985,7 @@ def parse_wall(data: Mapping[str, Any], source: str | Path | None = None) -> Wal
     if parsed is not None and wall_table is not None:
         _check_placement(problems, parsed, width, height, explicit_size)
 
-    screens = _parse_screens(problems, data.get("screens"), parsed)
+    screens, stage = _parse_screens(problems, data.get("screens"), parsed)
 
     if problems.messages or parsed is None or wall_id is None:
         raise WallConfigError(problems.messages or [f"{problems.label}: invalid wall config"])
@@ -914,7 +997,9 @@ def parse_wall(data: Mapping[str, Any], source: str | Path | None = None) -> Wal
         displays=tuple(parsed.displays),
         bezel_mode=cast(BezelMode, bezel_mode),
         screens=screens,
-        scan_distance_m=scan_distance or DEFAULT_SCAN_DISTANCE_M,
+        seat_distance_m=seat_distance or DEFAULT_SEAT_DISTANCE_M,
+        walk_up_distance_m=walk_up_distance or DEFAULT_WALK_UP_DISTANCE_M,
+        stage_ids=stage,
         source=Path(source) if source is not None else None,
     )
 

@@ -27,7 +27,7 @@ from webapp.bus import MemoryBus
 from webapp.db import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
 from webapp.hub import WallHub
-from webapp.markdown import markdown_html
+from webapp.markdown import markdown_html, markdown_inline
 from webapp.routes import (
     dashboard,
     health,
@@ -99,6 +99,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.services = services
     app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
     app.state.templates.env.filters["markdown"] = markdown_html
+    app.state.templates.env.filters["markdown_inline"] = markdown_inline
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost
@@ -189,7 +190,7 @@ async def prepare_walls(services: Services) -> None:
     for wall in services.walls.values():
         _, state = await run_in_threadpool(read_state, services.db, wall.id)
         if (shown := services.apps.get(state.app)) is not None:
-            settled: WallState = await run_in_threadpool(shown.settle, services, state)
+            settled: WallState = await run_in_threadpool(shown.settle, services, wall, state)
             if settled != state:
                 await services.hub.change_state(wall.id, _becomes(settled))
                 state = settled

@@ -14,9 +14,9 @@ from pydantic_settings import SettingsError
 from sqlalchemy.exc import SQLAlchemyError
 
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
-from wall_client.layout import Wall, WallConfigError, load_wall, load_walls
+from wall_client.layout import CodePurpose, Wall, WallConfigError, load_wall, load_walls
 from webapp.db import Database, database_problem
-from webapp.settings import Settings
+from webapp.settings import Settings, lan_address
 from webapp.tokens import Tokens, load_tokens
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
@@ -155,11 +155,10 @@ def print_urls(
     def say(line: str) -> None:
         click.echo(line if reveal else redact(line))
 
-    say(
-        f"tagwall on {settings.server_url}"
-        f"  (codes send phones to {settings.resolved_public_base_url})"
-    )
+    for line in reach(settings):
+        say(line)
     say(f"  dashboard: {dashboard_url(settings, tokens)}")
+    say("    (the operator's admin sign-in: keep it private, open it on this machine)")
     for wall in walls.values():
         if wall.id != settings.default_wall and len(walls) > 1:
             continue
@@ -171,6 +170,44 @@ def print_urls(
         say(f"  other walls: {', '.join(others)} (tagwall tiles --wall NAME)")
     if not reveal:
         say("  (tokens are kept out of logs: `tagwall urls` prints the full URLs)")
+
+
+def reach(settings: Settings) -> list[str]:
+    """Where the server listens and whether the phones that scan its codes get there:
+    the first thing `serve` says, so a first scan that cannot work is explained."""
+    codes = settings.resolved_public_base_url
+    if settings.listens_everywhere:
+        where = f"listening on every network interface, port {settings.port}"
+    elif settings.listens_locally_only:
+        where = f"listening on this machine only ({settings.host}:{settings.port})"
+    else:
+        where = f"listening on {settings.host}:{settings.port} only"
+    lines = [f"tagwall on {settings.server_url}, {where}"]
+    if settings.public_base_url:
+        lines.append(
+            f"  phones: codes send them to {codes} (TAGWALL_PUBLIC_BASE_URL); "
+            "it must lead phones to this server"
+        )
+    elif settings.listens_locally_only:
+        lines += [
+            f"  phones: cannot reach it; codes send them to {codes}, which a phone takes "
+            "for itself",
+            "  to let phones in: TAGWALL_HOST=0.0.0.0 make run (on a network you trust)",
+        ]
+    elif settings.listens_everywhere and lan_address() == "127.0.0.1":
+        lines += [
+            f"  phones: cannot reach it: this machine has no network address; codes send "
+            f"them to {codes}",
+            "  to let phones in: join the network the phones use and start again",
+        ]
+    else:
+        lines.append(
+            f"  phones on this network: codes send them to {codes} "
+            f"(a firewall here must let port {settings.port} in)"
+        )
+        if settings.listens_everywhere:
+            lines.append("  to keep it on this machine only: TAGWALL_HOST=127.0.0.1 make run")
+    return lines
 
 
 @main.command()
@@ -282,7 +319,14 @@ def codes() -> None:
     "--distance",
     type=click.FloatRange(min=0.1, max=100),
     default=None,
-    help="Scanning distance in metres (default: the wall's scan_distance_m).",
+    help="Scanning distance in metres (default: the wall's distance for --purpose).",
+)
+@click.option(
+    "--purpose",
+    type=click.Choice(["walk-up", "seat"]),
+    default="seat",
+    show_default=True,
+    help="Codes marking the scene (walk-up) or serving the room (seat).",
 )
 @click.option(
     "--qr-version",
@@ -291,18 +335,21 @@ def codes() -> None:
     show_default=True,
     help="QR version to size (2 holds a typical LAN URL code).",
 )
-def codes_size(wall_id: str | None, distance: float | None, qr_version: int) -> None:
-    """Print the code size on each display for a scanning distance."""
+def codes_size(
+    wall_id: str | None, distance: float | None, purpose: CodePurpose, qr_version: int
+) -> None:
+    """Print the code size on each display for a purpose's design distance."""
     from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)
-    distance = distance or wall.scan_distance_m
+    distance = distance or wall.design_distance_m(purpose)
     camera = Camera()
     module_mm = min_module_mm(distance, camera)
     modules = symbol_modules(17 + 4 * qr_version)
     click.echo(
-        f"wall {wall.id}, scanning distance {distance:g} m: modules of at least {module_mm:.2f} mm"
+        f"wall {wall.id}, {purpose} codes, scanning distance {distance:g} m:"
+        f" modules of at least {module_mm:.2f} mm"
         f" ({camera.field_of_view_deg:g} deg field of view, {camera.frame_px} px frames,"
         f" {camera.px_per_module:g} camera px per module)"
     )
@@ -331,7 +378,7 @@ def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)
-    server_url = (server or settings.server_url).rstrip("/")
+    server_url = (server or settings.local_url).rstrip("/")
     tokens = current_tokens(settings)
     try:
         executable = browser or find_browser()
@@ -634,7 +681,7 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
     The import already made it current, so a server that is down shows it at start."""
     import httpx
 
-    url = f"{settings.server_url.rstrip('/')}/api/census/current"
+    url = f"{settings.local_url}/api/census/current"
     token = current_tokens(settings).operator
     try:
         response = httpx.post(
@@ -645,12 +692,12 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
         )
     except (httpx.ConnectError, httpx.TimeoutException):
         return (
-            f"the server ({settings.server_url}) is not reachable; "
+            f"the server ({settings.local_url}) is not reachable; "
             f"the map switches to data set {dataset_id} when it next starts"
         )
     except httpx.HTTPError as error:
         return (
-            f"could not tell the server ({settings.server_url}) to switch the map: {error}; "
+            f"could not tell the server ({settings.local_url}) to switch the map: {error}; "
             f"it shows data set {dataset_id} when it next starts"
         )
     if response.is_error:

@@ -18,3 +18,9 @@ def markdown_html(text: str) -> Markup:
     """``text`` as safe HTML (markdown-it escapes everything it does not format and
     refuses javascript:, vbscript: and data: links)."""
     return Markup(_parser().render(text))
+
+
+def markdown_inline(text: str) -> Markup:
+    """One line of Markdown (a citation's italic journal title) as safe inline HTML,
+    without the paragraph around it."""
+    return Markup(_parser().renderInline(text))

@@ -275,6 +275,29 @@ class BrainQuizRoundRecord(Base):
         DateTime(timezone=True), default=_utcnow, nullable=False
     )
     started_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")
+    # Per tag set, the region ids in pin order: pin n is the n-th (a fresh random
+    # order each round, so no pin number names a region for long).
+    orders: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False, default=dict)
+    # When students see the correct names: when the round closes, or at finishing.
+    reveal: Mapped[str] = mapped_column(String(16), nullable=False, default="close")
+    closed_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    closed_by: Mapped[str | None] = mapped_column(String(120), nullable=True)
+    # Written by every answer before it is stored: the row lock orders answers and the
+    # closing of the round, so no answer lands in a closed round.
+    last_answer_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+
+
+class BrainWallRecord(Base):
+    """The brain atlas's choices for one wall that outlive rounds: whether scanning a
+    user group on the menu switches the wall's pins, and when the audience last did."""
+
+    __tablename__ = "brain_walls"
+
+    wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    audience_switches: Mapped[bool] = mapped_column(nullable=False, default=False)
+    audience_switched_at: Mapped[datetime | None] = mapped_column(
+        DateTime(timezone=True), nullable=True
+    )
 
 
 class BrainAnswerRecord(Base):

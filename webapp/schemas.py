@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
@@ -136,6 +136,18 @@ class PlacedCode(BaseModel):
     matrix: list[str]  # rows of modules, "1" dark, quiet zone excluded
     anchor: tuple[float, float]
     leader: tuple[tuple[float, float], tuple[float, float]] | None
+    caption: tuple[float, float, float, float] | None = None  # scene mm: where its label stands
+    purpose: Literal["walk-up", "seat"] = "walk-up"  # which design distance sized it
+
+    @property
+    def footprint(self) -> tuple[float, float, float, float]:
+        """The code with its caption (scene mm): what balloons and labels keep clear of."""
+        x, y, w, _ = self.rect
+        if self.caption is None:
+            return self.rect
+        cx, cy, cw, ch = self.caption
+        left, right = min(x, cx), max(x + w, cx + cw)
+        return (left, y, right - left, cy + ch - y)
 
 
 class UnplacedCode(BaseModel):

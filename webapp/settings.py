@@ -20,6 +20,11 @@ InfoClass = Annotated[int, Field(ge=1, le=5)]
 MAX_INFO_CLASS: dict[Role, int] = {"student": 3, "instructor": 5, "admin": 5}
 DEFAULT_INFO_CLASS: dict[Role, int] = {"student": 1, "instructor": 5, "admin": 5}
 
+# Where phones must reach the server (the wall's purpose), so it listens on every
+# interface by default; TAGWALL_HOST=127.0.0.1 keeps it on this machine.
+EVERY_INTERFACE = ("0.0.0.0", "::", "")
+LOOPBACK_NAMES = ("localhost", "::1")
+
 PROJECT_ROOT = Path(__file__).resolve().parent.parent
 CONTENT_DIR = PROJECT_ROOT / "content"
 
@@ -40,7 +45,7 @@ class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="TAGWALL_", extra="ignore")
 
     env: Literal["dev", "production"] = "dev"
-    host: str = "127.0.0.1"
+    host: str = "0.0.0.0"
     port: int = Field(default=8000, ge=1, le=65535)
     var_dir: Path = Path("var")
     database_url: str = ""
@@ -89,6 +94,7 @@ class Settings(BaseSettings):
     pubmed_results: int = Field(default=8, ge=1, le=50)
     pubmed_cache_seconds: int = Field(default=86_400, ge=0)
     pubmed_email: str | None = None  # sent with tool=tagwall, as NCBI asks of clients
+    brain_group_switch_cooldown: float = Field(default=30.0, ge=0, le=3_600)
 
     @field_validator("wall_configs", mode="before")
     @classmethod
@@ -141,20 +147,36 @@ class Settings(BaseSettings):
         """Where built volume stores live: configured, else ``var_dir/volumes``."""
         return self.volume_dir or self.var_dir / "volumes"
 
+    @property
+    def listens_everywhere(self) -> bool:
+        return self.host in EVERY_INTERFACE
+
+    @property
+    def listens_locally_only(self) -> bool:
+        """Bound to loopback: nothing but this machine reaches the server."""
+        return self.host in LOOPBACK_NAMES or self.host.startswith("127.")
+
     @cached_property
     def server_url(self) -> str:
         """This server as a browser on the wall's network reaches it (tile URLs)."""
-        host = lan_address() if self.host in ("0.0.0.0", "::", "") else self.host
-        host = f"[{host}]" if ":" in host else host
-        return f"http://{host}:{self.port}"
+        host = lan_address() if self.listens_everywhere else self.host
+        return _http_url(host, self.port)
+
+    @property
+    def local_url(self) -> str:
+        """This server as this machine's own browser and commands reach it: over
+        loopback wherever it listens there, so nothing secret crosses the network."""
+        if self.listens_everywhere:
+            return _http_url("127.0.0.1", self.port)
+        return _http_url(self.host, self.port)
 
     @cached_property
     def resolved_public_base_url(self) -> str:
-        """Where phones reach this server: configured, else this machine's LAN address."""
+        """Where codes send phones: configured (a proxy or a name), else where the
+        server listens, on this machine's LAN address when it listens everywhere."""
         if self.public_base_url:
             return self.public_base_url.rstrip("/")
-        host = self.host if self.host not in ("0.0.0.0", "::", "127.0.0.1", "localhost") else ""
-        return f"http://{host or lan_address()}:{self.port}"
+        return self.server_url
 
     @cached_property
     def resolved_secret_key(self) -> str:
@@ -168,6 +190,10 @@ class Settings(BaseSettings):
             path.touch(mode=0o600)
             path.write_text(secrets.token_urlsafe(32))
         return path.read_text().strip()
+
+
+def _http_url(host: str, port: int) -> str:
+    return f"http://[{host}]:{port}" if ":" in host else f"http://{host}:{port}"
 
 
 def lan_address() -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal
 
@@ -21,6 +22,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from tag_service.codes import (
+    ALPHABET,
     CODE_LENGTH,
     Contact,
     PayloadKind,
@@ -33,9 +35,9 @@ from tag_service.codes import (
     url_payload,
     vcard_payload,
 )
-from tag_service.placement import PlacementRequest, place
+from tag_service.placement import CAPTION_OF_SIDE, SPREAD_OF_SIDE, PlacementRequest, place
 from tag_service.sizing import code_size, min_module_mm
-from wall_client.layout import ROLES, Wall
+from wall_client.layout import CodePurpose, Wall
 from webapp.db import Database, as_utc
 from webapp.hub import WallHub
 from webapp.models import TagLayoutRecord, TagRecord, WallStateRecord
@@ -350,22 +352,85 @@ def layout_for(db: Database, wall: Wall, tag_set: str | None, base_url: str) -> 
         return record.id
 
 
+@dataclass(frozen=True)
+class Preview:
+    """A tag set as it would be placed if one app declared other tags: what a view the
+    wall does not show yet would carry (phones are told where a thing can be scanned)."""
+
+    wall: Wall
+    digest: str  # the placement's inputs: equal digests, equal placements
+    tags: list[TagRecord]  # detached; the app's new tags carry stand-in codes
+    payloads: list[str]
+
+    def placed_names(self) -> set[str]:
+        """The names of the tags that would get a place on the wall."""
+        placed, _ = compute_layout(self.wall, self.tags, self.payloads)
+        by_code = {tag.code: tag.name for tag in self.tags}
+        return {name for p in placed if (name := by_code[p["code"]]) is not None}
+
+
+def preview(
+    db: Database, wall: Wall, tag_set: str | None, base_url: str, app: str, specs: Sequence[TagSpec]
+) -> Preview:
+    """``tag_set`` placed as :func:`layout_for` would place it after ``app`` declared
+    exactly ``specs``, without touching the registry. Tags the app has keep their
+    codes; new ones get stand-in codes of the same length (so the same symbol size),
+    derived from their names so that equal inputs give equal digests."""
+    now = datetime.now(UTC)
+    with db.session() as session:
+        others = [
+            tag
+            for tag in _tags_to_place(session, wall.id, tag_set)
+            if tag.app != app or not tag.name
+        ]
+        known = {
+            tag.name: tag
+            for tag in session.scalars(
+                select(TagRecord).where(TagRecord.wall_id == wall.id, TagRecord.app == app)
+            )
+            if tag.name
+        }
+    staged = []
+    for spec in specs:
+        if not spec.active or spec.tag_set not in (None, tag_set):
+            continue
+        existing = known.get(spec.name or "")
+        record = TagRecord(
+            code=existing.code if existing else _stand_in_code(spec.name or spec.label),
+            wall_id=wall.id,
+            created_at=as_utc(existing.created_at) if existing else now,
+        )
+        _fill(record, spec)
+        staged.append(record)
+    tags = sorted(others + staged, key=lambda t: (-(t.priority or 0), as_utc(t.created_at), t.code))
+    payloads = [payload_of(tag, base_url) for tag in tags]
+    return Preview(wall, _inputs_hash(wall, tag_set, tags, payloads), tags, payloads)
+
+
+def _stand_in_code(name: str) -> str:
+    digest = hashlib.sha256(name.encode()).digest()
+    return "".join(ALPHABET[byte % len(ALPHABET)] for byte in digest[:CODE_LENGTH])
+
+
 def compute_layout(
     wall: Wall, tags: Sequence[TagRecord], payloads: Sequence[str]
 ) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
-    """Place ``tags`` on ``wall``: what tiles draw, and what could not be placed and why."""
-    module_mm = min_module_mm(wall.scan_distance_m)
+    """Place ``tags`` on ``wall``: what tiles draw, and what could not be placed and why.
+
+    Both lists are in code order: codes are random, so the order says nothing about
+    which tag came first (a quiz's pins are placed in an order that must stay secret)."""
     variants = {tag.code: symbol_variants(p) for tag, p in zip(tags, payloads, strict=True)}
     requests = [
         PlacementRequest(
             key=tag.code,
             sizes=tuple(modules_across(symbol) for symbol in variants[tag.code]),
-            module_mm=module_mm,
+            module_mm=min_module_mm(wall.design_distance_m(purpose_of(tag))),
             anchor=anchor_of(tag),
             screen=tag.screen,
             slot=tag.slot,
             preferred_mm=tag.size_mm,
             clear_mm=tag.clear_mm or 0.0,
+            caption=bool(tag.label),
         )
         for tag in tags
     ]
@@ -388,14 +453,22 @@ def compute_layout(
             matrix=matrix_rows(variants[p.key][p.variant]),
             anchor=anchor_of(by_code[p.key]) or p.rect.center,
             leader=p.leader,
+            caption=p.caption.xywh if p.caption else None,
+            purpose=purpose_of(by_code[p.key]),
         ).model_dump(mode="json")
-        for p in result.placed
+        for p in sorted(result.placed, key=lambda p: p.key)
     ]
     unplaced = [
         UnplacedCode(code=u.key, label=by_code[u.key].label, reason=u.reason).model_dump()
-        for u in result.unplaced
+        for u in sorted(result.unplaced, key=lambda u: u.key)
     ]
     return placed, unplaced
+
+
+def purpose_of(tag: TagRecord) -> CodePurpose:
+    """Codes on a designated screen (registration, menus) serve people in their seats;
+    anchored codes mark something on the scene, and people walk up to them."""
+    return "seat" if tag.screen is not None else "walk-up"
 
 
 def anchor_of(tag: TagRecord) -> tuple[float, float] | None:
@@ -409,7 +482,14 @@ def _inputs_hash(
 ) -> str:
     geometry = [(d.id, d.rect.xywh, d.resolution, d.rotation) for d in wall.displays]
     inputs = {
-        "wall": [wall.id, wall.bezel_mode, wall.scan_distance_m, geometry, wall.screens],
+        "wall": [
+            wall.id,
+            wall.bezel_mode,
+            wall.seat_distance_m,
+            wall.walk_up_distance_m,
+            geometry,
+            wall.screens,
+        ],
         "set": tag_set,
         "tags": [
             [
@@ -421,6 +501,7 @@ def _inputs_hash(
                 t.slot,
                 t.size_mm,
                 t.clear_mm,
+                t.priority,
                 payload,
             ]
             for t, payload in zip(tags, payloads, strict=True)
@@ -453,10 +534,33 @@ def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:
 
 def anchored_code_side_mm(base_url: str, wall: Wall) -> float:
     """How wide a code anchored in the scene stands on this wall: the smallest symbol
-    that carries a tag URL, on a display that is not a designated screen. Apps size
-    what they keep clear around their codes by it."""
+    that carries a tag URL, at the walk-up distance, on a display of the stage. Apps
+    size what they keep clear around their codes by it."""
     payload = url_payload(base_url, "0" * CODE_LENGTH)
     modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
-    designated = {d.id for role in ROLES for d in wall.screen(role)}
-    display = next((d for d in wall.displays if d.id not in designated), wall.displays[0])
-    return code_size(display, modules, min_module_mm(wall.scan_distance_m)).side_mm
+    display = wall.display(wall.stage_ids[0])
+    return code_size(display, modules, min_module_mm(wall.walk_up_distance_m)).side_mm
+
+
+def places_anchored(
+    wall: Wall, base_url: str, anchors: Sequence[tuple[str, tuple[float, float]]]
+) -> set[str]:
+    """The keys of ``anchors`` that find a spot when URL tags with captions are anchored
+    there and placed in this order, as :func:`compute_layout` places them (give the
+    tags falling priorities in this order). Apps try their anchored codes so before
+    declaring them, and hand what would not fit to codes that do."""
+    payload = url_payload(base_url, "0" * CODE_LENGTH)
+    sizes = tuple(modules_across(symbol) for symbol in symbol_variants(payload))
+    module_mm = min_module_mm(wall.walk_up_distance_m)
+    requests = [
+        PlacementRequest(key=key, sizes=sizes, module_mm=module_mm, anchor=anchor, caption=True)
+        for key, anchor in anchors
+    ]
+    return {placed.key for placed in place(wall, requests).placed}
+
+
+def anchored_footprint_mm(base_url: str, wall: Wall) -> tuple[float, float]:
+    """Width and height an anchored code takes with its caption and the gap kept
+    around it: what apps count with when they decide how many codes a view holds."""
+    side = anchored_code_side_mm(base_url, wall)
+    return side * (1 + 2 * SPREAD_OF_SIDE), side * (1 + CAPTION_OF_SIDE + 2 * SPREAD_OF_SIDE)

@@ -117,7 +117,11 @@ class ServerProcess:
     def change(self, wall: str, patch: dict[str, Any], client: httpx.Client | None = None) -> int:
         """Change a wall's state as the operator does; returns the new version."""
         post = client.post if client is not None else httpx.post
-        response = post(f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator())
+        # a heavy change (the census map's first import, placing codes) takes seconds
+        # on a loaded machine: slow, not wrong
+        response = post(
+            f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator(), timeout=60
+        )
         response.raise_for_status()
         return int(response.json()["version"])
 

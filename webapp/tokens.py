@@ -53,7 +53,7 @@ def load_tokens(db: Database, secret: str) -> Tokens:
     except (OperationalError, ProgrammingError) as error:
         if "token_salts" not in str(error.orig):
             raise
-        rows = []  # a database before migration 0007: nothing was ever rotated
+        rows = []  # a database before migration 0008: nothing was ever rotated
     return Tokens(secret, {purpose: salt for purpose, salt in rows})
 
 

@@ -23,8 +23,9 @@ def overview_url(settings: Settings, wall_id: str) -> str:
 
 def dashboard_url(settings: Settings, tokens: Tokens) -> str:
     """The operator's sign-in link: it signs the browser in as admin and opens the
-    dashboard (for a new installation, before any account exists)."""
-    return f"{settings.server_url}/login/operator?token={tokens.operator}"
+    dashboard (for a new installation, before any account exists). On this machine's
+    loopback where the server listens there: the token never crosses the network."""
+    return f"{settings.local_url}/login/operator?token={tokens.operator}"
 
 
 def code_image_path(code: str, payload: str, extension: str) -> str:

@@ -22,7 +22,7 @@ from webapp.volume.layer import VolumeLayer
 
 
 class View(BaseModel):
-    """Where the scene looks: centre as a fraction of the wall, zoom, orientation."""
+    """Where the scene looks: centre as a fraction of the wall's stage, zoom, orientation."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -90,6 +90,7 @@ class WallState(BaseModel):
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
     dataset: RowId | None = None  # the census map's data set
+    quiz_round: RowId | None = None  # the brain quiz's round (its pin codes)
 
 
 class StatePatch(BaseModel):

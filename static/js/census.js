@@ -39,13 +39,17 @@ export class CensusViews {
     while (this.views.size > KEEP) this.views.delete(this.views.keys().next().value);
   }
 
-  /** Codes of tracts in hidden groups: the tile leaves them out with their tracts. */
+  /** Codes of tracts in hidden groups, and cluster codes all of whose tracts are
+   * hidden: the tile leaves them out with their tracts. */
   hiddenCodes(state) {
     const view = this.get(state);
     const hidden = new Set();
     if (!view) return hidden;
     for (const tract of view.tracts) {
       if (tract.code && !groupShown(state, tract.group)) hidden.add(tract.code);
+    }
+    for (const [code, groups] of Object.entries(view.clusters ?? {})) {
+      if (groups.every((group) => !groupShown(state, group))) hidden.add(code);
     }
     return hidden;
   }
@@ -73,15 +77,16 @@ export function drawCensus(ctx, view, state, width, height) {
   drawLabels(ctx, shown, view.label_px);
 }
 
-// Tract numbers where they fit inside their tract, under the tract's code if it has one
-// (codes stand on the label point; the label then sits just below the code's centre).
+// Tract numbers where they fit inside their tract and stay clear of every code and
+// caption (the server says which: label_clear); a tract with its own code is named by
+// the code's caption.
 function drawLabels(ctx, tracts, size) {
   ctx.font = `bold ${Math.round(size)}px sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
   ctx.fillStyle = LABEL;
   for (const tract of tracts) {
-    if (tract.code) continue;  // the code's own label names it
+    if (tract.code || !tract.label_clear) continue;  // codes' captions name their tracts
     const width = ctx.measureText(tract.label).width;
     if (width > 2 * tract.room) continue;
     ctx.fillText(tract.label, tract.at[0], tract.at[1]);

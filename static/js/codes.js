@@ -3,6 +3,7 @@
 
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
+const CAPTION_BACKING = "#10161f";
 
 // Layouts (placements of a tag set) by id. They never change once made, so each is
 // fetched once; a tile asks only for its own display's codes.
@@ -74,19 +75,34 @@ function drawPins(ctx, codes, pxPerMm) {
   }
 }
 
-// Screen codes (registration, menu) carry their label underneath, in the cell they stand in.
-function drawLabels(ctx, codes, matrix) {
+// Every labelled code carries its caption in the strip placement reserved under it (same
+// display, clear of other codes and captions): on a dark backing, so nothing drawn
+// before shows through, upright as the panel hangs, in the largest type that fits.
+function drawCaptions(ctx, codes, matrix) {
+  const [a, b] = matrix;
+  const angle = Math.atan2(b, a);  // the panel's rotation: text turns with the scene
+  const turned = Math.abs(Math.sin(angle)) > 0.5;
   ctx.save();
-  ctx.setTransform(1, 0, 0, 1, 0, 0);
-  ctx.fillStyle = "#fff";
   ctx.textAlign = "center";
-  ctx.textBaseline = "top";
+  ctx.textBaseline = "middle";
   for (const code of codes) {
-    if (!code.label || code.leader) continue;
-    const [x, y, w] = code.rect;
-    const [left, top, width, height] = pixelBox(matrix, x, y, w, w);
-    ctx.font = `bold ${Math.round(width / 8)}px sans-serif`;
-    ctx.fillText(code.label, left + width / 2, top + height + width / 20);
+    if (!code.label || !code.caption) continue;
+    const [left, top, boxW, boxH] = pixelBox(matrix, ...code.caption);
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.fillStyle = CAPTION_BACKING;
+    ctx.fillRect(left, top, boxW, boxH);
+    const [width, height] = turned ? [boxH, boxW] : [boxW, boxH];
+    ctx.setTransform(Math.cos(angle), Math.sin(angle), -Math.sin(angle), Math.cos(angle),
+      left + boxW / 2, top + boxH / 2);
+    let size = Math.floor(height * 0.8);
+    ctx.font = `bold ${size}px sans-serif`;
+    const measured = ctx.measureText(code.label).width;
+    if (measured > width * 0.96) {
+      size = Math.floor(size * (width * 0.96) / measured);
+      ctx.font = `bold ${size}px sans-serif`;
+    }
+    ctx.fillStyle = "#fff";
+    ctx.fillText(code.label, 0, 0);
   }
   ctx.restore();
 }
@@ -105,5 +121,5 @@ export function drawCodes(ctx, layout, matrix, hidden = null) {
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) drawCode(ctx, code, matrix);
   ctx.restore();
-  drawLabels(ctx, codes, matrix);
+  drawCaptions(ctx, codes, matrix);
 }

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -32,7 +33,8 @@ PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touc
 @pytest.fixture
 def atlas(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
     process = serve(tmp_path, database_url)
-    process.change("demo", {"app": "brain"})
+    with httpx.Client(timeout=60) as client:  # the first pins take a while on a busy machine
+        process.change("demo", {"app": "brain"}, client)
     yield process
     process.stop()
 
@@ -59,64 +61,192 @@ def settle(server: ServerProcess, tiles: dict[str, Page]) -> None:
 
 def control(server: ServerProcess, **choice: Any) -> None:
     response = httpx.post(
-        f"{server.url}/api/walls/demo/brain", json=choice, headers=server.operator()
+        f"{server.url}/api/walls/demo/brain", json=choice, headers=server.operator(), timeout=60
     )
     response.raise_for_status()
 
 
-def test_a_child_answers_every_k5_pin_off_the_tiles_and_sees_the_results(
-    browser: Browser, atlas: ServerProcess
-) -> None:
+def brain_status(server: ServerProcess) -> dict[str, Any]:
+    response = httpx.get(f"{server.url}/api/walls/demo/brain", headers=server.operator())
+    response.raise_for_status()
+    result: dict[str, Any] = response.json()
+    return result
+
+
+def quiz_post(server: ServerProcess, action: str, **body: Any) -> None:
+    response = httpx.post(
+        f"{server.url}/api/walls/demo/brain/quiz/{action}",
+        json=body,
+        headers=server.operator(),
+        timeout=60,
+    )
+    response.raise_for_status()
+
+
+def caption_reads(tile: Page, image: Image.Image, box: tuple[int, int, int], total: int) -> int:
+    """The pin number the caption under a code shows, read off the screenshot: the
+    caption plate is compared with every candidate drawn by the tile's own caption
+    function; the one that matches best is what a person reads there."""
+    x, y, side = box
+    candidates = tile.evaluate(
+        """async ([box, texts]) => {
+          const {drawCaption} = await import("/static/js/codes.js");
+          return texts.map((text) => {
+            const canvas = new OffscreenCanvas(1920, 1080);
+            const ctx = canvas.getContext("2d");
+            const [px, py, pw, ph] = drawCaption(ctx, text, box);
+            const data = ctx.getImageData(px, py, pw, ph).data;
+            const grey = [];
+            for (let i = 0; i < data.length; i += 4) grey.push(data[i + 1]);
+            return [[px, py, pw, ph], grey];
+          });
+        }""",
+        [[x, y, side, side], [f"Pin {n}" for n in range(1, total + 1)]],
+    )
+    green = image.convert("RGB").getchannel("G")
+    scores = []
+    for number, ((px, py, pw, ph), expected) in enumerate(candidates, start=1):
+        seen = list(green.crop((px, py, px + pw, py + ph)).getdata())
+        if len(seen) != len(expected):  # the plate would leave the display
+            continue
+        scores.append(
+            (sum(abs(a - b) for a, b in zip(seen, expected, strict=True)) / len(seen), number)
+        )
+    best, number = min(scores)
+    assert best < 8, f"no caption plate reads as a pin number under the code at {box}"
+    return number
+
+
+def pins_seen(server: ServerProcess, tiles: dict[str, Page]) -> dict[int, str]:
+    """Pin number -> payload of every pin code decoded off the free tiles now, each
+    number read off the caption under its code."""
+    layout = layout_of(server)
+    placed = {c.payload: c for c in layout.placed}
+    found: dict[int, str] = {}
+    for tile in FREE:
+        image = Image.open(io.BytesIO(tiles[tile].screenshot(type="png")))
+        for code in decode_image(image):
+            entry = placed.get(code.payload)
+            if entry is None or not entry.label.startswith("Pin "):
+                continue
+            number = int(entry.label.removeprefix("Pin "))
+            total = len(load_content().in_set("k5" if layout.tag_set == "brain-k5" else "full"))
+            assert caption_reads(tiles[tile], image, entry.pixels, total) == number
+            found[number] = code.payload
+    return found
+
+
+def test_a_class_meets_the_quiz_off_the_tiles(browser: Browser, atlas: ServerProcess) -> None:
+    """Students on 390 px phones, every code decoded from native tile screenshots: a
+    child's K-5 scan changes the child's pages, not the wall; the pins' numbers are read
+    off their captions; My quiz sends the child only to views whose tiles show the pin;
+    a throw-away private tab that answers "x" everywhere and finishes learns nothing
+    while answers count; closing the round shows everyone the names and takes no more
+    answers; twenty alternating audience scans swap the wall once; a new round puts
+    new codes and numbers on the tiles and an old code says so."""
     tiles = dict(zip(DEMO, open_tiles(browser, atlas, "demo", DEMO, native=True), strict=True))
     settle(atlas, tiles)
-    phone = browser.new_context(**PHONE).new_page()
+    child = browser.new_context(**PHONE).new_page()
 
     # register as a student from the code photographed off the registration tile
     layout = layout_of(atlas)
     student = next(c.payload for c in layout.placed if c.label == "Student")
     assert student in decoded(tiles["r2c1"])
-    phone.goto(student)
-    expect(phone.locator("#role")).to_have_text("student")
+    child.goto(student)
+    expect(child.locator("#role")).to_have_text("student")
 
-    # the K-5 code off the menu tile: the visitor's group and the wall's pins change
+    # K-5 off the menu tile, mid-round: the child's group changes, the wall's pins do not
+    version = atlas.version("demo")
     full_pins = {c.payload for c in layout.placed if c.label.startswith("Pin ")}
     k5 = next(c.payload for c in layout.placed if c.label == "K-5")
     assert k5 in decoded(tiles["r1c3"])
-    phone.goto(k5)
-    expect(phone.locator("#outcome")).to_contain_text("K-5 group")
-    settle(atlas, tiles)
-    k5_layout = layout_of(atlas)
-    k5_pins = {c.payload for c in k5_layout.placed if c.label.startswith("Pin ")}
-    assert k5_pins and not k5_pins & full_pins
-    shown = set().union(*(decoded(tiles[t]) for t in FREE))
-    assert k5_pins <= shown and not full_pins & shown, "the tiles show the K-5 pins only"
+    child.goto(k5)
+    expect(child.locator("#outcome")).to_contain_text("K-5 group")
+    expect(child.locator("#wall-pins")).to_contain_text("your instructor chooses")
+    assert atlas.version("demo") == version
+    assert full_pins & set().union(*(decoded(tiles[t]) for t in FREE))
 
-    # turn the brain through the views; answer each pin read off the tiles, half right
-    names = [r.name for r in load_content().in_set("k5")]
-    answered: set[int] = set()
+    # the instructor puts up the K-5 pins and turns the brain through the views
+    control(atlas, tag_set="k5")
+    shown_in: dict[str, set[int]] = {}
+    codes: dict[int, str] = {}
     for preset in load_views():
         control(atlas, preset=preset.id)
         settle(atlas, tiles)
-        labels = {c.payload: c.label for c in layout_of(atlas).placed}
-        for payload in set().union(*(decoded(tiles[t]) for t in FREE)):
-            label = labels.get(payload, "")
-            number = int(label.removeprefix("Pin ")) if label.startswith("Pin ") else 0
-            if not number or number in answered:
-                continue
-            phone.goto(payload)
-            expect(phone.locator("h1")).to_have_text(label)
-            text = names[number - 1] if number % 2 else "no idea"
-            phone.locator("#answer").fill(text)
-            phone.get_by_role("button", name="Send").click()
-            expect(phone.locator("#answered")).to_contain_text(f"{len(answered) + 1} of 11")
-            answered.add(number)
-    assert answered == set(range(1, 12))
+        seen = pins_seen(atlas, tiles)
+        shown_in[preset.name] = set(seen)
+        codes |= seen
+    assert sorted(codes) == list(range(1, 12))
 
-    phone.locator("#finish").click()
-    expect(phone.locator("#score")).to_have_text("6 of 11 right")
-    results = phone.locator("#pins").inner_text()
-    assert all(name in results for name in names)
-    phone.context.close()
+    # My quiz names, per view, only pins whose codes those views put on the tiles
+    child.goto(f"{atlas.url}/apps/brain/demo/quiz/k5")
+    hints = child.locator("#open-by-view li").all_inner_texts()
+    assert hints
+    for hint in hints:
+        view, _, pins = hint.partition(": ")
+        numbers = {int(p.removeprefix("pin ")) for p in pins.split(", ")}
+        assert numbers <= shown_in[view], f"{view}: {numbers - shown_in[view]} not on the tiles"
+
+    # a throw-away private tab answers "x" to every pin and finishes
+    key = {r["pin"]: r["name"] for r in brain_status(atlas)["quiz"]["k5"]["regions"]}
+    cheat = browser.new_context(**PHONE).new_page()
+    for payload in codes.values():
+        cheat.goto(payload)
+        cheat.locator("#answer").fill("x")
+        cheat.get_by_role("button", name="Send").click()
+        expect(cheat.locator("#answered")).to_be_visible()
+    cheat.locator("#finish").click()
+    expect(cheat.locator("#waiting")).to_contain_text("right names at the end")
+    harvest = cheat.locator("main").inner_text()
+    for payload in codes.values():
+        cheat.goto(payload)
+        harvest += cheat.locator("main").inner_text()
+    assert not [name for name in key.values() if name in harvest]
+    assert "✓" not in harvest and "✗" not in harvest
+
+    # the child answers, half right, and finishes: no names yet either
+    for number, payload in sorted(codes.items()):
+        child.goto(payload)
+        expect(child.locator("h1")).to_have_text(f"Pin {number}")
+        child.locator("#answer").fill(key[number] if number % 2 else "no idea")
+        child.get_by_role("button", name="Send").click()
+        expect(child.locator("#answered")).to_contain_text("of 11")
+    child.locator("#finish").click()
+    expect(child.locator("#waiting")).to_be_visible()
+
+    # the instructor closes the round: names for everyone, no more answers
+    quiz_post(atlas, "close")
+    child.reload()
+    expect(child.locator("#score")).to_have_text("6 of 11 right")
+    results = child.locator("#pins").inner_text()
+    assert all(name in results for name in key.values())
+    cheat.goto(codes[1])
+    expect(cheat.locator("#round-state")).to_contain_text("over")
+    expect(cheat.locator("#answer")).to_have_count(0)
+
+    # the audience may switch now: twenty alternating menu scans in half a second
+    control(atlas, audience_switches=True)
+    menu = {c.label: c.payload for c in layout_of(atlas).placed}
+    other = next(menu[g] for g in ("Medical", "Undergraduate", "Research") if g in menu)
+    storm = [menu["K-5"] if n % 2 else other for n in range(20)]
+    before = atlas.version("demo")
+    with ThreadPoolExecutor(max_workers=20) as pool:
+        answers = list(pool.map(lambda url: httpx.get(url, timeout=30), storm))
+    assert all(a.status_code == 200 for a in answers)
+    assert atlas.version("demo") - before == 1, "one swap, to the full set"
+    settle(atlas, tiles)
+    assert atlas.status("demo")["state"]["tag_set"] == "brain-full"
+
+    # a new round: new codes and numbers on the tiles, and an old code says so
+    quiz_post(atlas, "reset")
+    control(atlas, tag_set="k5")
+    settle(atlas, tiles)
+    fresh = pins_seen(atlas, tiles)
+    assert fresh and not set(fresh.values()) & set(codes.values())
+    child.goto(codes[1])
+    expect(child.locator("h1")).to_have_text("A new round has started")
+    child.context.close()
+    cheat.context.close()
     for page in tiles.values():
         page.context.close()
 
@@ -147,8 +277,11 @@ def test_the_instructor_turns_the_brain_and_follows_the_class_from_the_dashboard
     expect(row).to_contain_text("the wrong thing (1)", timeout=10_000)
     expect(panel.locator("#brain-participants")).to_contain_text("1 taking part")
 
+    # tutor pages name every pin: the panel asks before closing the running round
+    dashboard.once("dialog", lambda dialog: dialog.accept())
     panel.get_by_role("button", name="Tutor").click()
     expect(panel.locator("#brain-now")).to_contain_text("tutor")
+    expect(panel.locator("#brain-round-state")).to_contain_text("closed")
     phone.goto(pin.payload)
     expect(phone.locator("#tutor-text")).to_be_visible()
     phone.context.close()

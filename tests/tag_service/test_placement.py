@@ -10,7 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tag_service.placement import Layout, Placement, PlacementRequest, place
+from tag_service.placement import (
+    SPREAD_OF_SIDE,
+    Layout,
+    Placement,
+    PlacementRequest,
+    caption_height,
+    place,
+)
 from tag_service.sizing import min_module_mm, symbol_modules
 from wall_client.layout import ROLES, Rect, Wall, load_wall
 
@@ -79,24 +86,48 @@ def assert_valid(
         if request.anchor is not None:
             assert p.display_id not in designated(wall), "panels keep their screens"
             assert not any(p.rect.intersects(grown(sq, -TOL)) for sq in squares), "pins clear"
-            inside = p.rect.contains(request.anchor)
+            inside = p.footprint.contains(request.anchor) and request.clear_mm == 0
             assert (p.leader is None) == inside
             if p.leader is not None:
                 start, end = p.leader
                 assert end == request.anchor
-                assert grown(p.rect, TOL).contains(start)
+                assert grown(p.footprint, TOL).contains(start), "pins start at the footprint"
         else:
             assert p.leader is None
             assert p.display_id in {d.id for d in wall.screen(str(request.screen))}
+        if request.caption:
+            assert p.caption is not None and p.caption_pixels is not None
+            assert grown(scene, TOL).contains(p.caption), "a caption is never cut off"
+            assert p.caption.y == pytest.approx(p.rect.bottom), "right under its code"
+            _, cy, cw, ch = p.caption_pixels
+            assert cw >= side and ch == caption_height(side) and cy == y + side
+        else:
+            assert p.caption is None
     for a, b in itertools.combinations(layout.placed, 2):
         if a.display_id == b.display_id:
-            assert not boxes_overlap(a, b), (a, b)
+            assert not boxes_overlap(pixel_box(a), pixel_box(b)), (a, b)
+            if by_key[a.key].anchor is not None and by_key[b.key].anchor is not None:
+                gap = math.ceil(SPREAD_OF_SIDE * min(a.pixels[2], b.pixels[2]))
+                assert not boxes_overlap(pixel_box(a, gap), pixel_box(b)), "spread apart"
 
 
-def boxes_overlap(a: Placement, b: Placement) -> bool:
-    ax, ay, aside = a.pixels
-    bx, by, bside = b.pixels
-    return ax < bx + bside and bx < ax + aside and ay < by + bside and by < ay + aside
+def by_key(requests: list[PlacementRequest]) -> dict[str, PlacementRequest]:
+    return {r.key: r for r in requests}
+
+
+def pixel_box(p: Placement, margin: int = 0) -> tuple[int, int, int, int]:
+    """A code with its caption in its display's pixels (x0, y0, x1, y1), grown by
+    ``margin`` on every side."""
+    x, y, side = p.pixels
+    x0, y0, x1, y1 = x, y, x + side, y + side
+    if p.caption_pixels is not None:
+        cx, cy, cw, ch = p.caption_pixels
+        x0, x1, y1 = min(x0, cx), max(x1, cx + cw), cy + ch
+    return (x0 - margin, y0 - margin, x1 + margin, y1 + margin)
+
+
+def boxes_overlap(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
 @st.composite
@@ -119,6 +150,7 @@ def scenarios(draw: st.DrawFn) -> tuple[Wall, list[PlacementRequest], list[Rect]
                 anchor=(x, y),
                 preferred_mm=preferred,
                 clear_mm=clear,
+                caption=draw(st.booleans()),
             )
         )
     for slot in range(draw(st.integers(0, 6))):
@@ -130,6 +162,7 @@ def scenarios(draw: st.DrawFn) -> tuple[Wall, list[PlacementRequest], list[Rect]
                 module_mm=min_module_mm(distance),
                 screen=role,
                 slot=slot,
+                caption=draw(st.booleans()),
             )
         )
     reserved = [
@@ -177,7 +210,7 @@ def test_an_anchor_on_a_bezel_gets_a_code_beside_it_with_a_pin(demo: Wall) -> No
 
 def test_crowded_codes_move_apart_and_point_back(demo: Wall) -> None:
     centre = demo.viewport("r2c2").scene_rect.center
-    requests = [anchored(f"A{i}", *centre) for i in range(5)]
+    requests = [anchored(f"A{i}", *centre, distance_m=0.8, caption=True) for i in range(5)]
     layout = place(demo, requests)
     assert len(layout.placed) == 5
     assert sum(p.leader is None for p in layout.placed) == 1, "only the first sits on the anchor"
@@ -201,9 +234,9 @@ def test_a_reserved_panel_pushes_codes_aside(demo: Wall) -> None:
 
 
 def test_the_smaller_variant_is_used_when_the_preferred_one_does_not_fit(demo: Wall) -> None:
-    # At 7.5 m a module is ~22 mm: a version-2 symbol (33 across) is taller than a
+    # At 6.7 m a module is ~22 mm: a version-2 symbol (33 across) is taller than a
     # 680 mm panel, a version-1 symbol (29 across) is not.
-    module = min_module_mm(7.5)
+    module = min_module_mm(6.7)
     centre = demo.viewport("r2c2").scene_rect.center
     request = PlacementRequest(key="A", sizes=(V2, V1), module_mm=module, anchor=centre)
     [code] = place(demo, [request]).placed
@@ -228,7 +261,7 @@ def test_no_space_near_the_anchor_is_reported(demo: Wall) -> None:
 
 
 def test_slot_codes_share_their_screen_in_reading_order(demo: Wall) -> None:
-    module = min_module_mm(demo.scan_distance_m)
+    module = min_module_mm(demo.seat_distance_m)
     requests = [
         PlacementRequest(key=k, sizes=(V2,), module_mm=module, screen="registration", slot=s)
         for k, s in [("second", 1), ("first", 0)]
@@ -250,7 +283,7 @@ def test_a_missing_screen_is_reported() -> None:
 
 
 def test_a_crowded_screen_says_how_many_codes_did_not_fit(demo: Wall) -> None:
-    module = min_module_mm(demo.scan_distance_m)
+    module = min_module_mm(demo.seat_distance_m)
     requests = [
         PlacementRequest(key=f"S{i}", sizes=(V2,), module_mm=module, screen="menu", slot=i)
         for i in range(200)
@@ -359,3 +392,54 @@ def test_cleared_layouts_are_deterministic(demo: Wall) -> None:
     layout = place(demo, requests, reserved)
     assert place(demo, requests, reserved) == layout
     assert_valid(demo, requests, reserved, layout)
+
+
+# --- captions and spreading -----------------------------------------------------------
+
+
+def test_a_caption_near_the_bottom_edge_moves_its_code_up_instead_of_being_cut(
+    demo: Wall,
+) -> None:
+    """Zoomed-in census codes near a display's bottom edge lost their tract number."""
+    scene = demo.viewport("r2c2").scene_rect
+    request = anchored("A", scene.center[0], scene.bottom - 5, distance_m=0.8, caption=True)
+    [code] = place(demo, [request]).placed
+    assert code.caption is not None and code.caption.bottom <= scene.bottom + TOL
+    assert code.caption.y == pytest.approx(code.rect.bottom)
+    assert code.caption.width == pytest.approx(code.rect.width)
+    assert code.rect.center[1] < request.anchor[1] if request.anchor else False
+    assert_valid(demo, [request], [], layout=place(demo, [request]))
+
+
+def test_menu_captions_stay_in_their_cells_on_every_shipped_wall() -> None:
+    """HIPerWall's menu captions ran off the left edge and over each other."""
+    for name in ("demo", "hiperwall", "kl-3x3"):
+        wall = load(name)
+        requests = [
+            PlacementRequest(
+                key=f"M{slot}",
+                sizes=(V2,),
+                module_mm=min_module_mm(wall.seat_distance_m),
+                screen="menu",
+                slot=slot,
+                caption=True,
+            )
+            for slot in range(10)
+        ]
+        layout = place(wall, requests)
+        assert not layout.unplaced, (name, layout.unplaced)
+        assert_valid(wall, requests, [], layout)
+
+
+def test_codes_marking_neighbouring_points_are_spread_apart(demo: Wall) -> None:
+    """Deep brain views packed four to six codes edge to edge."""
+    x, y = demo.viewport("r2c2").scene_rect.center
+    requests = [
+        anchored(f"P{i}", x + 20 * i, y, distance_m=0.8, caption=True, clear_mm=40)
+        for i in range(5)
+    ]
+    layout = place(demo, requests)
+    assert len(layout.placed) == 5
+    assert_valid(demo, requests, [], layout)
+    for code in layout.placed:
+        assert math.dist(code.rect.center, by_key(requests)[code.key].anchor or (0, 0)) < 400

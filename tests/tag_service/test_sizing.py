@@ -15,9 +15,10 @@ from wall_client.layout import load_wall
 from webapp.settings import CONTENT_DIR
 
 
-def test_module_size_is_about_distance_over_345() -> None:
-    assert min_module_mm(1.0) == pytest.approx(1000 * 2 * math.tan(math.radians(35)) * 4 / 1920)
-    assert min_module_mm(1.0) == pytest.approx(1000 / 345, rel=0.01)
+def test_module_size_is_about_distance_over_305() -> None:
+    """4.5 camera pixels per module: zbar's need in full phone frames (docs/codes.md)."""
+    assert min_module_mm(1.0) == pytest.approx(1000 * 2 * math.tan(math.radians(35)) * 4.5 / 1920)
+    assert min_module_mm(1.0) == pytest.approx(1000 / 305, rel=0.01)
     assert min_module_mm(3.0) == pytest.approx(3 * min_module_mm(1.0))
 
 

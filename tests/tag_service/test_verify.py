@@ -1,11 +1,13 @@
-"""Verify: rendered codes decode, sized codes survive a simulated phone camera at the
-design distance (and stop decoding well beyond it), and untrusted bytes fail cleanly."""
+"""Verify: rendered codes decode, sized codes survive a phone-like camera at the design
+distance (and stop decoding well beyond it), and untrusted bytes fail cleanly."""
 
 import io
+import math
 import struct
 import zlib
 
 import pytest
+import zxingcpp
 from PIL import Image
 
 from tag_service.codes import (
@@ -21,10 +23,12 @@ from tag_service.sizing import Camera, min_module_mm
 from tag_service.verify import (
     Decoded,
     NotAnImage,
+    Shot,
     TooManyPixels,
-    as_seen_from,
     decode_image,
     open_image,
+    phone_frame,
+    random_shots,
 )
 
 BASE_URL = "http://192.168.1.20:8000"
@@ -41,8 +45,6 @@ PAYLOADS = {
         )
     ),
 }
-DESIGN_DISTANCES_M = (1.0, 2.0, 3.0)
-PX_PER_MODULE = (3, 4, 6)
 VERSION_2_CODES = ("K7Q2ZP9", "ABC1234", "00000ZZ", "Q9X4M2T")
 
 
@@ -91,70 +93,90 @@ def test_no_code_no_result() -> None:
     assert decode_image(Image.new("RGB", (300, 200), "white")) == []
 
 
-@pytest.mark.parametrize("kind", PAYLOADS)
-@pytest.mark.parametrize("px_per_module", PX_PER_MODULE)
-@pytest.mark.parametrize("distance_m", DESIGN_DISTANCES_M)
-def test_a_code_sized_for_a_distance_reads_from_that_distance(
-    kind: str, px_per_module: int, distance_m: float
+def screen_with(payload: str, px_per_module: int) -> Image.Image:
+    """A display's picture: the code on its white quiet zone, a dark map around it."""
+    code = picture(payload, px_per_module).convert("L")
+    screen = Image.new("L", (code.width + 400, code.height + 400), 30)
+    screen.paste(code, (200, 200))
+    return screen
+
+
+def frames(
+    payload: str, px_per_module: int, distance_m: float, factor: float, count: int, seed: int
+) -> list[Image.Image]:
+    """Phone frames of a code whose modules are exactly as small as sizing allows for
+    ``distance_m``, taken from ``factor`` times that distance."""
+    screen = screen_with(payload, px_per_module)
+    mm_per_px = min_module_mm(distance_m) / px_per_module
+    centre = (screen.width / 2, screen.height / 2)
+    return [
+        phone_frame(screen, mm_per_px, centre, shot, seed=n)
+        for n, shot in enumerate(random_shots(factor * distance_m, count, seed))
+    ]
+
+
+def zxing_reads(frame: Image.Image, payload: str) -> bool:
+    """A ZXing-class decoder (zxing-cpp): what phone camera apps use, or better."""
+    found = zxingcpp.read_barcodes(frame, formats=zxingcpp.BarcodeFormat.QRCode)
+    return any(result.text == payload for result in found)
+
+
+def zbar_reads(frame: Image.Image, payload: str) -> bool:
+    return any(decoded.payload == payload for decoded in decode_image(frame))
+
+
+@pytest.mark.parametrize("px_per_module", [3, 5])
+@pytest.mark.parametrize("distance_m", [0.8, 2.0])
+def test_a_code_sized_for_its_design_distance_reads_in_phone_frames(
+    px_per_module: int, distance_m: float
 ) -> None:
-    """Exactly at the maximum design distance: each module covers the 4 camera pixels
-    sizing promises, sampled at an arbitrary phase, blurred and noisy."""
-    payload = PAYLOADS[kind]
-    seen = as_seen_from(
-        picture(payload, px_per_module),
-        px_per_module,
-        min_module_mm(distance_m),
-        distance_m=distance_m,
+    """Full 1920 px frames of a 70 degree camera at the design distance, tilted up to
+    30 degrees, rolled, off-centre, blurred, noisy, low in contrast, JPEG-compressed:
+    a ZXing-class decoder reads every frame and zbar nearly every one (it needs about
+    4.5 camera pixels per module, which is why sizing asks for 4.5; ``make bench``
+    has the read rates at 1x, 1.5x and 2x)."""
+    payload = PAYLOADS["url"]
+    seed = px_per_module * 10 + int(distance_m * 10)
+    shots = frames(payload, px_per_module, distance_m, 1.0, 3, seed)
+    assert all(zxing_reads(frame, payload) for frame in shots)
+    assert sum(zbar_reads(frame, payload) for frame in shots) >= 2
+
+
+def test_the_phone_camera_really_limits_the_distance() -> None:
+    """The test above is not vacuous: from three times the design distance (1.5
+    camera pixels per module) neither decoder reads a frame."""
+    payload = PAYLOADS["url"]
+    for frame in frames(payload, 4, 2.0, 3.0, 3, seed=7):
+        assert not zxing_reads(frame, payload)
+        assert not zbar_reads(frame, payload)
+
+
+def test_a_square_on_frame_gives_each_module_the_camera_pixels_sizing_promises() -> None:
+    payload = PAYLOADS["url"]  # version 2: 25 modules between the finder patterns' edges
+    screen = screen_with(payload, 6)
+    shot = Shot(distance_m=2.0, blur_px=0.5, noise_grey_levels=0, jpeg_quality=95, contrast=1.0)
+    frame = phone_frame(screen, min_module_mm(2.0) / 6, (screen.width / 2, screen.height / 2), shot)
+    assert frame.size == (Camera().frame_px, 1080)
+    (decoded,) = decode_image(frame)
+    x, y, width, height = decoded.rect
+    assert width == pytest.approx(25 * Camera().px_per_module, abs=3)
+    assert height == pytest.approx(width, abs=2)
+    assert (x + width / 2, y + height / 2) == pytest.approx((960, 540), abs=3)
+    tilted = phone_frame(
+        screen,
+        min_module_mm(2.0) / 6,
+        (screen.width / 2, screen.height / 2),
+        Shot(distance_m=2.0, tilt_deg=30, blur_px=0.5, noise_grey_levels=0, contrast=1.0),
     )
-    assert [d.payload for d in decode_image(seen)] == [payload]
+    (seen,) = decode_image(tilted)
+    assert seen.rect[2] == pytest.approx(width * math.cos(math.radians(30)), abs=4)
 
 
-def test_the_camera_samples_as_sizing_says() -> None:
-    camera = Camera()
-    image = picture(PAYLOADS["url"], 6)  # 25 + 8 modules across
-    seen = as_seen_from(image, 6, min_module_mm(2.0, camera), 2.0, camera)
-    assert seen.mode == "L"
-    assert seen.width == round(33 * camera.px_per_module)
-    farther = as_seen_from(image, 6, min_module_mm(2.0, camera), 4.0, camera)
-    assert farther.width == round(33 * camera.px_per_module / 2)
-    assert as_seen_from(image, 6, 3.0, 2.0).tobytes() == as_seen_from(image, 6, 3.0, 2.0).tobytes()
-
-
-def frames_beyond(factor: float) -> list[bool]:
-    """Whether each simulated frame decodes, for version-2 URL codes seen from
-    ``factor`` times the design distance (every code, px/module, distance and seed)."""
-    results = []
-    for code in VERSION_2_CODES:
-        payload = url_payload(BASE_URL, code)
-        assert make_symbol(payload).version == 2
-        for px_per_module in PX_PER_MODULE:
-            image = picture(payload, px_per_module)
-            for distance_m in DESIGN_DISTANCES_M:
-                for seed in range(5):
-                    seen = as_seen_from(
-                        image,
-                        px_per_module,
-                        min_module_mm(distance_m),
-                        distance_m=factor * distance_m,
-                        seed=seed,
-                    )
-                    results.append(bool(decode_image(seen)))
-    return results
-
-
-def test_the_simulated_camera_really_limits_the_distance() -> None:
-    """The robustness test above is not vacuous: the simulation does lose codes.
-
-    At 2.5x the design distance a module covers 1.6 camera pixels and zbar reads only
-    the odd phase-lucky frame (about 3% of version-2 frames when this was measured); from
-    2.6x (1.54 camera pixels per module) on it read none of 810 frames (6 codes, 3 px per
-    module, 3 distances, 15 noise seeds). So 2.6x is where a version-2 code reliably
-    fails, and 2.5x is where it almost always does.
-    """
-    at_2_5 = frames_beyond(2.5)
-    assert sum(at_2_5) <= len(at_2_5) // 10
-    assert not any(frames_beyond(2.6))
-    assert not any(frames_beyond(3.0))
+def test_phone_frames_are_the_same_for_the_same_seed() -> None:
+    first = frames(PAYLOADS["url"], 4, 0.8, 1.0, 1, seed=3)[0]
+    again = frames(PAYLOADS["url"], 4, 0.8, 1.0, 1, seed=3)[0]
+    assert first.tobytes() == again.tobytes()
+    assert all(shot.tilt_deg <= 30 for shot in random_shots(1.0, 200, seed=1))
 
 
 def png_chunk(kind: bytes, data: bytes) -> bytes:

@@ -19,6 +19,7 @@ from wall_client.layout import (
     GRID_KEYS,
     IDENTITY,
     ROLES,
+    SCREEN_KEYS,
     TOP_KEYS,
     WALL_KEYS,
     Affine,
@@ -104,7 +105,58 @@ def test_demo_grid_ids_positions_and_wall_size() -> None:
     assert [d.index for d in wall.displays] == [0, 1, 2, 3, 4, 5]
     assert [d.desktop_origin for d in wall.displays] == [(i * 1920, 0) for i in range(6)]
     assert wall.screens == {"public": ("r1c2",), "menu": ("r1c3",), "registration": ("r2c1",)}
-    assert wall.scan_distance_m == 2.0 and wall.bezel_mode == "overlay"
+    assert wall.seat_distance_m == 2.0 and wall.bezel_mode == "overlay"
+    assert wall.walk_up_distance_m == 0.8
+
+
+# --- design distances and the stage -------------------------------------------------
+
+
+def test_each_code_purpose_has_its_design_distance() -> None:
+    wall = parse_wall({**grid_config(), "seat_distance_m": 3, "walk_up_distance_m": 0.6})
+    assert wall.design_distance_m("seat") == 3.0
+    assert wall.design_distance_m("walk-up") == 0.6
+    default = parse_wall(grid_config())
+    assert (default.seat_distance_m, default.walk_up_distance_m) == (2.0, 0.8)
+
+
+def test_the_old_distance_key_says_what_it_became() -> None:
+    errors = errors_of({**grid_config(), "scan_distance_m": 2})
+    assert errors == [
+        "walls/x.toml: scan_distance_m: renamed: use seat_distance_m"
+        " (walk-up codes have walk_up_distance_m)"
+    ]
+    assert errors_of({**grid_config(), "walk_up_distance_m": 0})[0].endswith("must be positive")
+
+
+def test_the_stage_is_the_largest_block_clear_of_the_designated_screens() -> None:
+    """The demo's public and menu screens take the top middle and right, registration
+    the lower left: a picture framed on the whole wall lies half under them."""
+    demo = load_wall(WALLS_DIR / "demo.toml")
+    assert demo.stage_ids == ("r2c2", "r2c3")
+    r2c2, r2c3 = demo.display("r2c2").rect, demo.display("r2c3").rect
+    assert demo.stage == Rect(r2c2.x, r2c2.y, r2c3.right - r2c2.x, r2c2.height)
+    kl = load_wall(WALLS_DIR / "kl-3x3.toml")
+    assert kl.stage_ids == ("r2c2", "r2c3", "r3c2", "r3c3")
+    irregular = load_wall(WALLS_DIR / "irregular.toml")
+    assert irregular.stage_ids == ("b2", "b4")  # taller than b3 + b4 is wide
+    for wall in (demo, kl, irregular, load_wall(WALLS_DIR / "hiperwall.toml")):
+        assert not set(wall.stage_ids) & wall.designated(), wall.id
+
+
+def test_a_wall_without_screens_frames_on_all_of_it_and_the_stage_can_be_chosen() -> None:
+    plain = parse_wall({**grid_config(), "screens": {"registration": []}})
+    assert plain.stage_ids == tuple(d.id for d in plain.displays)
+    assert plain.stage == Rect(0, 0, plain.width, plain.height)
+    chosen = parse_wall({**grid_config(), "screens": {"stage": ["r1c1", "r1c2"]}})
+    assert chosen.stage_ids == ("r1c1", "r1c2")
+    assert chosen.stage.width == pytest.approx(chosen.display("r1c2").rect.right - 3.5)
+    assert errors_of({**grid_config(), "screens": {"stage": ["r9c9"]}}) == [
+        "walls/x.toml: screens.stage: unknown display 'r9c9'"
+    ]
+    assert errors_of({**grid_config(), "screens": {"stage": []}})[0].endswith(
+        "give at least one display (leave it out for the default)"
+    )
 
 
 def test_bezel_per_side() -> None:
@@ -672,7 +724,7 @@ def accepted_keys() -> list[str]:
     return [
         *TOP_KEYS,
         *(f"wall.{k}" for k in WALL_KEYS),
-        *(f"screens.{k}" for k in ROLES),
+        *(f"screens.{k}" for k in SCREEN_KEYS),
         *(f"grid.{k}" for k in GRID_KEYS),
         *(f"grid.bezel_mm.{k}" for k in BEZEL_SIDES),
         *(f"display.{k}" for k in DISPLAY_KEYS),
@@ -702,9 +754,10 @@ def test_accepted_keys_really_are_accepted() -> None:
     config.update(
         name="n",
         bezel_mode="offset",
-        scan_distance_m=1,
+        seat_distance_m=1,
+        walk_up_distance_m=0.5,
         wall={"width_mm": 4000, "height_mm": 2000},
-        screens=dict.fromkeys(ROLES, "r1c1"),
+        screens={**dict.fromkeys(ROLES, "r1c1"), "stage": ["r2c1"]},
     )
     assert set(config) | set(config["grid"]) | set(config["wall"]) <= (
         set(TOP_KEYS) | set(GRID_KEYS) | set(WALL_KEYS)

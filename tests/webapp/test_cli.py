@@ -124,12 +124,14 @@ def test_codes_size_prints_the_code_on_every_display(env: dict[str, str]) -> Non
     code, out, _ = run(env, "codes", "size", "--wall", "demo", "--distance", "1.0")
     lines = out.splitlines()
     assert code == 0
-    assert lines[0].startswith("wall demo, scanning distance 1 m: modules of at least 2.92 mm")
+    assert lines[0].startswith(
+        "wall demo, seat codes, scanning distance 1 m: modules of at least 3.28 mm"
+    )
     assert lines[1] == "QR version 2: 33 modules across, 4-module quiet zones included"
     rows = [line.split() for line in lines[3:]]
     assert [row[0] for row in rows] == ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
-    # 0.63 mm pixels: 2.92 mm needs 5 px per module, 33 x 5 = 165 px, 104 mm.
-    assert all(row[1:] == ["0.630", "5", "3.15", "165", "104.0"] for row in rows)
+    # 0.63 mm pixels: 3.28 mm needs 6 px per module, 33 x 6 = 198 px, 125 mm.
+    assert all(row[1:] == ["0.630", "6", "3.78", "198", "124.7"] for row in rows)
 
 
 def test_codes_size_flags_codes_that_do_not_fit(env: dict[str, str]) -> None:
@@ -139,8 +141,10 @@ def test_codes_size_flags_codes_that_do_not_fit(env: dict[str, str]) -> None:
 
 def test_codes_size_defaults_to_the_walls_design_distance(env: dict[str, str]) -> None:
     code, out, _ = run(env, "codes", "size", "--wall", "hiperwall", "--qr-version", "3")
-    assert code == 0 and out.startswith("wall hiperwall, scanning distance 3 m")
+    assert code == 0 and out.startswith("wall hiperwall, seat codes, scanning distance 2.5 m")
     assert "QR version 3: 37 modules across" in out
+    code, out, _ = run(env, "codes", "size", "--wall", "hiperwall", "--purpose", "walk-up")
+    assert code == 0 and out.startswith("wall hiperwall, walk-up codes, scanning distance 0.8 m")
 
 
 @pytest.mark.parametrize(

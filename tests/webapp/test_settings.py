@@ -12,7 +12,7 @@ def test_defaults_are_embedded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     monkeypatch.chdir(tmp_path)
     settings = Settings()
     assert settings.resolved_database_url == "sqlite:///var/tagwall.db"
-    assert settings.host == "127.0.0.1" and settings.port == 8000
+    assert settings.host == "0.0.0.0" and settings.port == 8000  # phones must get in
     assert settings.bus == "memory"
 
 
@@ -45,9 +45,14 @@ def test_known_secret_allowed_in_dev() -> None:
     assert Settings(env="dev", secret_key="changeme").resolved_secret_key == "changeme"
 
 
-def test_public_base_url_defaults_to_lan_address() -> None:
-    settings = Settings(port=8123)
-    assert settings.resolved_public_base_url == f"http://{lan_address()}:8123"
+def test_codes_point_where_the_server_listens() -> None:
+    everywhere = Settings(port=8123)
+    assert everywhere.resolved_public_base_url == f"http://{lan_address()}:8123"
+    assert everywhere.local_url == "http://127.0.0.1:8123"
+    local = Settings(host="127.0.0.1", port=8123)
+    assert local.resolved_public_base_url == local.local_url == "http://127.0.0.1:8123"
+    one = Settings(host="10.1.2.3", port=8123)
+    assert one.resolved_public_base_url == one.local_url == "http://10.1.2.3:8123"
     explicit = Settings(public_base_url="http://wall.example.org/")
     assert explicit.resolved_public_base_url == "http://wall.example.org"
 

@@ -28,7 +28,7 @@ from webapp.wall_state import Change, WallState, read_state
 if TYPE_CHECKING:
     from webapp.services import Services
 
-PLACING_FIELDS = ("app", "view", "dataset", "volume", "tag_set")
+PLACING_FIELDS = ("app", "view", "dataset", "volume", "tag_set", "quiz_round")
 """State fields that decide which codes stand where: changing one declares the app's
 tags again and places the set shown."""
 
@@ -56,8 +56,8 @@ class WallApp(Protocol):
     name: str
     default_tag_set: str | None  # the set shown when the app comes on the wall
 
-    def settle(self, services: Services, state: WallState) -> WallState:
-        """The state as the app needs it when it comes on the wall (say, the data set
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+        """The state as the app needs it when it comes on ``wall`` (say, the data set
         it shows); called in a worker thread, at start too."""
         ...
 
@@ -68,6 +68,13 @@ class WallApp(Protocol):
 
     async def on_scan(self, scan: Scan) -> Response:
         """The phone page for a scan of one of the app's tags."""
+        ...
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        """The phone page for a scan of one of the app's tags that does not work now
+        (switched off, expired, or of a set not on the wall; ``problem`` says which),
+        or None for the core's "no longer in use" page. An app whose codes change as
+        it runs tells the phone what became of the thing it scanned."""
         ...
 
     async def publication(self, scan: Scan) -> Publication | None:
@@ -111,7 +118,7 @@ async def change_state(
         settled: dict[str, Any] = {}
         if target.app != current.app and app is not None:
             tag_set = app.default_tag_set
-            ready = await run_in_threadpool(app.settle, services, target)
+            ready = await run_in_threadpool(app.settle, services, wall, target)
             settled = {
                 name: getattr(ready, name)
                 for name in WallState.model_fields

@@ -29,7 +29,7 @@ class CoreApp:
     name: str = "core"
     default_tag_set: str | None = None
 
-    def settle(self, services: Services, state: WallState) -> WallState:
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
@@ -69,6 +69,9 @@ class CoreApp:
         )
         remember_person(scan.request, registered)
         return render(scan.request, "registered.html", wall=scan.wall)
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         return None  # registration is not content

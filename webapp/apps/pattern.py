@@ -32,7 +32,7 @@ class PatternApp:
     name: str = "pattern"
     default_tag_set: str | None = SETUP_SET
 
-    def settle(self, services: Services, state: WallState) -> WallState:
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
@@ -62,6 +62,9 @@ class PatternApp:
             placed=placed,
             display=display,
         )
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         """Where this code stands, for everyone at the wall to check."""

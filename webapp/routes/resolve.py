@@ -69,9 +69,17 @@ async def _resolve(
         return problem_page(request, 404, "Unknown code", "This is not one of this wall's codes.")
     wall = services.walls.get(tag.wall_id)
     app = services.apps.get(tag.app)
-    if resolution.problem or wall is None or app is None:
-        detail = resolution.problem or "This code belongs to a wall or app not running here."
+    if wall is None or app is None:
+        detail = "This code belongs to a wall or app not running here."
         return problem_page(request, 410, "This code is no longer in use", detail, tag.wall_id)
+    if resolution.problem:
+        scan = Scan(request, services, wall, tag, visitor, address)
+        own = await app.on_retired_scan(scan, resolution.problem)
+        if own is not None:
+            return own
+        return problem_page(
+            request, 410, "This code is no longer in use", resolution.problem, tag.wall_id
+        )
     services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
     services.scan_feed.publish(tag, visitor.id)
     return await app.on_scan(Scan(request, services, wall, tag, visitor, address))

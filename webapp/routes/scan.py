@@ -1,14 +1,18 @@
 """The photo fallback for phones whose camera app does not read QR codes.
 
 ``GET /scan`` shows a form that opens the phone's camera; ``POST /scan`` decodes the
-photo and sends the phone on to the code's page (``/t/CODE``), or shows what a code
-that is not one of this wall's holds, without ever following its link.
+photo and sends the phone on to the code's page (``/t/CODE``) when it is clear which
+code the photo was aimed at: the one nearest the photo's centre, standing in its middle
+and clearly nearer than any other. Otherwise it asks, naming what each code found
+marks (its label, the display it stands on), nearest the centre first. What a code
+that is not one of this wall's holds is shown, its link never followed.
 """
 
 from __future__ import annotations
 
+import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 from urllib.parse import urlsplit
 
@@ -23,6 +27,9 @@ from tag_service.codes import normalize_code
 from tag_service.verify import Decoded, NotAnImage, TooManyPixels, decode_image, open_image
 from webapp.deps import ServicesDep
 from webapp.routes.pages import render
+from webapp.services import Services
+from webapp.tags import find, get_layout
+from webapp.wall_state import read_state
 
 router = APIRouter(include_in_schema=False)
 
@@ -45,6 +52,13 @@ _TEL = re.compile(r"tel:(\+?[0-9*#]{1,40})", re.IGNORECASE)
 FoundKind = Literal["ours", "tel", "vcard", "url", "text"]
 
 
+AIMED_SHARE = 0.5
+"""A code counts as aimed at when its centre lies within this share of the photo's
+half-diagonal from the photo's centre..."""
+CLEARLY_NEARER = 2.0
+"""...and every other code of ours is at least this many times further out."""
+
+
 @dataclass(frozen=True)
 class Found:
     """A decoded code as the page shows it."""
@@ -52,6 +66,9 @@ class Found:
     kind: FoundKind
     text: str
     href: str | None = None  # only for our own codes (relative) and tel: numbers
+    off_centre: float = 0.0  # distance from the photo's centre, in half-diagonals
+    label: str = ""  # for our codes: what it marks
+    where: str = ""  # for our codes: the display it stands on, and the wall
 
 
 class _TooLarge(Exception):
@@ -106,7 +123,7 @@ async def scan_photo(request: Request, services: ServicesDep) -> Response:
         raise _too_large(limit)
     data = await _read_photo(request, limit)
     try:
-        decoded = await run_in_threadpool(_decode, data)
+        size, decoded = await run_in_threadpool(_decode, data)
     except TooManyPixels as error:
         raise HTTPException(
             status.HTTP_413_CONTENT_TOO_LARGE,
@@ -116,17 +133,69 @@ async def scan_photo(request: Request, services: ServicesDep) -> Response:
         raise HTTPException(status.HTTP_415_UNSUPPORTED_MEDIA_TYPE, NOT_A_PICTURE) from error
     if not decoded:
         return render(request, "scan.html", status.HTTP_422_UNPROCESSABLE_CONTENT, problem=NO_CODE)
-    found = [classify(d.payload) for d in decoded]
-    ours = {f.text for f in found if f.kind == "ours"}
-    if len(ours) == 1:
-        return RedirectResponse(f"/t/{ours.pop()}", status.HTTP_303_SEE_OTHER)
-    return render(request, "scan.html", found=found)
+    found = await run_in_threadpool(_described, services, decoded, size)
+    aimed = aimed_at(found)
+    if aimed is not None:
+        return RedirectResponse(f"/t/{aimed.text}", status.HTTP_303_SEE_OTHER)
+    return render(request, "scan.html", found=found, asking=any(f.kind == "ours" for f in found))
 
 
-def _decode(data: bytes) -> list[Decoded]:
-    """CPU work (Pillow and zbar): runs in the thread pool, never on the event loop."""
+def aimed_at(found: list[Found]) -> Found | None:
+    """The code of ours the photo was clearly aimed at, or None (then the phone asks):
+    nearest the centre, in the photo's middle, and clearly nearer than any other."""
+    ours = [f for f in found if f.kind == "ours"]
+    if not ours:
+        return None
+    nearest = ours[0]  # ``found`` comes nearest the centre first
+    others = [f.off_centre for f in ours if f.text != nearest.text]
+    if nearest.off_centre > AIMED_SHARE:
+        return None
+    if others and min(others) < CLEARLY_NEARER * nearest.off_centre:
+        return None
+    return nearest
+
+
+def _described(services: Services, decoded: list[Decoded], size: tuple[int, int]) -> list[Found]:
+    """Each decoded code as the page shows it, nearest the centre of a photo of
+    ``size`` first, once each (a code seen twice counts where it is nearest); our codes
+    say what they mark and where they stand."""
+    width, height = size
+    half_diagonal = math.hypot(width, height) / 2
+    seen: dict[str, Found] = {}
+    for item in decoded:
+        x, y, w, h = item.rect
+        off = math.hypot(x + w / 2 - width / 2, y + h / 2 - height / 2) / half_diagonal
+        found = replace(classify(item.payload), off_centre=round(off, 3))
+        if found.kind == "ours":
+            label, where = _what_it_marks(services, found.text)
+            found = replace(found, label=label, where=where)
+        key = f"{found.kind}:{found.text}"
+        if key not in seen or off < seen[key].off_centre:
+            seen[key] = found
+    return sorted(seen.values(), key=lambda f: (f.off_centre, f.text))
+
+
+def _what_it_marks(services: Services, code: str) -> tuple[str, str]:
+    """The tag's label and where it stands now (display and wall), as far as known."""
+    tag = find(services.db, code)
+    if tag is None:
+        return "", "not a code this server knows"
+    wall = services.walls.get(tag.wall_id)
+    wall_name = wall.name if wall is not None else tag.wall_id
+    _, state = read_state(services.db, tag.wall_id)
+    layout = get_layout(services.db, tag.wall_id, state.tag_layout) if state.tag_layout else None
+    display = next(
+        (p["display"] for p in (layout.placed if layout else []) if p["code"] == code), None
+    )
+    where = f"on display {display}, {wall_name}" if display else f"not on {wall_name} now"
+    return tag.label, where
+
+
+def _decode(data: bytes) -> tuple[tuple[int, int], list[Decoded]]:
+    """The photo's size and its codes. CPU work (Pillow and zbar): runs in the thread
+    pool, never on the event loop."""
     with open_image(data) as image:
-        return decode_image(image)
+        return image.size, decode_image(image)
 
 
 def _too_large(limit: int) -> HTTPException:

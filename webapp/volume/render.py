@@ -24,7 +24,14 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from wall_client.layout import Affine, Viewport, apply_affine, compose_affine, invert_affine
+from wall_client.layout import (
+    Affine,
+    Rect,
+    Viewport,
+    apply_affine,
+    compose_affine,
+    invert_affine,
+)
 from webapp.volume.layer import VolumeLayer, lookup_table
 from webapp.volume.store import Box, Selection, VolumeMeta, VolumeStore
 from webapp.wall_state import View
@@ -63,14 +70,13 @@ class Camera:
         return relative @ self.right, relative @ self.down, relative @ self.forward
 
 
-def scene_to_plane(view: View, scene_size: tuple[float, float], meta: VolumeMeta) -> Affine:
-    """Scene mm (x, y) -> image plane (u, v) in world mm, for ``view`` of a scene of
-    ``scene_size`` (width, height): at zoom 1 and centre (0.5, 0.5) the volume's longest
-    side spans the scene's shorter side, centred. The one home of this map: tiles'
-    footprints and anything placed on the picture (pins) go through it (or its
-    inverse)."""
-    width, height = scene_size
-    k = max(meta.extent) / min(width, height)  # world mm per scene mm at zoom 1
+def scene_to_plane(view: View, frame: Rect, meta: VolumeMeta) -> Affine:
+    """Scene mm (x, y) -> image plane (u, v) in world mm, for ``view`` of a picture
+    framed on ``frame`` (the wall's stage, scene mm): at zoom 1 and centre (0.5, 0.5)
+    the volume's longest side spans the frame's shorter side, centred on the frame.
+    The one home of this map: tiles' footprints and anything placed on the picture
+    (pins) go through it (or its inverse)."""
+    k = max(meta.extent) / min(frame.width, frame.height)  # world mm per scene mm at zoom 1
     zoom = view.zoom
     cx, cy = view.center
     return (
@@ -78,8 +84,8 @@ def scene_to_plane(view: View, scene_size: tuple[float, float], meta: VolumeMeta
         0.0,
         0.0,
         k / zoom,
-        k * ((cx - 0.5) * width - width / (2 * zoom)),
-        k * ((cy - 0.5) * height - height / (2 * zoom)),
+        k * ((cx - 0.5) * frame.width - frame.width / (2 * zoom) - frame.x / zoom),
+        k * ((cy - 0.5) * frame.height - frame.height / (2 * zoom) - frame.y / zoom),
     )
 
 
@@ -91,11 +97,9 @@ class Footprint:
     pixels: tuple[int, int]
 
     @classmethod
-    def of(
-        cls, viewport: Viewport, view: View, scene_size: tuple[float, float], meta: VolumeMeta
-    ) -> Footprint:
+    def of(cls, viewport: Viewport, view: View, frame: Rect, meta: VolumeMeta) -> Footprint:
         to_plane = compose_affine(
-            scene_to_plane(view, scene_size, meta), invert_affine(viewport.to_pixels)
+            scene_to_plane(view, frame, meta), invert_affine(viewport.to_pixels)
         )
         return cls(to_plane, viewport.pixels)
 

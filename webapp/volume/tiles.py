@@ -46,7 +46,7 @@ def tile_plan(
 ) -> tuple[Camera, Footprint, TilePlan]:
     """What ``display_id`` renders: instantly from memory, or at its finest level."""
     camera = Camera.looking(store.meta, view.yaw, view.pitch)
-    footprint = Footprint.of(wall.viewport(display_id), view, (wall.width, wall.height), store.meta)
+    footprint = Footprint.of(wall.viewport(display_id), view, wall.stage, store.meta)
     if detail == "fallback":
         return camera, footprint, fallback_plan(store.meta, footprint)
     return camera, footprint, plan_tile(store, camera, footprint, layer, budget)

@@ -1,12 +1,16 @@
-// The brain atlas's dashboard panel: mode, pin set, view presets, and the class's
-// quiz results (refreshed with the wall's status, at most every two seconds).
+// The brain atlas's dashboard panel: mode, pin set, view presets, who may switch the
+// wall's pins, the quiz round (open or closed, when names are shown) and the class's
+// results (refreshed with the wall's status, at most every two seconds).
 import {STATUS_EVENT, api, wallId} from "../api.js";
 import {bindViewControls} from "./view.js";
 
 const $ = (id) => document.getElementById(id);
 const REFRESH_MS = 2000;
+const REVEAL_HINTS = {
+  close: "Finishing shows a student nothing; everyone sees the names when you close the round.",
+  finish: "For practice: whoever finishes sees the names at once, and may pass them on (a second browser counts as another student).",
+};
 let state = null;
-let shown = null;
 let fetchedAt = 0;
 
 function cell(text) {
@@ -15,8 +19,37 @@ function cell(text) {
   return td;
 }
 
+function clock(iso) {
+  return iso ? new Date(iso).toLocaleTimeString() : "–";
+}
+
+function showRound(status) {
+  const round = status.round;
+  $("brain-round").textContent = round ? `round ${round.number}` : "no round yet";
+  $("brain-close").disabled = !round || !round.open;
+  if (!round) {
+    $("brain-round-state").textContent = "";
+    return;
+  }
+  const stats = status.quiz[status.tag_set];
+  const when = round.open
+    ? `open since ${clock(round.started_at)} · last answer ${clock(round.last_answer_at)}`
+    : `closed at ${clock(round.closed_at)}: students see the names and their results`;
+  $("brain-round-state").textContent = `Round ${round.number} is ${when}.`;
+  if (round.open) $("brain-reveal").value = round.reveal;  // closed: the next round's choice
+  $("brain-reveal-hint").textContent = REVEAL_HINTS[$("brain-reveal").value];
+  $("brain-participants").textContent =
+    `${stats.participants} taking part · ${stats.answers} answers so far · ${stats.finished} finished`;
+  $("brain-stats").tBodies[0].replaceChildren(...stats.regions.map((r) => {
+    const tr = document.createElement("tr");
+    const share = r.share_correct == null ? "–" : `${Math.round(100 * r.share_correct)} %`;
+    const wrong = r.common_wrong.map(([text, count]) => `${text} (${count})`).join(", ");
+    tr.append(cell(r.pin), cell(r.name), cell(r.answered), cell(share), cell(wrong || "–"));
+    return tr;
+  }));
+}
+
 function show(status) {
-  shown = status;
   $("brain-now").textContent = status.on_wall
     ? `· now: ${status.mode}, ${status.tag_set === "k5" ? "K-5" : "full"} pins`
     : "· the brain atlas is not on this wall";
@@ -27,17 +60,8 @@ function show(status) {
     button.addEventListener("click", () => control({preset: preset.id}));
     return button;
   }));
-  const stats = status.quiz[status.tag_set];
-  $("brain-round").textContent = `round ${status.round}`;
-  $("brain-participants").textContent =
-    `${stats.participants} taking part · ${stats.finished} finished`;
-  $("brain-stats").tBodies[0].replaceChildren(...stats.regions.map((r) => {
-    const tr = document.createElement("tr");
-    const share = r.share_correct == null ? "–" : `${Math.round(100 * r.share_correct)} %`;
-    const wrong = r.common_wrong.map(([text, count]) => `${text} (${count})`).join(", ");
-    tr.append(cell(r.pin), cell(r.name), cell(r.answered), cell(share), cell(wrong || "–"));
-    return tr;
-  }));
+  $("brain-audience").checked = status.audience_switches;
+  showRound(status);
 }
 
 async function refresh(force = false) {
@@ -51,14 +75,29 @@ async function control(choice) {
 }
 
 for (const button of document.querySelectorAll("[data-brain-mode]")) {
-  button.addEventListener("click", () => control({mode: button.dataset.brainMode}));
+  button.addEventListener("click", () => {
+    const tutor = button.dataset.brainMode === "tutor";
+    if (tutor && !$("brain-close").disabled &&
+        !confirm("Tutor pages name every pin: switching closes the running round and shows students the names. Switch?")) return;
+    control({mode: button.dataset.brainMode});
+  });
 }
 for (const button of document.querySelectorAll("[data-brain-set]")) {
   button.addEventListener("click", () => control({tag_set: button.dataset.brainSet}));
 }
+$("brain-audience").addEventListener("change", (event) => control({audience_switches: event.target.checked}));
+$("brain-reveal").addEventListener("change", (event) => {
+  $("brain-reveal-hint").textContent = REVEAL_HINTS[event.target.value];
+  if (!$("brain-close").disabled) control({reveal: event.target.value});
+});
+$("brain-close").addEventListener("click", async () => {
+  if (!confirm("Close the round? Answers stop counting and every student sees the correct names.")) return;
+  show(await api(`/api/walls/${wallId}/brain/quiz/close`, {method: "POST"}));
+});
 $("brain-reset").addEventListener("click", async () => {
-  if (!confirm("Start a new round? Everyone's answers start again (this round stays in the export).")) return;
-  show(await api(`/api/walls/${wallId}/brain/quiz/reset`, {method: "POST"}));
+  if (!confirm("Start a new round? The pins get new numbers and codes; this round closes and stays in the export.")) return;
+  const body = JSON.stringify({reveal: $("brain-reveal").value});
+  show(await api(`/api/walls/${wallId}/brain/quiz/reset`, {method: "POST", body}));
 });
 document.addEventListener(STATUS_EVENT, (event) => {
   state = event.detail.status.state;

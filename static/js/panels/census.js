@@ -7,15 +7,29 @@ let state = null;
 let groups = [];
 let groupsOf = null;
 
+let listedCurrent;  // the current data set when the list was last loaded (null: none)
+let seenDataset = null;  // the data set the wall showed at the last status
+
+function option(value, text) {
+  const element = document.createElement("option");
+  element.value = value;
+  element.textContent = text;
+  return element;
+}
+
 async function loadDatasets() {
   const datasets = await api("/api/census/datasets");
+  listedCurrent = datasets.find((d) => d.current)?.id ?? null;
   $("census-dataset").replaceChildren(...datasets.map((d) => {
-    const option = document.createElement("option");
-    option.value = d.id;
-    option.textContent = `${d.title} (${d.tracts} tracts, #${d.id})${d.current ? " · current" : ""}`;
-    option.selected = d.current;
-    return option;
+    const entry = option(d.id, `${d.title} (${d.tracts} tracts, #${d.id})${d.current ? " · current" : ""}`);
+    entry.selected = d.current;
+    return entry;
   }));
+  if (!datasets.length) {
+    // The shipped tracts are loaded when the map first goes on a wall.
+    $("census-dataset").append(option("", "none yet: put the census map on the wall"));
+  }
+  $("census-use").disabled = !datasets.length;
 }
 
 async function loadGroups(datasetId) {
@@ -53,6 +67,12 @@ function showBalloons() {
 
 document.addEventListener(STATUS_EVENT, async (event) => {
   state = event.detail.status.state;
+  // The map showing a data set the list does not have as current (its first time on
+  // a wall seeds the shipped one; an import elsewhere makes another current).
+  if (state.app === "census" && state.dataset !== seenDataset) {
+    seenDataset = state.dataset;
+    if (state.dataset !== listedCurrent) await loadDatasets();
+  }
   await loadGroups(state.app === "census" ? state.dataset : null);
   showGroups();
   showBalloons();

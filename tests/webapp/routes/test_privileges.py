@@ -303,6 +303,13 @@ def matrix(client: TestClient) -> list[Row]:
             json={},
         ),
         Row(
+            "POST",
+            "/api/walls/{wall_id}/brain/quiz/close",
+            "/api/walls/irregular/brain/quiz/close",
+            STAFF_API,
+            json={},
+        ),
+        Row(
             "GET",
             "/api/walls/{wall_id}/brain/answers.csv",
             "/api/walls/irregular/brain/answers.csv",

@@ -20,11 +20,13 @@ from tag_service.codes import (
     vcard_payload,
 )
 from tag_service.sizing import min_module_mm
-from tag_service.verify import as_seen_from
+from tag_service.verify import Shot, phone_frame
+from tests.conftest import services_of
 from webapp.app import create_app
 from webapp.migrate import upgrade
 from webapp.routes import scan
 from webapp.settings import Settings
+from webapp.tags import wall_tags
 
 BASE_URL = "http://192.168.1.20:8000"
 CODE = "K7Q2ZP9"
@@ -85,11 +87,10 @@ def test_any_host_and_case_still_goes_to_our_own_page(client: TestClient, payloa
 
 
 def test_a_photo_like_jpeg_still_works(client: TestClient) -> None:
-    """The code as a phone at the design distance sees it, in a bigger, greyish frame."""
+    """The code as a phone at the design distance sees it: a full, tilted, noisy frame."""
     code = Image.open(io.BytesIO(png_of(url_payload(BASE_URL, CODE), 4)))
-    seen = as_seen_from(code, 4, min_module_mm(2.0), distance_m=2.0)
-    frame = Image.new("L", (640, 480), 150)
-    frame.paste(seen, (200, 150))
+    shot = Shot(distance_m=2.0, tilt_deg=20, roll_deg=5, aim_mm=(60.0, 20.0))
+    frame = phone_frame(code, min_module_mm(2.0) / 4, (code.width / 2, code.height / 2), shot)
     response = post_photo(client, jpeg_of(frame), "IMG_0042.jpg", "image/jpeg")
     assert response.status_code == 303
     assert response.headers["location"] == f"/t/{CODE}"
@@ -107,7 +108,7 @@ def test_decoding_runs_in_the_thread_pool(
 
     monkeypatch.setattr(scan, "run_in_threadpool", recording)
     assert post_photo(client, png_of(url_payload(BASE_URL, CODE))).status_code == 303
-    assert ran == ["_decode"]
+    assert ran == ["_decode", "_described"]
 
 
 def test_a_foreign_url_is_shown_but_not_linked(client: TestClient) -> None:
@@ -176,13 +177,43 @@ def test_one_of_ours_among_others_redirects_to_ours(client: TestClient) -> None:
     assert response.headers["location"] == f"/t/{CODE}"
 
 
-def test_several_of_ours_are_listed(client: TestClient) -> None:
+def test_the_code_nearest_the_middle_of_the_photo_is_opened(client: TestClient) -> None:
     photo = sheet(url_payload(BASE_URL, CODE), url_payload(BASE_URL, "ABC1234"), "hello")
+    response = post_photo(client, photo)  # ABC1234 is in the middle, the others beside it
+    assert response.status_code == 303
+    assert response.headers["location"] == "/t/ABC1234"
+
+
+def registration_codes(client: TestClient) -> dict[str, str]:
+    tags = wall_tags(services_of(client).db, "demo")
+    return {t.label: t.code for t in tags if t.app == "core"}
+
+
+def test_codes_equally_near_the_middle_are_offered_by_what_they_mark(client: TestClient) -> None:
+    codes = registration_codes(client)
+    photo = sheet(
+        url_payload(BASE_URL, codes["Student"]), url_payload(BASE_URL, codes["Instructor"])
+    )
     response = post_photo(client, photo)
+    assert response.status_code == 200, "two codes, neither clearly aimed at: ask"
+    page = response.text
+    assert "Which code did you mean?" in page
+    assert f'href="/t/{codes["Student"]}">Open Student</a>' in page
+    assert f'href="/t/{codes["Instructor"]}">Open Instructor</a>' in page
+    assert page.count("on display r2c1, Demo wall (3 x 2, 55-inch)") == 2
+
+
+def test_a_lone_code_off_to_the_side_is_offered_not_followed(client: TestClient) -> None:
+    """A neighbour's code caught at the edge of a photo aimed at something else."""
+    codes = registration_codes(client)
+    code = Image.open(io.BytesIO(png_of(url_payload(BASE_URL, codes["Student"]), 4)))
+    photo = Image.new("L", (1600, 1200), 255)
+    photo.paste(code.convert("L"), (1600 - code.width, 0))
+    response = post_photo(client, jpeg_of(photo), "IMG_0044.jpg", "image/jpeg")
     assert response.status_code == 200
-    assert f'href="/t/{CODE}"' in response.text
-    assert 'href="/t/ABC1234"' in response.text
-    assert "hello" in response.text
+    assert "Which code did you mean?" in response.text
+    assert "a code off to the side of the photo" in response.text
+    assert f'href="/t/{codes["Student"]}">Open Student</a>' in response.text
 
 
 def test_a_photo_without_a_code_shows_the_form_again(client: TestClient) -> None:

@@ -27,7 +27,7 @@ def image_url(client: TestClient, scene: Any, **query: str) -> str:
     token = services_of(client).tile_token("demo")
     text = scene if isinstance(scene, str) else json.dumps(scene)
     query = {"scene": text, "token": token, **query}
-    return f"/api/walls/demo/tiles/r1c2/volume?{urlencode(query)}"
+    return f"/api/walls/demo/tiles/r2c3/volume?{urlencode(query)}"  # on the stage
 
 
 def scene_of(volume: str, **layer: Any) -> dict[str, Any]:
@@ -120,12 +120,12 @@ def test_the_level_of_detail_map_follows_the_budget(client: TestClient, volume: 
     assert detail["volume"] == volume and detail["budget"] == 1 << 24
     tiles = {t["tile_id"]: t for t in detail["tiles"]}
     assert set(tiles) == {"r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"}
-    assert tiles["r1c2"]["level"] == 0 and tiles["r1c2"]["bricks"] > 0
-    assert tiles["r1c1"]["bricks"] == 0, "the volume stands in the middle column"
+    assert tiles["r2c3"]["level"] == 0 and tiles["r2c3"]["bricks"] > 0
+    assert tiles["r1c1"]["bricks"] == 0, "the volume stands on the stage, r2c2 and r2c3"
 
     services_of(client).settings.volume_budget_voxels = 4_096  # one brick of 8^3 at most ...
     tight = client.get("/api/walls/demo/volume/detail", headers=headers).json()
-    level = {t["tile_id"]: t for t in tight["tiles"]}["r1c2"]
+    level = {t["tile_id"]: t for t in tight["tiles"]}["r2c3"]
     assert level["level"] > 0 and level["voxels"] <= 4_096  # ... so coarser levels
 
 

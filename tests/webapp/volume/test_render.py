@@ -48,6 +48,7 @@ BIG_BUDGET = 1 << 22  # every tile affords level 0
 WALL: dict[str, Any] = {
     "id": "t",
     "name": "t",
+    "screens": {"registration": []},  # no panels: the picture is framed on the whole wall
     "bezel_mode": "overlay",
     "grid": {
         "columns": 2,
@@ -241,7 +242,7 @@ def assert_close(image: npt.NDArray[Any], expected: npt.NDArray[Any]) -> None:
 def tile(store: VolumeStore, wall: Wall, display: str, view: View) -> tuple[Camera, Footprint]:
     meta = store.meta
     camera = Camera.looking(meta, view.yaw, view.pitch)
-    footprint = Footprint.of(wall.viewport(display), view, (wall.width, wall.height), meta)
+    footprint = Footprint.of(wall.viewport(display), view, wall.stage, meta)
     return camera, footprint
 
 
@@ -371,6 +372,7 @@ def test_the_coarsest_level_beside_empty_bricks_matches_the_reference_in_mip(
 ONE_DISPLAY: dict[str, Any] = {
     "id": "one",
     "name": "one",
+    "screens": {"registration": []},
     "grid": {
         "columns": 1,
         "rows": 1,
@@ -394,7 +396,7 @@ def one_tile(
     wall = parse_wall(ONE_DISPLAY)
     meta = store.meta
     camera = Camera.looking(meta, view.yaw, view.pitch)
-    footprint = Footprint.of(wall.viewport("r1c1"), view, (wall.width, wall.height), meta)
+    footprint = Footprint.of(wall.viewport("r1c1"), view, wall.stage, meta)
     plan = plan_tile(store, camera, footprint, layer, BIG_BUDGET)
     assert plan.level == 0
     image = render(Voxels.of(store, plan), meta, camera, footprint, layer, plan.scale)

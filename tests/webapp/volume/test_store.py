@@ -38,6 +38,7 @@ BUDGET = 1 << 20  # level 0 for a tile: at most 8 * 8 * 8 bricks of 512 voxels
 WALL: dict[str, Any] = {
     "id": "t",
     "name": "t",
+    "screens": {"registration": []},  # no panels: the picture is framed on the whole wall
     "grid": {
         "columns": 2,
         "rows": 1,
@@ -101,7 +102,7 @@ def render_tile(
     store: VolumeStore, wall: Wall, display: str, view: View
 ) -> tuple[Camera, Footprint, TilePlan]:
     camera = Camera.looking(store.meta, view.yaw, view.pitch)
-    footprint = Footprint.of(wall.viewport(display), view, (wall.width, wall.height), store.meta)
+    footprint = Footprint.of(wall.viewport(display), view, wall.stage, store.meta)
     layer = VolumeLayer(volume="cube")
     plan = plan_tile(store, camera, footprint, layer, BUDGET)
     render(Voxels.of(store, plan), store.meta, camera, footprint, layer, plan.scale)

@@ -3,10 +3,11 @@ whose answers only instructors see early, and a tutor per user group.
 
 The wall state says what is shown: ``volume`` and ``view`` (one of the presets in
 ``content/brain_atlas/views.yaml``, or wherever the instructor turned it), ``mode``
-(quiz or tutor) and ``tag_set`` (the K-5 pins or the full set). Pins are computed
-from the label volume for exactly that picture (``pins``), so a pin always marks a
-point of its region the wall shows. Pins carry numbers, never names: a pin's code,
-label and parameters tell nothing about the answer.
+(quiz or tutor), ``tag_set`` (the K-5 pins or the full set) and ``quiz_round``.
+Pins are computed from the label volume for exactly that picture (``pins``), so a pin
+always marks a point of its region the wall shows. Pins carry numbers, never names:
+a pin's code, label and parameters tell nothing about the answer, and each quiz round
+numbers the pins in a fresh random order under fresh codes (``quiz``).
 """
 
 from __future__ import annotations
@@ -30,11 +31,12 @@ from webapp.apps.brain_atlas.content import (
 from webapp.apps.brain_atlas.literature import PubMed
 from webapp.apps.brain_atlas.matching import AnswerKey
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
-from webapp.apps.brain_atlas.views import ViewPreset, load_views, showing
+from webapp.apps.brain_atlas.quiz import Round, get_round, new_order, open_round
+from webapp.apps.brain_atlas.views import ViewPreset, load_views
 from webapp.people import Person
 from webapp.publishing import Block, Publication
 from webapp.settings import Settings, UserGroup
-from webapp.tags import TagSpec, anchored_code_side_mm
+from webapp.tags import TagSpec, anchored_code_side_mm, get_layout, preview, wall_tags
 from webapp.volume.build import build_store, open_source
 from webapp.wall_state import WallState
 
@@ -53,6 +55,8 @@ GROUP_LABELS: dict[UserGroup, str] = {
 }
 PIN_CLEARANCE_OF_CODE = 0.75
 """How far a pin's code stands from the point it marks, in code sides."""
+PLACED_KEPT = 64
+"""Placement previews kept (views x sets x rounds x walls), for the phones' hints."""
 
 
 def set_of_group(group: UserGroup) -> TagSetName:
@@ -75,8 +79,9 @@ def reveals_answers(person: Person) -> bool:
     return person.is_staff
 
 
-def pin_tag(tag_set: TagSetName, number: int) -> str:
-    return f"brain:{tag_set}:pin:{number}"
+def pin_tag(tag_set: TagSetName, round_number: int, number: int) -> str:
+    """A pin's tag name: new in every round, so every round has new codes."""
+    return f"brain:{tag_set}:r{round_number}:pin:{number}"
 
 
 def group_tag(group: UserGroup) -> str:
@@ -94,8 +99,8 @@ class BrainApp:
         self._keys: dict[TagSetName, AnswerKey] = {}
         self._volumes: AtlasVolumes | None = None
         self._pubmed: PubMed | None = None
-        self._views_showing: dict[str, list[str]] | None = None
-        self.pins = PinCache()
+        self._placed: dict[str, set[str]] = {}  # preview digest -> tag names placed
+        self.pin_cache = PinCache()
 
     # --- content, loaded on first use ------------------------------------------------
 
@@ -139,26 +144,69 @@ class BrainApp:
             return self._keys[tag_set]
 
     def regions(self, tag_set: TagSetName) -> list[Region]:
-        """The set's regions in pin order (pin n is the n-th)."""
+        """The set's regions (in the content's order, which no pin number follows)."""
         return self.content.in_set(tag_set)
 
-    def region_of_pin(self, tag_set: TagSetName, number: int) -> Region | None:
-        regions = self.regions(tag_set)
-        return regions[number - 1] if 1 <= number <= len(regions) else None
+    def pins(self, quiz_round: Round, tag_set: TagSetName) -> dict[int, Region]:
+        """Pin number -> region of a set in a round."""
+        return quiz_round.pins(tag_set, self.regions(tag_set))
 
-    def views_showing(self) -> dict[str, list[str]]:
-        """Per region id, the names of the preset views that show its pin, the one
-        showing most of it first (phones say where to find a pin not on the wall
-        now). Presets and content do not change while the server runs: computed once."""
-        with self._lock:
-            if self._views_showing is not None:
-                return self._views_showing
-        presets = self.views
-        shown = showing(presets, self.content.regions, self.volumes, self.pins)
-        names = {preset.id: preset.name for preset in presets}
-        found = {region: [names[p] for p in ids] for region, ids in shown.items()}
-        with self._lock:
-            self._views_showing = found
+    def fresh_orders(self) -> dict[str, list[str]]:
+        """A new round's pin numbering: every set in a fresh random order."""
+        return {tag_set: new_order(self.regions(tag_set)) for tag_set in TAG_SETS}
+
+    def round_on_wall(self, services: Services, wall_id: str, state: WallState) -> Round | None:
+        """The quiz round the wall state names (None before the brain's first)."""
+        if state.quiz_round is None:
+            return None
+        return get_round(services.db, wall_id, state.quiz_round)
+
+    def pin_views(
+        self, services: Services, wall: Wall, quiz_round: Round, tag_set: TagSetName
+    ) -> dict[int, list[str]]:
+        """Per pin number, the names of the preset views in which its code stands on
+        ``wall`` (placed, so scannable: a pin the picture shows may find no room for
+        its code). Phones send students only where they can scan the pin.
+
+        Each view is placed as the wall would place it (``webapp.tags.preview``), and
+        the outcome is kept by its inputs' digest, so it is computed once per round."""
+        where: dict[int, list[str]] = {}
+        for preset in self.views:
+            state = WallState(
+                app=APP,
+                mode="quiz",
+                view=preset.view,
+                volume=preset.layer(VOLUME),
+                tag_set=TAG_SETS[tag_set],
+                quiz_round=quiz_round.number,
+            )
+            specs = self.declare_tags(services, wall, state)
+            planned = preview(services.db, wall, TAG_SETS[tag_set], services.base_url, APP, specs)
+            with self._lock:
+                placed = self._placed.get(planned.digest)
+            if placed is None:
+                placed = planned.placed_names()
+                with self._lock:
+                    if len(self._placed) >= PLACED_KEPT:
+                        self._placed.pop(next(iter(self._placed)))
+                    self._placed[planned.digest] = placed
+            for spec in specs:
+                if (
+                    spec.name in placed
+                    and spec.action == "pin"
+                    and spec.tag_set == TAG_SETS[tag_set]
+                ):
+                    where.setdefault(int(spec.params["pin"]), []).append(preset.name)
+        return where
+
+    def pins_on_wall(self, services: Services, wall: Wall, state: WallState) -> dict[str, set[int]]:
+        """Per set, the numbers of the pins whose codes stand on the wall now."""
+        layout = get_layout(services.db, wall.id, state.tag_layout) if state.tag_layout else None
+        placed = {code["code"] for code in layout.placed} if layout is not None else set()
+        found: dict[str, set[int]] = {}
+        for tag in wall_tags(services.db, wall.id):
+            if tag.app == APP and tag.action == "pin" and tag.code in placed:
+                found.setdefault(str(tag.params.get("set")), set()).add(int(tag.params["pin"]))
         return found
 
     def preset(self, preset_id: str) -> ViewPreset | None:
@@ -166,9 +214,10 @@ class BrainApp:
 
     # --- the WallApp interface -------------------------------------------------------
 
-    def settle(self, services: Services, state: WallState) -> WallState:
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """On the wall the brain shows the MNI template (its store built on first use)
-        in the first preset view, in quiz mode, unless it is already up."""
+        in the first preset view, in quiz mode, unless it is already up; and a quiz
+        round: the open one, or a new one."""
         if VOLUME not in services.volumes:
             build_store(
                 open_source(ATLAS_DIR / TEMPLATE_FILE),
@@ -182,13 +231,20 @@ class BrainApp:
             first = self.views[0]
             update["view"] = first.view
             update["volume"] = first.layer(VOLUME)
+        shown = self.round_on_wall(services, wall.id, state)
+        if shown is None or not shown.open:
+            update["quiz_round"] = open_round(
+                services.db, wall.id, f"app:{APP}", self.fresh_orders()
+            ).number
         return state.model_copy(update=update) if update else state
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the brain is on the wall: the user-group menu on the menu screen and a
-        pin on every region of each set that the current picture shows."""
+        pin on every region of each set that the current picture shows, numbered and
+        named for the round on the wall (a new round: new codes)."""
         if state.app != APP or state.volume is None or state.volume.volume != VOLUME:
             return []
+        quiz_round = self.round_on_wall(services, wall.id, state)
         menu = [
             TagSpec(
                 name=group_tag(group),
@@ -203,21 +259,26 @@ class BrainApp:
         ]
         clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(services.base_url, wall)
         pins = []
-        for tag_set, tag_set_name in TAG_SETS.items():
-            regions = self.regions(tag_set)
-            points = self.pin_points(services, wall, state, regions)
+        for tag_set, tag_set_name in TAG_SETS.items() if quiz_round is not None else ():
+            assert quiz_round is not None
+            numbered = self.pins(quiz_round, tag_set)
+            rank = {region.id: i for i, region in enumerate(self.regions(tag_set))}
+            points = self.pin_points(services, wall, state, list(numbered.values()))
             pins += [
                 TagSpec(
-                    name=pin_tag(tag_set, number),
+                    name=pin_tag(tag_set, quiz_round.number, number),
                     label=f"Pin {number}",
                     app=APP,
                     action="pin",
-                    params={"set": tag_set, "pin": number},
+                    params={"set": tag_set, "round": quiz_round.number, "pin": number},
                     tag_set=tag_set_name,
                     anchor=points[region.id],
                     clear_mm=clear,
+                    # Placed in the content's order, the same in every round (and so
+                    # are the places): a layout lists codes in code order, not this.
+                    priority=-1 - rank[region.id],
                 )
-                for number, region in enumerate(regions, start=1)
+                for number, region in sorted(numbered.items())
                 if region.id in points
             ]
         return menu + pins
@@ -230,14 +291,25 @@ class BrainApp:
         drawn there too); its code then stands on the nearest free display, on a pin."""
         assert state.volume is not None
         store = services.volumes.get(state.volume.volume)
-        on_plane = self.pins.get(self.volumes, regions, state.view, state.volume)
-        return scene_pins(on_plane, (wall.width, wall.height), state.view, store.meta)
+        on_plane = self.pin_cache.get(self.volumes, regions, state.view, state.volume)
+        return scene_pins(on_plane, wall, state.view, store.meta)
 
     async def on_scan(self, scan: Scan) -> Response:
         from webapp.apps.brain_atlas import pages
 
         if scan.tag.action == "group":
             return await pages.choose_group(self, scan)
+        person = await scan.person()
+        return await pages.pin_page(self, scan.request, scan.services, scan.wall, scan.tag, person)
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        """A pin's code still opens its question while its round runs (the view
+        turned, or the other set is up: the phone may still answer it); a code of an
+        earlier round says that a new round has started."""
+        from webapp.apps.brain_atlas import pages
+
+        if scan.tag.action != "pin":
+            return None
         person = await scan.person()
         return await pages.pin_page(self, scan.request, scan.services, scan.wall, scan.tag, person)
 
@@ -252,30 +324,36 @@ class BrainApp:
         if region is None:
             return None
         person = await scan.person()
-        text = self.tutor_text(region, person.user_group)
-        if text is None:
+        found = self.tutor_text(region, person.user_group)
+        if found is None:
             return None
+        _, text = found
         references = [self.content.references[r] for r in text.references]
         blocks = [Block(kind="markdown", text=text.text)]
         if references:
-            blocks.append(
-                Block(
-                    kind="facts", rows=[(str(n), r.citation) for n, r in enumerate(references, 1)]
-                )
+            # Citations are Markdown (journal and book titles in italics): a list
+            # renders them; plain rows would show the asterisks.
+            listed = "\n".join(
+                f"{n}. {r.citation}" + (f" <{r.url}>" if r.url else "")
+                for n, r in enumerate(references, 1)
             )
+            blocks.append(Block(kind="markdown", text=f"**Sources**\n\n{listed}"))
         return Publication(title=region.name, blocks=blocks)
 
-    def tutor_text(self, region: Region, group: UserGroup) -> GroupText | ResearchText | None:
-        """The region's text for ``group``: K-5 regions speak to children, the others
-        to the visitor's group (children who scan a full-set pin get the
-        undergraduate text, the plainest there is)."""
+    def tutor_text(
+        self, region: Region, group: UserGroup
+    ) -> tuple[UserGroup, GroupText | ResearchText] | None:
+        """The region's text for ``group`` and whom it was written for: children get
+        the children's text of every region; the other groups their own, or (on a
+        K-5 pin, which has only a children's text) that one, labelled as such."""
         tutor = self.content.tutors.get(region.id)
         if tutor is None:
             return None
-        if "k5" in region.sets and tutor.k5 is not None:
-            return tutor.k5
-        chosen = tutor.undergraduate if group == "k5" else getattr(tutor, group)
-        return chosen if chosen is not None else tutor.undergraduate
+        if group == "k5" or "full" not in region.sets:
+            return ("k5", tutor.k5) if tutor.k5 is not None else None
+        chosen = getattr(tutor, group) or tutor.undergraduate
+        audience: UserGroup = group if getattr(tutor, group) is not None else "undergraduate"
+        return (audience, chosen) if chosen is not None else None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "panels/brain.html"

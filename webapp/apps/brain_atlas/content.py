@@ -69,7 +69,8 @@ class ResearchText(BaseModel):
 
 
 class Tutor(BaseModel):
-    """One region's texts: ``k5`` for regions in the K-5 set, the others for the rest."""
+    """One region's texts: ``k5`` for every region (children), the others for the
+    full set's regions."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -89,7 +90,9 @@ class AtlasLabel(BaseModel):
 SIDES: dict[Hemisphere, set[str]] = {"left": {"L"}, "right": {"R"}, "both": {"L", "R", "B"}}
 GROUPS_OF_SET: dict[TagSetName, tuple[str, ...]] = {
     "k5": ("k5",),
-    "full": ("undergraduate", "medical", "research"),
+    # Children scan full-set pins too (the instructor chooses the wall's pins): every
+    # region has a children's text, so "For the K-5 group" never heads a university one.
+    "full": ("k5", "undergraduate", "medical", "research"),
 }
 
 

@@ -1,13 +1,16 @@
 """The brain atlas's phone pages: a pin (the quiz question or the tutor page), the
-quiz's progress and results, the instructor's answer, the user-group menu.
+quiz's progress and results, the instructor's answer, the user groups.
 
 Every page that could name a region checks, on the server and for this visitor, that
 it may: the quiz form never carries the name, the answer page needs an instructor,
-results need the visitor to have finished, tutor pages need tutor mode.
+results show names by the round's rule (``Round.names_shown``), tutor pages need
+tutor mode and no running round. A pin's code belongs to one round: scanned after
+the next round started, it says so instead of opening anything.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
@@ -23,12 +26,13 @@ from webapp.apps.brain_atlas import (
     TAG_SETS,
     BrainApp,
     mode_of,
-    pin_tag,
     reveals_answers,
     set_of_group,
+    set_on_wall,
 )
+from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
-from webapp.apps.brain_atlas.quiz import Progress, QuizError, finish, progress, record_answer
+from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
 from webapp.deps import limit_action, remember_person
 from webapp.markdown import markdown_html
 from webapp.models import TagRecord
@@ -47,9 +51,25 @@ SUMMARY_PARAGRAPHS = 2  # of a tutor text, on the phone; the public screen shows
 # --- looking things up -----------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class Pin:
+    """A pin as the wall shows it now: its set, number and region in the round."""
+
+    tag: TagRecord
+    tag_set: TagSetName
+    number: int
+    region: Region
+    round: Round
+    state: WallState
+
+
+class RoundChanged(Exception):
+    """The pin's code belongs to an earlier round (or the quiz has none yet)."""
+
+
 def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
-    """A brain pin of this wall by its code (switched off ones too: an answer to a
-    pin the wall no longer shows still counts); 404 otherwise."""
+    """A brain pin of this wall by its code (switched off ones too: a pin the wall no
+    longer shows may still be answered); 404 otherwise."""
     normal = normalize_code(code)
     tag = find(services.db, normal) if normal else None
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
@@ -57,54 +77,69 @@ def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
     return tag
 
 
-def pin_codes(services: Services, wall: Wall, tag_set: TagSetName) -> dict[int, str]:
-    """The codes of a set's pins on this wall by pin number (pins ever declared)."""
-    prefix = pin_tag(tag_set, 0).removesuffix("0")
-    return {
-        int(tag.name.removeprefix(prefix)): tag.code
-        for tag in wall_tags(services.db, wall.id)
-        if tag.app == APP and tag.name and tag.name.startswith(prefix)
-    }
-
-
-def region_of(app: BrainApp, tag: TagRecord) -> tuple[TagSetName, int, Region]:
-    tag_set: TagSetName = "k5" if tag.params.get("set") == "k5" else "full"
-    number = int(tag.params.get("pin", 0))
-    region = app.region_of_pin(tag_set, number)
-    if region is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "That pin is no longer in the atlas.")
-    return tag_set, number, region
-
-
 async def wall_state(services: Services, wall: Wall) -> WallState:
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
     return state
 
 
+async def round_now(
+    app: BrainApp, services: Services, wall: Wall
+) -> tuple[WallState, Round | None]:
+    state = await wall_state(services, wall)
+    return state, await run_in_threadpool(app.round_on_wall, services, wall.id, state)
+
+
+async def pin_of(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Pin:
+    """What ``tag`` marks in the round on the wall; RoundChanged for an old round's."""
+    state, quiz_round = await round_now(app, services, wall)
+    if quiz_round is None or tag.params.get("round") != quiz_round.number:
+        raise RoundChanged
+    tag_set: TagSetName = "k5" if tag.params.get("set") == "k5" else "full"
+    number = int(tag.params.get("pin", 0))
+    region = app.pins(quiz_round, tag_set).get(number)
+    if region is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "That pin is no longer in the atlas.")
+    return Pin(tag, tag_set, number, region, quiz_round, state)
+
+
+def round_changed_page(
+    request: Request, wall: Wall, tag: TagRecord, status_code: int = status.HTTP_200_OK
+) -> Response:
+    """The friendly answer to a code of an earlier round."""
+    tag_set: TagSetName = "k5" if tag.params.get("set") == "k5" else "full"
+    return render(
+        request, "brain/new_round.html", status_code=status_code, wall=wall, tag_set=tag_set
+    )
+
+
 async def tutor_subject(
     app: BrainApp, services: Services, wall: Wall, tag: TagRecord
 ) -> Region | None:
-    """The region a pin shows in tutor mode (None while the quiz is on: then a pin
-    must not be named anywhere)."""
-    state = await wall_state(services, wall)
-    if state.app != APP or mode_of(state) != "tutor":
+    """The region a pin shows in tutor mode; None while a quiz round runs (then no
+    pin may be named anywhere) or for an earlier round's code."""
+    try:
+        pin = await pin_of(app, services, wall, tag)
+    except RoundChanged:
         return None
-    return region_of(app, tag)[2]
+    if pin.state.app != APP or mode_of(pin.state) != "tutor" or pin.round.open:
+        return None
+    return pin.region
 
 
 async def tutor_region(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Region:
-    """The region of a tutor page; 409 while the quiz is on."""
+    """The region of a tutor page; 409 while a quiz round runs."""
     found = await tutor_subject(app, services, wall, tag)
     if found is None:
         raise HTTPException(
-            status.HTTP_409_CONFLICT, "The quiz is on: the tutor pages open when it is over."
+            status.HTTP_409_CONFLICT,
+            "A quiz round is running: the tutor pages open when the instructor closes it.",
         )
     return found
 
 
-def pin_views(app: BrainApp, region: Region) -> list[str]:
-    """The names of the preset views that show a region's pin."""
-    return app.views_showing()[region.id]
+def wording(tag_set: TagSetName) -> str:
+    """Which words the quiz pages use: children's for the K-5 pins."""
+    return "k5" if tag_set == "k5" else "full"
 
 
 # --- pins --------------------------------------------------------------------------
@@ -113,11 +148,15 @@ def pin_views(app: BrainApp, region: Region) -> list[str]:
 async def pin_page(
     app: BrainApp, request: Request, services: Services, wall: Wall, tag: TagRecord, person: Person
 ) -> Response:
-    """A scanned pin: the quiz question, or the region's tutor page."""
-    state = await wall_state(services, wall)
-    if mode_of(state) == "tutor":
+    """A scanned pin: the quiz question, the region's tutor page, or word that a new
+    round has started."""
+    try:
+        pin = await pin_of(app, services, wall, tag)
+    except RoundChanged:
+        return round_changed_page(request, wall, tag)
+    if mode_of(pin.state) == "tutor":
         return await tutor_page(app, request, services, wall, tag, person)
-    return await question_page(app, request, services, wall, tag, person)
+    return await question_page(app, request, services, wall, pin, person)
 
 
 async def question_page(
@@ -125,27 +164,33 @@ async def question_page(
     request: Request,
     services: Services,
     wall: Wall,
-    tag: TagRecord,
+    pin: Pin,
     person: Person,
     problem: str | None = None,
     status_code: int = 200,
 ) -> Response:
-    tag_set, number, region = region_of(app, tag)
-    now = await run_in_threadpool(progress, services.db, wall.id, person.visitor.id, tag_set)
-    mine = now.answers.get(region.id)
+    now = await run_in_threadpool(
+        progress, services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set
+    )
+    mine = now.answers.get(pin.region.id)
+    shown = pin.round.names_shown(now.finished)
     return render(
         request,
         "brain/question.html",
         status_code=status_code,
         wall=wall,
-        tag=tag,
-        number=number,
-        tag_set=tag_set,
+        tag=pin.tag,
+        number=pin.number,
+        tag_set=pin.tag_set,
+        words=wording(pin.tag_set),
+        round_open=pin.round.open,
         previous=mine.text if mine else "",
+        right=bool(mine and mine.correct) if shown else None,
+        name=pin.region.name if shown else None,
         finished=now.finished,
         answered=len(now.answers),
-        total=len(app.regions(tag_set)),
-        may_reveal=reveals_answers(person),
+        total=len(app.regions(pin.tag_set)),
+        may_reveal=reveals_answers(person) and pin.round.open,
         problem=problem,
     )
 
@@ -161,16 +206,22 @@ async def answer(
 ) -> Response:
     """Store the visitor's answer, judged now, and go on to their progress."""
     tag = await run_in_threadpool(tag_of, services, wall, code)
-    tag_set, _, region = region_of(app, tag)
-    correct = app.answer_key(tag_set).judge(region.id, text[:1_000])
     try:
+        pin = await pin_of(app, services, wall, tag)
+    except RoundChanged:
+        return round_changed_page(request, wall, tag, status.HTTP_409_CONFLICT)
+    correct = app.answer_key(pin.tag_set).judge(pin.region.id, text[:1_000])
+    try:
+        if mode_of(pin.state) != "quiz":
+            raise QuizError("The wall is in tutor mode: answers are taken in quiz mode only.")
         await run_in_threadpool(
             record_answer,
             services.db,
             wall.id,
+            pin.round.number,
             person.visitor.id,
-            tag_set,
-            region.id,
+            pin.tag_set,
+            pin.region.id,
             text,
             correct,
         )
@@ -180,12 +231,12 @@ async def answer(
             request,
             services,
             wall,
-            tag,
+            pin,
             person,
             str(error),
             status.HTTP_422_UNPROCESSABLE_CONTENT,
         )
-    return progress_redirect(wall, tag_set)
+    return progress_redirect(wall, pin.tag_set)
 
 
 def progress_redirect(wall: Wall, tag_set: TagSetName) -> Response:
@@ -200,18 +251,22 @@ async def revealed(
     if not reveals_answers(person):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
-            "Only instructors see answers before the end: answer every pin, then finish.",
+            "Only instructors see answers early: students see them when the round closes.",
         )
     tag = await run_in_threadpool(tag_of, services, wall, code)
-    tag_set, number, region = region_of(app, tag)
+    try:
+        pin = await pin_of(app, services, wall, tag)
+    except RoundChanged:
+        return round_changed_page(request, wall, tag, status.HTTP_409_CONFLICT)
+    where = await run_in_threadpool(app.pin_views, services, wall, pin.round, pin.tag_set)
     return render(
         request,
         "brain/revealed.html",
         wall=wall,
-        number=number,
-        tag_set=tag_set,
-        region=region,
-        views=pin_views(app, region),
+        number=pin.number,
+        tag_set=pin.tag_set,
+        region=pin.region,
+        views=where.get(pin.number, []),
     )
 
 
@@ -227,42 +282,77 @@ async def progress_page(
     tag_set: TagSetName,
     problem: str | None = None,
 ) -> Response:
-    """How far the visitor is; once finished, their results with the correct names."""
-    now = await run_in_threadpool(progress, services.db, wall.id, person.visitor.id, tag_set)
-    regions = app.regions(tag_set)
-    codes = await run_in_threadpool(pin_codes, services, wall, tag_set)
+    """How far the visitor is and where the open pins are; the correct names when
+    the round's rule says so."""
+    state, quiz_round = await round_now(app, services, wall)
+    if quiz_round is None:
+        return render(request, "brain/no_round.html", wall=wall)
+    now = await run_in_threadpool(
+        progress, services.db, wall.id, quiz_round.number, person.visitor.id, tag_set
+    )
+    shown = quiz_round.names_shown(now.finished)
+    codes = await run_in_threadpool(pin_codes, services, wall, quiz_round.number, tag_set)
+    where = await run_in_threadpool(app.pin_views, services, wall, quiz_round, tag_set)
+    on_wall_now = await run_in_threadpool(app.pins_on_wall, services, wall, state)
+    numbered = app.pins(quiz_round, tag_set)
     rows = [
-        _row(app, now, number, region, codes.get(number))
-        for number, region in enumerate(regions, start=1)
+        _row(now, number, region, codes.get(number), where.get(number, []), shown)
+        for number, region in sorted(numbered.items())
     ]
+    open_pins = [row["number"] for row in rows if row["answer"] is None]
+    by_view: dict[str, list[object]] = {}
+    for row in rows:
+        if row["answer"] is None:
+            for view in row["views"]:  # type: ignore[attr-defined]
+                by_view.setdefault(view, []).append(row["number"])
+    showing_set = state.app == APP and set_on_wall(state) == tag_set
     return render(
         request,
         "brain/progress.html",
         wall=wall,
         tag_set=tag_set,
+        words=wording(tag_set),
+        round=quiz_round,
         rows=rows,
+        shown=shown,
         finished=now.finished,
-        complete=now.complete(regions),
+        complete=now.complete(list(numbered.values())),
         answered=len(now.answers),
         right=sum(1 for a in now.answers.values() if a.correct),
-        total=len(regions),
+        total=len(numbered),
+        open_now=[n for n in open_pins if showing_set and n in on_wall_now.get(tag_set, set())],
+        by_view=by_view,
         problem=problem,
     )
 
 
+def pin_codes(services: Services, wall: Wall, round_number: int, tag_set: str) -> dict[int, str]:
+    """The codes of a round's pins of a set on this wall, by pin number (the pins
+    declared so far: each got its code when a view first showed it)."""
+    return {
+        int(tag.params["pin"]): tag.code
+        for tag in wall_tags(services.db, wall.id)
+        if tag.app == APP
+        and tag.action == "pin"
+        and tag.params.get("set") == tag_set
+        and tag.params.get("round") == round_number
+    }
+
+
 def _row(
-    app: BrainApp, now: Progress, number: int, region: Region, code: str | None
+    now: Progress, number: int, region: Region, code: str | None, views: list[str], shown: bool
 ) -> dict[str, object]:
-    """One pin on the progress page: the visitor's own answer; the correct name and
-    whether they were right only after they finished."""
+    """One pin on the progress page: the visitor's own answer and the views whose
+    codes lead to it; the correct name and whether they were right only when the
+    round's rule shows names."""
     mine = now.answers.get(region.id)
     row: dict[str, object] = {
         "number": number,
         "code": code,
         "answer": mine.text if mine else None,
-        "views": pin_views(app, region),
+        "views": views,
     }
-    if now.finished:
+    if shown:
         row["name"] = region.name
         row["correct"] = bool(mine and mine.correct)
     return row
@@ -276,9 +366,18 @@ async def finished(
     person: Person,
     tag_set: TagSetName,
 ) -> Response:
+    _, quiz_round = await round_now(app, services, wall)
     try:
+        if quiz_round is None:
+            raise QuizError("The quiz has not started yet.")
         await run_in_threadpool(
-            finish, services.db, wall.id, person.visitor.id, tag_set, app.regions(tag_set)
+            finish,
+            services.db,
+            wall.id,
+            quiz_round.number,
+            person.visitor.id,
+            tag_set,
+            app.regions(tag_set),
         )
     except QuizError as error:
         return await progress_page(app, request, services, wall, person, tag_set, str(error))
@@ -294,9 +393,10 @@ async def tutor_page(
     """The region's page for the visitor's group: a summary here, the whole text on
     the public screen when published."""
     region = await tutor_region(app, services, wall, tag)
-    text = app.tutor_text(region, person.user_group)
-    if text is None:
+    found = app.tutor_text(region, person.user_group)
+    if found is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no page for you yet.")
+    audience, text = found
     paragraphs = text.text.strip().split("\n\n")
     return render(
         request,
@@ -304,23 +404,24 @@ async def tutor_page(
         wall=wall,
         tag=tag,
         region=region,
-        group=GROUP_LABELS[person.user_group],
+        group=GROUP_LABELS[audience],
         summary=markdown_html("\n\n".join(paragraphs[:SUMMARY_PARAGRAPHS])),
         more=len(paragraphs) > SUMMARY_PARAGRAPHS,
         references=[app.content.references[r] for r in text.references],
-        research=person.user_group == "research" and app.has_research(region),
+        research=audience == "research" and app.has_research(region),
     )
 
 
-# --- the user-group menu -------------------------------------------------------------
+# --- the user groups -----------------------------------------------------------------
 
 
 async def choose_group(app: BrainApp, scan: Scan) -> Response:
-    """A scanned group code: the visitor joins that group and the wall shows its pins."""
+    """A scanned group code on the menu screen: the phone joins that group, and the
+    wall follows only where the instructor lets the audience switch it."""
     person = await scan.person()
     group = str(scan.tag.params.get("group", ""))
     return await join_group(
-        app, scan.request, scan.services, scan.wall, person, group, scan.address
+        app, scan.request, scan.services, scan.wall, person, group, True, scan.address
     )
 
 
@@ -331,13 +432,15 @@ async def join_group(
     wall: Wall,
     person: Person,
     group: str,
-    address: str,
+    from_menu: bool = False,
+    address: str = "",
 ) -> Response:
-    """The visitor joins ``group`` and the wall shows that group's pins (from a menu
-    code, or from the phone's group list on walls whose menu screen has no room)."""
+    """The phone joins ``group`` (its pages speak to that group from now on). Scanned
+    off the menu screen, the wall may follow too (:func:`audience_switch`)."""
     if group not in USER_GROUPS:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no user group {group!r}.")
-    limit_action(services, "group", person.visitor, address, wall.id)
+    if from_menu:  # the wall may switch: a wall action, within the audience's limits
+        limit_action(services, "group", person.visitor, address, wall.id)
     chosen: UserGroup = group
     updated = await run_in_threadpool(
         update_profile,
@@ -349,20 +452,41 @@ async def join_group(
         display_name=person.display_name,
     )
     remember_person(request, updated)
-    tag_set = set_of_group(chosen)
-    await show_set(services, wall, tag_set)
+    wanted = set_of_group(chosen)
+    outcome = await audience_switch(app, services, wall, wanted) if from_menu else None
+    state = await wall_state(services, wall)
     return render(
         request,
         "brain/group.html",
         wall=wall,
         group=GROUP_LABELS[chosen],
-        tag_set=tag_set,
-        pins=len(app.regions(tag_set)),
+        wanted=wanted,
+        on_wall=set_on_wall(state) if state.app == APP else None,
+        outcome=outcome,
+        pins=len(app.regions(wanted)),
     )
 
 
+async def audience_switch(app: BrainApp, services: Services, wall: Wall, wanted: TagSetName) -> str:
+    """Switch the wall to ``wanted``'s pins for an audience scan, if allowed now; says
+    what happened: ``same``, ``switched``, ``instructor`` (the instructor keeps the
+    wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown)."""
+    state, quiz_round = await round_now(app, services, wall)
+    if state.app != APP or set_on_wall(state) == wanted:
+        return "same"
+    if not await run_in_threadpool(audience_switches, services.db, wall.id):
+        return "instructor"
+    if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
+        return "quiz"
+    cooldown = services.settings.brain_group_switch_cooldown
+    if not await run_in_threadpool(claim_audience_switch, services.db, wall.id, cooldown):
+        return "wait"
+    await show_set(services, wall, wanted)
+    return "switched"
+
+
 def groups_page(request: Request, wall: Wall, person: Person) -> Response:
-    """Every user group as a button: the menu screen's codes, for phones."""
+    """Every user group as a button: the phone's own choice."""
     return render(
         request, "brain/groups.html", wall=wall, groups=GROUP_LABELS, current=person.user_group
     )

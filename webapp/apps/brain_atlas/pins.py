@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from wall_client.layout import apply_affine, invert_affine
+from wall_client.layout import Wall, apply_affine, invert_affine
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.volume.build import DEFAULT_BRICK
 from webapp.volume.layer import VolumeLayer, lookup_table
@@ -429,18 +429,22 @@ def plane_point(camera: Camera, u: float, v: float, depth: float) -> Array:
 
 def scene_pins(
     plane_pins: Mapping[str, PlanePin],
-    wall_size: tuple[float, float],
+    wall: Wall,
     view: View,
     meta: VolumeMeta,
 ) -> dict[str, tuple[float, float]]:
-    """The pins on the scene (mm) for ``view`` of a wall of ``wall_size``, through the
-    inverse of the renderer's scene -> plane map; pins off the scene are left out."""
-    to_scene = invert_affine(scene_to_plane(view, wall_size, meta))
-    width, height = wall_size
+    """The pins on the scene (mm) for ``view`` of the picture framed on ``wall``'s
+    stage, through the inverse of the renderer's scene -> plane map. Pins off the wall
+    are left out, and so are pins under a designated screen (a zoomed picture reaches
+    beyond the stage): a panel or a publication covers them there."""
+    to_scene = invert_affine(scene_to_plane(view, wall.stage, meta))
+    width, height = wall.width, wall.height
+    panels = [wall.viewport(d).scene_rect for d in wall.designated()]
     placed: dict[str, tuple[float, float]] = {}
     for region_id, pin in plane_pins.items():
         x, y = apply_affine(to_scene, pin.u, pin.v)
-        if 0.0 <= x <= width and 0.0 <= y <= height:
+        on_wall = 0.0 <= x <= width and 0.0 <= y <= height
+        if on_wall and not any(panel.contains((x, y)) for panel in panels):
             placed[region_id] = (x, y)
     return placed
 

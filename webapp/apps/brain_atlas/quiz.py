@@ -1,27 +1,38 @@
 """The brain atlas quiz as stored: rounds, each visitor's answers, who finished.
 
-A visitor answers each region of a tag set once (changing an answer is allowed until
-they finish the set); finishing needs every region answered and makes the answers
-final, and only then are the correct names shown to that visitor. An instructor's
-reset starts the next round: earlier rounds stay in the database for export.
+The answer key is the dissertation's example of confidential data, so a round guards
+it three ways. Each round numbers its pins in a fresh random order (pin 1 is no
+particular region, and the wall issues new codes with each round: see
+``BrainApp.declare_tags``). A visitor answers each pin of a set once in a round,
+changing answers until they finish; finishing makes them final. Correct names reach
+students only when the instructor closes the round (the default) or, when the
+instructor chose that for the round, at finishing. A throw-away visitor who finishes
+at once therefore learns nothing while answers still count; and once the round is
+closed, no answer is taken any more.
+
+Rounds are numbered per wall; the wall state names the round the wall shows
+(``WallState.quiz_round``), so starting one goes through the one door for state
+changes and its codes arrive in the same swap as its numbering.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import secrets
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from datetime import datetime
+from datetime import UTC, datetime
+from typing import Literal, get_args
 
-from sqlalchemy import func, select
+from sqlalchemy import func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from webapp.apps.brain_atlas.content import Region
+from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.matching import MAX_ANSWER_LENGTH
-from webapp.db import Database
+from webapp.db import Database, as_utc
 from webapp.models import (
     BrainAnswerRecord,
     BrainQuizFinishRecord,
@@ -30,10 +41,48 @@ from webapp.models import (
 )
 
 COMMON_WRONG = 3  # wrong answers listed per region on the dashboard
+Reveal = Literal["close", "finish"]
+REVEALS: tuple[Reveal, ...] = get_args(Reveal)
 
 
 class QuizError(Exception):
     """Something the visitor cannot do now; the message says why, in their words."""
+
+
+@dataclass(frozen=True)
+class Round:
+    """One round of a wall's quiz: its pin order per set, and whether it still runs."""
+
+    wall_id: str
+    number: int
+    orders: dict[str, list[str]]
+    reveal: Reveal
+    started_at: datetime
+    closed_at: datetime | None = None
+    last_answer_at: datetime | None = None
+
+    @property
+    def open(self) -> bool:
+        return self.closed_at is None
+
+    def pins(self, tag_set: TagSetName, regions: Sequence[Region]) -> dict[int, Region]:
+        """Pin number -> region for ``tag_set`` (its regions in the content's order).
+
+        Pin n is the n-th region of the round's order. A region the content gained
+        after the round started gets a number after the others; one it lost leaves
+        its number unused, so no other pin changes its number mid-round.
+        """
+        by_id = {region.id: region for region in regions}
+        order = list(self.orders.get(tag_set, []))
+        order += [region.id for region in regions if region.id not in order]
+        return {n: by_id[rid] for n, rid in enumerate(order, start=1) if rid in by_id}
+
+    def names_shown(self, finished: bool) -> bool:
+        """The one rule for when a student sees the correct names (and which answers
+        were right): once the round is closed, or at finishing where the instructor
+        chose that for the round. Finishing early reveals nothing otherwise, so a
+        throw-away visitor cannot harvest the key while answers still count."""
+        return not self.open or (self.reveal == "finish" and finished)
 
 
 @dataclass(frozen=True)
@@ -45,7 +94,7 @@ class Answer:
 
 @dataclass(frozen=True)
 class Progress:
-    """Where a visitor stands in one set's quiz."""
+    """Where a visitor stands in one set's quiz of one round."""
 
     answers: dict[str, Answer]
     finished: bool
@@ -70,8 +119,16 @@ class RegionStats:
 class QuizStats:
     round: int
     participants: int
+    answers: int
     finished: int
     regions: list[RegionStats] = field(default_factory=list)
+
+
+def new_order(regions: Sequence[Region]) -> list[str]:
+    """Region ids in a fresh random order (a CSPRNG: the order is the key)."""
+    order = [region.id for region in regions]
+    secrets.SystemRandom().shuffle(order)
+    return order
 
 
 def clean_answer(text: str) -> str:
@@ -84,44 +141,145 @@ def clean_answer(text: str) -> str:
     return cleaned
 
 
-def current_round(db: Database, wall_id: str) -> int:
-    """The wall's round now (the first is started on first use)."""
+# --- rounds --------------------------------------------------------------------------
+
+
+def _round(record: BrainQuizRoundRecord) -> Round:
+    reveal: Reveal = "finish" if record.reveal == "finish" else "close"
+    return Round(
+        wall_id=record.wall_id,
+        number=record.number,
+        orders={key: list(value) for key, value in record.orders.items()},
+        reveal=reveal,
+        started_at=as_utc(record.started_at),
+        closed_at=as_utc(record.closed_at) if record.closed_at else None,
+        last_answer_at=as_utc(record.last_answer_at) if record.last_answer_at else None,
+    )
+
+
+def get_round(db: Database, wall_id: str, number: int) -> Round | None:
     with db.session() as session:
-        number = _latest_round(session, wall_id)
-    if number is not None:
-        return number
-    try:
-        with db.session() as session:
-            session.add(BrainQuizRoundRecord(wall_id=wall_id, number=1))
-    except IntegrityError:  # another request started it first
-        pass
-    return 1
+        record = session.get(BrainQuizRoundRecord, (wall_id, number))
+        return _round(record) if record is not None else None
 
 
-def _latest_round(session: Session, wall_id: str) -> int | None:
+def start_round(
+    db: Database,
+    wall_id: str,
+    started_by: str,
+    orders: dict[str, list[str]],
+    reveal: Reveal = "close",
+) -> Round:
+    """A new round with ``orders`` as its pin numbering; the round before it closes.
+
+    The caller puts it on the wall (``WallState.quiz_round``), which brings the
+    round's codes.
+    """
+    for _ in range(3):
+        try:
+            with db.session() as session:
+                number = (_latest_number(session, wall_id) or 0) + 1
+                session.execute(
+                    update(BrainQuizRoundRecord)
+                    .where(
+                        BrainQuizRoundRecord.wall_id == wall_id,
+                        BrainQuizRoundRecord.closed_at.is_(None),
+                    )
+                    .values(closed_at=datetime.now(UTC), closed_by=started_by)
+                )
+                record = BrainQuizRoundRecord(
+                    wall_id=wall_id,
+                    number=number,
+                    started_by=started_by,
+                    orders=orders,
+                    reveal=reveal,
+                )
+                session.add(record)
+                session.flush()
+                return _round(record)
+        except IntegrityError:  # two starts at once: the other one won, go after it
+            continue
+    raise QuizError("A new round is being started by someone else; try again.")
+
+
+def open_round(db: Database, wall_id: str, started_by: str, orders: dict[str, list[str]]) -> Round:
+    """The wall's latest round if it is still open, else a new one with ``orders``
+    (the brain coming on a wall, at start too: every server process may ask)."""
+    with db.session() as session:
+        number = _latest_number(session, wall_id)
+        record = session.get(BrainQuizRoundRecord, (wall_id, number)) if number else None
+        if record is not None and record.closed_at is None:
+            return _round(record)
+    return start_round(db, wall_id, started_by, orders)
+
+
+def close_round(db: Database, wall_id: str, number: int, closed_by: str) -> Round:
+    """Close a round: no answer counts any more, and its students see the names.
+
+    The UPDATE waits for answers being stored in the round (they write the same row
+    first), so an answer either lands before the round closes or is refused.
+    """
+    with db.session() as session:
+        session.execute(
+            update(BrainQuizRoundRecord)
+            .where(
+                BrainQuizRoundRecord.wall_id == wall_id,
+                BrainQuizRoundRecord.number == number,
+                BrainQuizRoundRecord.closed_at.is_(None),
+            )
+            .values(closed_at=datetime.now(UTC), closed_by=closed_by)
+        )
+        record = session.get(BrainQuizRoundRecord, (wall_id, number))
+        if record is None:
+            raise QuizError(f"There is no round {number}.")
+        session.refresh(record)
+        return _round(record)
+
+
+def set_reveal(db: Database, wall_id: str, number: int, reveal: Reveal) -> Round:
+    """Change when the students of an open round see the names."""
+    with db.session() as session:
+        record = session.get(BrainQuizRoundRecord, (wall_id, number))
+        if record is None:
+            raise QuizError(f"There is no round {number}.")
+        if record.closed_at is not None:
+            raise QuizError("That round is closed: its names are shown already.")
+        record.reveal = reveal
+        session.flush()
+        return _round(record)
+
+
+def _latest_number(session: Session, wall_id: str) -> int | None:
     number = session.scalar(
         select(func.max(BrainQuizRoundRecord.number)).where(BrainQuizRoundRecord.wall_id == wall_id)
     )
     return None if number is None else int(number)
 
 
-def start_round(db: Database, wall_id: str, started_by: str) -> int:
-    """Reset the quiz: everyone starts again in a new round; returns its number."""
-    for _ in range(3):
-        try:
-            with db.session() as session:
-                number = (_latest_round(session, wall_id) or 0) + 1
-                session.add(
-                    BrainQuizRoundRecord(wall_id=wall_id, number=number, started_by=started_by)
-                )
-            return number
-        except IntegrityError:  # two resets at once: the other one won, try after it
-            continue
-    raise QuizError("The quiz is being reset by someone else; try again.")
+def _claim_open(session: Session, wall_id: str, number: int) -> None:
+    """Take the round's row for this transaction, or QuizError when it is closed.
+
+    Writing the row first holds its lock until the answer is stored (PostgreSQL) or
+    takes the database's write lock (SQLite): closing the round waits for us, and we
+    see a close that came first.
+    """
+    claimed = session.execute(
+        update(BrainQuizRoundRecord)
+        .where(
+            BrainQuizRoundRecord.wall_id == wall_id,
+            BrainQuizRoundRecord.number == number,
+            BrainQuizRoundRecord.closed_at.is_(None),
+        )
+        .values(last_answer_at=datetime.now(UTC))
+    )
+    if claimed.rowcount != 1:  # type: ignore[attr-defined]
+        raise QuizError("This round is closed: answers are no longer taken.")
 
 
-def progress(db: Database, wall_id: str, visitor_id: str, tag_set: str) -> Progress:
-    number = current_round(db, wall_id)
+# --- answers -------------------------------------------------------------------------
+
+
+def progress(db: Database, wall_id: str, number: int, visitor_id: str, tag_set: str) -> Progress:
     with db.session() as session:
         return _progress(session, wall_id, number, visitor_id, tag_set)
 
@@ -145,15 +303,16 @@ def _progress(
 def record_answer(
     db: Database,
     wall_id: str,
+    number: int,
     visitor_id: str,
     tag_set: str,
     region_id: str,
     text: str,
     correct: bool,
 ) -> Progress:
-    """Store (or change) the visitor's answer for a region; refused once they finished."""
+    """Store (or change) the visitor's answer for a region in an open round; refused
+    once they finished or the round closed."""
     cleaned = clean_answer(text)
-    number = current_round(db, wall_id)
     try:
         return _store_answer(db, wall_id, number, visitor_id, tag_set, region_id, cleaned, correct)
     except IntegrityError:  # the same answer sent twice at once: the second one changes it
@@ -171,6 +330,7 @@ def _store_answer(
     correct: bool,
 ) -> Progress:
     with db.session() as session:
+        _claim_open(session, wall_id, number)
         if session.get(BrainQuizFinishRecord, (wall_id, number, visitor_id, tag_set)):
             raise QuizError("You have finished this quiz: your answers are final.")
         row = session.scalar(
@@ -201,12 +361,18 @@ def _store_answer(
 
 
 def finish(
-    db: Database, wall_id: str, visitor_id: str, tag_set: str, regions: Sequence[Region]
+    db: Database,
+    wall_id: str,
+    number: int,
+    visitor_id: str,
+    tag_set: str,
+    regions: Sequence[Region],
 ) -> Progress:
-    """Make the visitor's answers final; only when every region of the set is answered."""
-    number = current_round(db, wall_id)
+    """Make the visitor's answers final; only when every region of the set is answered
+    and while the round is open (one attempt per visitor and set in a round)."""
     try:
         with db.session() as session:
+            _claim_open(session, wall_id, number)
             now = _progress(session, wall_id, number, visitor_id, tag_set)
             if now.finished:
                 return now
@@ -224,9 +390,10 @@ def finish(
         return _progress(session, wall_id, number, visitor_id, tag_set)
 
 
-def statistics(db: Database, wall_id: str, tag_set: str, regions: Sequence[Region]) -> QuizStats:
-    """The class's results in the current round, per region of ``tag_set``."""
-    number = current_round(db, wall_id)
+def statistics(
+    db: Database, wall_id: str, number: int, tag_set: str, regions: Sequence[Region]
+) -> QuizStats:
+    """The class's results in a round, per region of ``tag_set``."""
     with db.session() as session:
         rows = session.execute(
             select(
@@ -262,6 +429,7 @@ def statistics(db: Database, wall_id: str, tag_set: str, regions: Sequence[Regio
     return QuizStats(
         round=number,
         participants=len({r.visitor_id for r in rows}),
+        answers=len(rows),
         finished=int(finished or 0),
         regions=per_region,
     )
@@ -270,18 +438,17 @@ def statistics(db: Database, wall_id: str, tag_set: str, regions: Sequence[Regio
 CSV_COLUMNS = ("round", "visitor", "name", "tag_set", "region", "answer", "correct", "answered_at")
 
 
-def export_csv(db: Database, wall_id: str, number: int | None = None) -> str:
-    """Every answer of a round (default: the current one) as CSV, one row per answer.
+def export_csv(db: Database, wall_id: str, number: int) -> str:
+    """Every answer of a round as CSV, one row per answer.
 
     Visitors appear by their pseudonymous id and the name they chose, if any; cells
     are written so spreadsheets do not run an answer that starts like a formula.
     """
-    chosen = number if number is not None else current_round(db, wall_id)
     with db.session() as session:
         rows = session.execute(
             select(BrainAnswerRecord, VisitorRecord.display_name)
             .outerjoin(VisitorRecord, VisitorRecord.id == BrainAnswerRecord.visitor_id)
-            .where(BrainAnswerRecord.wall_id == wall_id, BrainAnswerRecord.round == chosen)
+            .where(BrainAnswerRecord.wall_id == wall_id, BrainAnswerRecord.round == number)
             .order_by(BrainAnswerRecord.visitor_id, BrainAnswerRecord.tag_set, BrainAnswerRecord.id)
         ).all()
     out = io.StringIO()

@@ -3,6 +3,8 @@ instructor's controls (mode, view, pin set, statistics, reset, CSV export)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from datetime import datetime
 from typing import Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
@@ -19,12 +21,22 @@ from webapp.apps.brain_atlas import (
     pages,
     set_on_wall,
 )
+from webapp.apps.brain_atlas.audience import allow_audience_switches, audience_switches
 from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
 from webapp.apps.brain_atlas.pins import VOLUME
-from webapp.apps.brain_atlas.quiz import export_csv, start_round, statistics
+from webapp.apps.brain_atlas.quiz import (
+    QuizError,
+    Reveal,
+    Round,
+    close_round,
+    export_csv,
+    set_reveal,
+    start_round,
+    statistics,
+)
 from webapp.db import RowId
-from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
+from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
 from webapp.schemas import errors
 from webapp.services import Services
@@ -38,6 +50,14 @@ AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its 
 
 def brain_app(services: Services) -> BrainApp:
     return cast(BrainApp, services.apps[APP])
+
+
+async def quiz_step(step: Callable[..., Round], *args: object) -> Round:
+    """Run a change of rounds in a worker thread; what cannot be done now is a 409."""
+    try:
+        return await run_in_threadpool(step, *args)
+    except QuizError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
 
 
 # --- phones --------------------------------------------------------------------------
@@ -118,29 +138,35 @@ async def groups(request: Request, wall: WallDep, person: PersonDep) -> Response
     "/apps/brain/{wall_id}/groups/{group}", include_in_schema=False, dependencies=[CsrfDep]
 )
 async def join_group(
-    request: Request,
-    wall: WallDep,
-    services: ServicesDep,
-    person: PersonDep,
-    address: ClientAddressDep,
-    group: str,
+    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group: str
 ) -> Response:
     """A group chosen on the phone: as scanning its menu code."""
-    app = brain_app(services)
-    return await pages.join_group(app, request, services, wall, person, group, address)
+    return await pages.join_group(brain_app(services), request, services, wall, person, group)
 
 
 # --- the instructor's controls -------------------------------------------------------
 
 
 class BrainControl(BaseModel):
-    """What the dashboard changes: the mode, the view preset and the pin set shown."""
+    """What the dashboard changes: the mode, the view preset and the pin set shown,
+    when the open round's students see the names, and whether scanning a user group
+    on the menu screen switches the wall's pins."""
 
     model_config = ConfigDict(extra="forbid")
 
     mode: Mode | None = None
     preset: str | None = Field(default=None, max_length=64)
     tag_set: TagSetName | None = None
+    reveal: Reveal | None = None
+    audience_switches: bool | None = None
+
+
+class NewRound(BaseModel):
+    """A new round: new pin numbers and codes; when its students see the names."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    reveal: Reveal = "close"
 
 
 class PresetEntry(BaseModel):
@@ -158,8 +184,18 @@ class RegionEntry(BaseModel):
 
 class SetStats(BaseModel):
     participants: int
+    answers: int
     finished: int
     regions: list[RegionEntry]
+
+
+class RoundStatus(BaseModel):
+    number: int
+    open: bool
+    reveal: Reveal
+    started_at: datetime
+    closed_at: datetime | None
+    last_answer_at: datetime | None
 
 
 class BrainStatus(BaseModel):
@@ -167,23 +203,28 @@ class BrainStatus(BaseModel):
     mode: Mode
     tag_set: TagSetName
     presets: list[PresetEntry]
-    round: int
+    audience_switches: bool
+    round: RoundStatus | None
     quiz: dict[str, SetStats]
 
 
 @router.get("/api/walls/{wall_id}/brain")
 async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
-    """The brain on a wall and its class's quiz results (names included: staff only)."""
+    """The brain on a wall, its quiz round and the class's results (names included:
+    staff only)."""
     app = brain_app(services)
-    state = await pages.wall_state(services, wall)
+    state, quiz_round = await pages.round_now(app, services, wall)
     quiz: dict[str, SetStats] = {}
-    number = 0
-    for tag_set in TAG_SETS:
-        regions = app.regions(tag_set)
-        stats = await run_in_threadpool(statistics, services.db, wall.id, tag_set, regions)
-        number = stats.round
+    for tag_set in TAG_SETS if quiz_round is not None else ():
+        assert quiz_round is not None
+        numbered = sorted(app.pins(quiz_round, tag_set).items())
+        regions = [region for _, region in numbered]
+        stats = await run_in_threadpool(
+            statistics, services.db, wall.id, quiz_round.number, tag_set, regions
+        )
         quiz[tag_set] = SetStats(
             participants=stats.participants,
+            answers=stats.answers,
             finished=stats.finished,
             regions=[
                 RegionEntry(
@@ -193,7 +234,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
                     share_correct=s.share_correct,
                     common_wrong=s.common_wrong,
                 )
-                for n, (region, s) in enumerate(zip(regions, stats.regions, strict=True), 1)
+                for (n, region), s in zip(numbered, stats.regions, strict=True)
             ],
         )
     return BrainStatus(
@@ -201,7 +242,17 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
         mode=mode_of(state),
         tag_set=set_on_wall(state),
         presets=[PresetEntry(id=v.id, name=v.name) for v in app.views],
-        round=number,
+        audience_switches=await run_in_threadpool(audience_switches, services.db, wall.id),
+        round=None
+        if quiz_round is None
+        else RoundStatus(
+            number=quiz_round.number,
+            open=quiz_round.open,
+            reveal=quiz_round.reveal,
+            started_at=quiz_round.started_at,
+            closed_at=quiz_round.closed_at,
+            last_answer_at=quiz_round.last_answer_at,
+        ),
         quiz=quiz,
     )
 
@@ -210,14 +261,33 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
 async def control(
     choice: BrainControl, wall: WallDep, services: ServicesDep, staff: StaffDep
 ) -> BrainStatus:
-    """Switch mode, view preset or pin set on every tile at once (codes placed again)."""
+    """Switch mode, view preset or pin set on every tile at once (codes placed again).
+
+    Tutor pages name every pin, so switching to tutor mode closes a running round;
+    switching back to quiz mode after a closed round starts a new one (new numbers
+    and codes, in the same swap).
+    """
     app = brain_app(services)
     preset = app.preset(choice.preset) if choice.preset else None
     if choice.preset and preset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no view {choice.preset!r}.")
-    state = await pages.wall_state(services, wall)
-    if state.app != APP:
+    state, quiz_round = await pages.round_now(app, services, wall)
+    only_audience = choice.model_fields_set <= {"audience_switches"}
+    if state.app != APP and not only_audience:
         raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
+    if choice.audience_switches is not None:
+        await run_in_threadpool(
+            allow_audience_switches, services.db, wall.id, choice.audience_switches
+        )
+    if choice.reveal is not None and quiz_round is not None and quiz_round.open:
+        await quiz_step(set_reveal, services.db, wall.id, quiz_round.number, choice.reveal)
+    switching = choice.mode is not None and choice.mode != mode_of(state)
+    new_round: int | None = None
+    if switching and choice.mode == "tutor" and quiz_round is not None and quiz_round.open:
+        await quiz_step(close_round, services.db, wall.id, quiz_round.number, staff)
+    elif switching and choice.mode == "quiz" and (quiz_round is None or not quiz_round.open):
+        started = await quiz_step(start_round, services.db, wall.id, staff, app.fresh_orders())
+        new_round = started.number
 
     def apply(current: WallState) -> WallState:
         if current.app != APP:
@@ -230,6 +300,8 @@ async def control(
         if preset is not None:
             update["view"] = preset.view
             update["volume"] = preset.layer(VOLUME)
+        if new_round is not None:
+            update["quiz_round"] = max(new_round, current.quiz_round or 0)
         return current.model_copy(update=update)
 
     await change_state(services, wall, apply)
@@ -237,9 +309,33 @@ async def control(
 
 
 @router.post("/api/walls/{wall_id}/brain/quiz/reset")
-async def reset_quiz(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
-    """Everyone starts again in a new round (earlier rounds stay for export)."""
-    await run_in_threadpool(start_round, services.db, wall.id, staff)
+async def reset_quiz(
+    wall: WallDep, services: ServicesDep, staff: StaffDep, choice: NewRound | None = None
+) -> BrainStatus:
+    """A new round: the one before closes (its students see the names), the pins get
+    new numbers and codes on every tile at once; earlier rounds stay for export."""
+    app = brain_app(services)
+    reveal = choice.reveal if choice is not None else "close"
+    started = await quiz_step(start_round, services.db, wall.id, staff, app.fresh_orders(), reveal)
+
+    def apply(current: WallState) -> WallState:
+        return current.model_copy(
+            update={"quiz_round": max(started.number, current.quiz_round or 0)}
+        )
+
+    await change_state(services, wall, apply)
+    return await brain_status(wall, services, staff)
+
+
+@router.post("/api/walls/{wall_id}/brain/quiz/close")
+async def close_quiz(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
+    """Close the round on the wall: answers stop counting and every student sees the
+    correct names and their results."""
+    app = brain_app(services)
+    _, quiz_round = await pages.round_now(app, services, wall)
+    if quiz_round is None:
+        raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
+    await quiz_step(close_round, services.db, wall.id, quiz_round.number, staff)
     return await brain_status(wall, services, staff)
 
 
@@ -250,7 +346,10 @@ async def answers_csv(
     staff: StaffDep,
     round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
-    """Every answer of a round (default: the current one), for a spreadsheet."""
+    """Every answer of a round (default: the one on the wall), for a spreadsheet."""
+    if round_number is None:
+        _, quiz_round = await pages.round_now(brain_app(services), services, wall)
+        round_number = quiz_round.number if quiz_round is not None else 1
     body = await run_in_threadpool(export_csv, services.db, wall.id, round_number)
     return Response(
         body,

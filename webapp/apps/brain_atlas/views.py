@@ -16,6 +16,7 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
+from wall_client.layout import Wall
 from webapp.apps.brain_atlas.content import ATLAS_DIR, REGION_ID, ContentError, Region
 from webapp.apps.brain_atlas.pins import (
     VOLUME,
@@ -92,18 +93,18 @@ def showing(
     regions: Sequence[Region],
     volumes: AtlasVolumes,
     pins: PinCache,
-    wall_size: tuple[float, float] | None = None,
+    wall: Wall | None = None,
 ) -> dict[str, list[str]]:
     """Per region id, the ids of the presets that show its pin, the one where it shows
-    largest first (none: an empty list). With ``wall_size`` a pin must also land on
-    that wall's scene (a zoomed preset may leave some off)."""
+    largest first (none: an empty list). With ``wall`` a pin must also land on that
+    wall (a zoomed preset may leave some off)."""
     found: dict[str, list[tuple[float, int, str]]] = {r.id: [] for r in regions}
     for order, preset in enumerate(presets):
         layer = preset.layer()
         plane = pins.get(volumes, regions, preset.view, layer)
         shown = set(plane)
-        if wall_size is not None:
-            shown &= set(scene_pins(plane, wall_size, preset.view, volumes.meta))
+        if wall is not None:
+            shown &= set(scene_pins(plane, wall, preset.view, volumes.meta))
         for region_id in shown:
             found[region_id].append((-plane[region_id].area, order, preset.id))
     return {region_id: [p for *_, p in sorted(entries)] for region_id, entries in found.items()}

@@ -9,9 +9,10 @@ The data set is in the database (``store``), its geometry on a flat plane
 
 from __future__ import annotations
 
+import hashlib
 import threading
 from collections import OrderedDict
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fastapi import APIRouter, Response
 from fastapi.concurrency import run_in_threadpool
@@ -20,11 +21,11 @@ from wall_client.layout import Wall
 from webapp.apps import Scan, change_state
 from webapp.apps.census_map.charts import ChartStats
 from webapp.apps.census_map.dataset import DataSet, Tract
-from webapp.apps.census_map.mapview import MapGeometry, code_anchors
+from webapp.apps.census_map.mapview import MapGeometry, tract_codes
 from webapp.apps.census_map.store import DataSets, current_id, seed
 from webapp.caching import SizedCache
 from webapp.publishing import Block, Publication
-from webapp.tags import TagSpec, anchored_code_side_mm
+from webapp.tags import TagSpec, anchored_code_side_mm, anchored_footprint_mm, places_anchored
 from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
@@ -43,6 +44,17 @@ def group_tag(group_id: str) -> str:
 
 def tract_tag(geoid: str) -> str:
     return f"census:tract:{geoid}"
+
+
+CLUSTER_PREFIX = "census:cluster:"
+FIRST_PRIORITY = 1000  # the census map's anchored codes count down from here
+
+
+def cluster_tag(geoids: tuple[str, ...]) -> str:
+    """A cluster's tag is named by its tracts: the same neighbourhood gets the same code
+    whenever a view clusters it so (printed and photographed codes keep working)."""
+    digest = hashlib.sha256("|".join(sorted(geoids)).encode()).hexdigest()[:16]
+    return f"{CLUSTER_PREFIX}{digest}"
 
 
 class CensusApp:
@@ -80,7 +92,7 @@ class CensusApp:
 
     # --- the WallApp interface -----------------------------------------------------
 
-    def settle(self, services: Services, state: WallState) -> WallState:
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the shipped one until an
         import): seeded on first use, so walls that never show the map pay nothing."""
         dataset_id = current_id(services.db) or seed(services.db)
@@ -88,8 +100,9 @@ class CensusApp:
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the map is on the wall: the group toggles on the menu screen, the tract
-        index on the registration screen, and a code on every tract that has room for
-        one at this view."""
+        index on the registration screen, a code on every tract that has room for one
+        at this view, and a cluster code over each neighbourhood of tracts too small
+        for theirs, so every tract on the map is reached by pointing at the wall."""
         dataset = self.shown(services, state) if state.app == APP else None
         if dataset is None:
             return []
@@ -108,28 +121,52 @@ class CensusApp:
                 for slot, group in enumerate(dataset.groups, start=1)
             ),
         ]
-        anchors = code_anchors(
-            self.geometry(dataset), wall, state.view, anchored_code_side_mm(services.base_url, wall)
+        codes = tract_codes(
+            self.geometry(dataset),
+            wall,
+            state.view,
+            anchored_code_side_mm(services.base_url, wall),
+            anchored_footprint_mm(services.base_url, wall),
         )
+        codes = codes.keeping(places_anchored(wall, services.base_url, codes.anchors()))
+        # falling priorities keep the wall's placement in the order just tried
+        order = {key: FIRST_PRIORITY - n for n, (key, _) in enumerate(codes.anchors())}
         tracts = [
             self._spec(
-                tract_tag(t.geoid), t.label, "tract", {"geoid": t.geoid}, anchor=anchors[t.geoid]
+                tract_tag(t.geoid),
+                t.label,
+                "tract",
+                {"geoid": t.geoid},
+                anchor=codes.own[t.geoid],
+                priority=order[f"tract:{t.geoid}"],
             )
             for t in dataset.tracts
-            if t.geoid in anchors
+            if t.geoid in codes.own
         ]
-        return menu + tracts
+        clusters = [
+            self._spec(
+                cluster_tag(cluster.geoids),
+                f"{len(cluster.geoids)} tracts",
+                "cluster",
+                {"geoids": list(cluster.geoids)},
+                anchor=cluster.anchor,
+                priority=order[f"cluster:{n}"],
+            )
+            for n, cluster in enumerate(codes.clusters)
+        ]
+        return menu + tracts + clusters
 
     def _spec(
         self,
         name: str,
         label: str,
         action: str,
-        params: dict[str, str],
+        params: dict[str, Any],
         *,
         screen: str | None = None,
         slot: int = 0,
         anchor: tuple[float, float] | None = None,
+        priority: int = 0,
     ) -> TagSpec:
         return TagSpec.model_validate(
             {
@@ -142,6 +179,7 @@ class CensusApp:
                 "screen": screen,
                 "slot": slot,
                 "anchor": anchor,
+                "priority": priority,
             }
         )
 
@@ -155,7 +193,12 @@ class CensusApp:
             return await pages.tract_choice(
                 self, scan.request, scan.services, scan.wall, scan.tag.params.get("geoid", "")
             )
+        if action == "cluster":
+            return await pages.cluster(self, scan)
         return await pages.index(self, scan.request, scan.services, scan.wall)
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         """The tract page as its publisher sees it: the values of their class."""

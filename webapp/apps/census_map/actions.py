@@ -14,6 +14,7 @@ from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.mapview import label_mm, projection
+from webapp.schemas import PlacedCode
 from webapp.tags import get_layout
 from webapp.wall_state import Balloon, WallState, now_ms, read_state
 
@@ -70,7 +71,10 @@ async def open_balloon(
         lines = [f"{label}: {value}" for label, value in dataset.headline(tract)]
         font = label_mm(wall) * BALLOON_FONT_OF_LABEL
         keep_clear = 2 * label_mm(wall)  # the tract's own label and centre stay visible
-        obstacles = [Rect(*placed["rect"]) for placed in (layout.placed if layout else [])]
+        obstacles = [
+            Rect(*PlacedCode.model_validate(placed).footprint)
+            for placed in (layout.placed if layout else [])
+        ]
         obstacles += [Rect(*b.rect) for b in others if b.rect]
         obstacles.append(
             Rect(anchor[0] - keep_clear, anchor[1] - keep_clear, 2 * keep_clear, 2 * keep_clear)

@@ -1,7 +1,8 @@
 """A tract's charts for the phone page, drawn on the server as small inline SVGs.
 
-SVG needs no script and no extra request and scales to the phone's width: in a
-360-unit-wide viewBox, text of 13 units and more stays readable. A chart is left out
+SVG needs no script and no extra request and scales to the phone's width: the
+320-unit-wide viewBox is drawn at least 328 px wide (a 360 px phone less the page's
+margins), so text of 16 units reads at 16 px or more, as the rest of the page. A chart is left out
 whole unless the reader's information class sees every value it uses, so a chart never
 shows what the list of facts would hide. Labels come from editable settings and values
 from imported files, so every text and attribute is escaped.
@@ -19,10 +20,10 @@ from xml.sax.saxutils import escape, quoteattr
 
 from webapp.apps.census_map.dataset import Chart, DataSet, Tract, Value, format_value
 
-WIDTH = 360
+WIDTH = 320
 MARGIN = 8
 INNER = WIDTH - 2 * MARGIN
-HEADING, BODY, SMALL = 16, 14, 13  # font sizes in viewBox units
+HEADING, BODY = 18, 16  # font sizes in viewBox units; notes are muted, never smaller
 LINE_HEIGHT = 1.35
 GLYPH_WIDTH = 0.58  # a generous average glyph width of system-ui, in ems, for wrapping
 BAR_HEIGHT = 28
@@ -137,19 +138,22 @@ class _Canvas:
         return "".join(out)
 
     def ends(self, left: str, right: str, size: int) -> str:
-        """Two short texts on one line, at the left and the right edge."""
+        """Two short texts at the left and the right edge: on one line when they fit
+        with a gap between them, else the right one on the next line."""
         self.spoken += [left, right]
-        baseline = _num(self.y + size)
-        self.y += size * LINE_HEIGHT
+        fits = (len(left) + len(right) + 2) * GLYPH_WIDTH * size <= INNER
+        baseline = self.y + size
+        self.y += size * LINE_HEIGHT * (1 if fits else 2)
+        second = baseline if fits else baseline + size * LINE_HEIGHT
         return (
-            f'<text x="{MARGIN}" y="{baseline}" font-size="{size}" fill="{MUTED}">'
+            f'<text x="{MARGIN}" y="{_num(baseline)}" font-size="{size}" fill="{MUTED}">'
             f"{_escape(left)}</text>"
-            f'<text x="{WIDTH - MARGIN}" y="{baseline}" font-size="{size}" fill="{MUTED}" '
+            f'<text x="{WIDTH - MARGIN}" y="{_num(second)}" font-size="{size}" fill="{MUTED}" '
             f'text-anchor="end">{_escape(right)}</text>'
         )
 
     def note(self, text: str) -> None:
-        self.add(self.lines(text, SMALL, fill=MUTED))
+        self.add(self.lines(text, BODY, fill=MUTED))
 
     def add(self, *markup: str, keys: Sequence[str] = ()) -> None:
         """Add ``markup``, marked with the attribute keys whose values it shows."""
@@ -245,7 +249,7 @@ def _draw_compare(
         spread = stats.spread(dataset, key)
         markup = [canvas.lines(attribute.label, BODY, bold=True)]
         if spread is None:
-            markup.append(canvas.lines("Not available for any tract.", SMALL, fill=MUTED))
+            markup.append(canvas.lines("Not available for any tract.", BODY, fill=MUTED))
         else:
             drawn = True
             value = tract.values.get(key)
@@ -255,7 +259,7 @@ def _draw_compare(
                 canvas.ends(
                     f"lowest {format_value(attribute, spread.low)}",
                     f"highest {format_value(attribute, spread.high)}",
-                    SMALL,
+                    BODY,
                 )
             )
             canvas.spoken.append(

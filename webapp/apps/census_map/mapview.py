@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,7 +23,7 @@ import shapely
 from shapely import MultiPolygon, Polygon
 from shapely.ops import polylabel
 
-from wall_client.layout import ROLES, Affine, Wall, apply_affine, compose_affine
+from wall_client.layout import Affine, Rect, Wall, apply_affine, compose_affine
 from webapp.apps.census_map.dataset import DataSet
 from webapp.wall_state import View
 
@@ -30,6 +31,9 @@ MARGIN = 0.03  # of the wall left around the data at zoom 1
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before
 FINEST_OF_EXTENT = 2.0**-16  # the finest level's tolerance, as a share of the data's size
 LABEL_MM_PER_M = 6.0  # tract-number height (mm) per metre of scanning distance
+CLUSTER_CELL = 1.5  # a cluster gathers the small tracts of a cell this many footprints wide
+MAX_CLUSTER_TRACTS = 40  # beyond this a cluster is split in two, and again
+LABEL_WIDTH_OF_HEIGHT = 0.7  # a bold digit's width in the label's height (generous)
 SIMPLIFY_PX = 0.25  # simplification tolerance: outlines stay well within half a pixel
 Floats = npt.NDArray[np.float64]
 Shapes = npt.NDArray[np.object_]
@@ -147,51 +151,179 @@ class Projection:
 
 
 def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
-    """At zoom 1 the data fills the wall (with a margin), centred; the view then pans
-    and zooms about the wall's centre exactly as every scene layer does."""
+    """At zoom 1 the data fills the wall's stage (with a margin), centred on it, clear of
+    the designated screens; the view then pans and zooms about the stage's centre
+    exactly as every scene layer does."""
     minx, miny, maxx, maxy = geometry.extent
-    usable_w, usable_h = wall.width * (1 - 2 * MARGIN), wall.height * (1 - 2 * MARGIN)
+    stage = wall.stage
+    usable_w, usable_h = stage.width * (1 - 2 * MARGIN), stage.height * (1 - 2 * MARGIN)
     base = min(usable_w / max(maxx - minx, 1e-12), usable_h / max(maxy - miny, 1e-12))
     cx, cy = view.center
     zoom = view.zoom
     mid_u, mid_v = (minx + maxx) / 2, (miny + maxy) / 2
+    middle_x, middle_y = stage.center
     return Projection(
         scale=zoom * base,
-        dx=wall.width / 2 + zoom * (wall.width / 2 - base * mid_u - cx * wall.width),
-        dy=wall.height / 2 + zoom * (wall.height / 2 - base * mid_v - cy * wall.height),
+        dx=middle_x + zoom * (stage.width / 2 - base * mid_u - cx * stage.width),
+        dy=middle_y + zoom * (stage.height / 2 - base * mid_v - cy * stage.height),
     )
 
 
 def label_mm(wall: Wall) -> float:
     """Tract numbers as tall as reads from where people scan."""
-    return LABEL_MM_PER_M * wall.scan_distance_m
+    return LABEL_MM_PER_M * wall.seat_distance_m
 
 
 def code_anchors(
-    geometry: MapGeometry, wall: Wall, view: View, code_side_mm: float
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    code_side_mm: float,
+    spacing_mm: tuple[float, float] | None = None,
 ) -> dict[str, tuple[float, float]]:
-    """Where the tracts that can carry a code want it (scene mm), by GEOID.
+    """Where the tracts that can carry their own code want it (scene mm), by GEOID.
 
     A tract carries one when a circle as wide as the code fits inside it around its
     label point, that point is on a display showing the map (not a designated
-    screen), and the code would not overlap a bigger tract's code there; the others
-    are too small at this view and stay reachable from the tract index.
+    screen), and the code would not come within ``spacing_mm`` (across, down; default
+    the code's side: a code with its caption and the gap kept around it) of a bigger
+    tract's code there; the others are too small at this view (see
+    :func:`tract_codes`).
     """
     project = projection(geometry, wall, view)
-    designated = {d.id for role in ROLES for d in wall.screen(role)}
-    shows_map = [wall.viewport(d.id).scene_rect for d in wall.displays if d.id not in designated]
+    apart_x, apart_y = spacing_mm or (code_side_mm, code_side_mm)
+    shows_map = _free_rects(wall)
     fits = np.flatnonzero(geometry.room * project.scale >= code_side_mm / 2)
     anchors: dict[str, tuple[float, float]] = {}
     for index in fits[np.argsort(-geometry.room[fits], kind="stable")]:
         x, y = project.point(*geometry.label_points[index])
         if not any(r.x <= x < r.right and r.y <= y < r.bottom for r in shows_map):
             continue
-        if any(
-            abs(x - ax) < code_side_mm and abs(y - ay) < code_side_mm for ax, ay in anchors.values()
-        ):
+        if any(abs(x - ax) < apart_x and abs(y - ay) < apart_y for ax, ay in anchors.values()):
             continue
         anchors[geometry.geoids[index]] = (x, y)
     return anchors
+
+
+def _free_rects(wall: Wall) -> list[Rect]:
+    """The scene rectangles of the displays that show the map (not designated ones)."""
+    return [wall.viewport(d.id).scene_rect for d in wall.displays if d.id not in wall.designated()]
+
+
+@dataclass(frozen=True)
+class Cluster:
+    """Neighbouring tracts too small for their own code, reached through one code."""
+
+    geoids: tuple[str, ...]
+    anchor: tuple[float, float]  # scene mm: the middle of their label points
+
+
+@dataclass(frozen=True)
+class TractCodes:
+    """Every tract a person can reach by pointing at the wall at one view."""
+
+    own: dict[str, tuple[float, float]]  # GEOID -> where its own code wants to stand
+    clusters: tuple[Cluster, ...]
+
+    def anchors(self) -> list[tuple[str, tuple[float, float]]]:
+        """Every code's key and anchor, in the order they are placed: own codes first
+        (``tract:GEOID``), then clusters (``cluster:N``)."""
+        return [(f"tract:{g}", a) for g, a in self.own.items()] + [
+            (f"cluster:{n}", c.anchor) for n, c in enumerate(self.clusters)
+        ]
+
+    def keeping(self, placed: set[str]) -> TractCodes:
+        """These codes with only the ``placed`` keys: the tracts of a code that found no
+        spot join the nearest cluster that did (its code stays where it is), so they
+        stay reachable from the wall."""
+        own = {g: a for g, a in self.own.items() if f"tract:{g}" in placed}
+        kept = [c for n, c in enumerate(self.clusters) if f"cluster:{n}" in placed]
+        if not kept:
+            return TractCodes(own, ())
+        joining: list[list[str]] = [[] for _ in kept]
+        homeless = [(g, a) for g, a in self.own.items() if g not in own]
+        homeless += [
+            (g, c.anchor)
+            for n, c in enumerate(self.clusters)
+            if f"cluster:{n}" not in placed
+            for g in c.geoids
+        ]
+        for geoid, (x, y) in homeless:
+            nearest = min(
+                range(len(kept)),
+                key=lambda i: math.hypot(kept[i].anchor[0] - x, kept[i].anchor[1] - y),
+            )
+            joining[nearest].append(geoid)
+        clusters = tuple(
+            Cluster(tuple(sorted((*c.geoids, *extra))), c.anchor)
+            for c, extra in zip(kept, joining, strict=True)
+        )
+        return TractCodes(own, clusters)
+
+
+def tract_codes(
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    code_side_mm: float,
+    footprint_mm: tuple[float, float],
+) -> TractCodes:
+    """Own codes for the tracts with room for one (:func:`code_anchors`), and cluster
+    codes for the rest, as marker clustering on web maps does.
+
+    The tracts too small for a code whose label point is on (or beside, behind a
+    bezel) a display showing the map are grouped by cells of :data:`CLUSTER_CELL`
+    footprints (``footprint_mm``: a code with its caption and gap) on the data's plane,
+    so clusters do not change when the map pans; a cluster's code wants to stand at
+    the middle of its tracts' label points (placement moves it aside, on a pin, where
+    another code stands). Crowded cells are split (:func:`_median_cut`). A cluster of
+    one tract is that tract's own code, standing on its label point.
+    """
+    project = projection(geometry, wall, view)
+    own = code_anchors(geometry, wall, view, code_side_mm, footprint_mm)
+    width, height = (CLUSTER_CELL * side for side in footprint_mm)
+    near = [_grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
+    cells: dict[tuple[int, int], list[int]] = {}
+    points = geometry.label_points
+    minx, miny, _, _ = geometry.extent
+    for index, (u, v) in enumerate(geometry.label_points):
+        if geometry.geoids[index] in own:
+            continue
+        x, y = project.point(u, v)
+        if not any(r.x <= x < r.right and r.y <= y < r.bottom for r in near):
+            continue
+        cell = (
+            math.floor((u - minx) * project.scale / width),
+            math.floor((v - miny) * project.scale / height),
+        )
+        cells.setdefault(cell, []).append(index)
+    clusters = []
+    parts = [part for key in sorted(cells) for part in _median_cut(cells[key], points)]
+    for members in parts:
+        x, y = np.mean([project.point(*geometry.label_points[i]) for i in members], axis=0)
+        geoids = tuple(sorted(geometry.geoids[i] for i in members))
+        if len(geoids) == 1:
+            own[geoids[0]] = (float(x), float(y))
+        else:
+            clusters.append(Cluster(geoids, (float(x), float(y))))
+    return TractCodes(own, tuple(clusters))
+
+
+def _median_cut(members: list[int], points: Floats) -> list[list[int]]:
+    """``members`` split at the median along their longer side, again and again, until
+    no part holds more than :data:`MAX_CLUSTER_TRACTS` (a list a phone shows at once):
+    a dense downtown gets several codes side by side rather than one long list."""
+    if len(members) <= MAX_CLUSTER_TRACTS:
+        return [members]
+    coords = points[members]
+    axis = int(np.argmax(coords.max(axis=0) - coords.min(axis=0)))
+    order = [members[i] for i in np.argsort(coords[:, axis], kind="stable")]
+    half = len(order) // 2
+    return _median_cut(order[:half], points) + _median_cut(order[half:], points)
+
+
+def _grown(rect: Rect, margin: float) -> Rect:
+    return Rect(rect.x - margin, rect.y - margin, rect.width + 2 * margin, rect.height + 2 * margin)
 
 
 def tile_view(
@@ -201,10 +333,15 @@ def tile_view(
     display_id: str,
     view: View,
     codes: dict[str, str],
+    occupied: Sequence[Rect] = (),
 ) -> dict[str, Any]:
     """One tile's share of the map, in that display's native pixels: the tracts it
     shows (outlines clipped to it, simplified under half a pixel), their labels,
-    groups and codes (``codes``: GEOID -> code of the tracts that carry one)."""
+    groups and codes (``codes``: GEOID -> code of the tracts that carry one).
+
+    A tract's label is offered (``label_at``) only where it stays clear of
+    ``occupied`` (scene mm: the codes on this display with their captions), so a map
+    label never runs into a code or its caption."""
     viewport = wall.viewport(display_id)
     project = projection(geometry, wall, view)
     to_pixels = viewport.to_pixels
@@ -233,6 +370,10 @@ def tile_view(
             for ring in (polygon.exterior, *polygon.interiors)
         ]
         x, y = apply_affine(plane_to_pixels, *geometry.label_points[index])
+        sx, sy = project.point(*geometry.label_points[index])
+        half_w = len(tract.label) * LABEL_WIDTH_OF_HEIGHT * label_mm(wall) / 2
+        half_h = label_mm(wall) / 2
+        label_box = Rect(sx - half_w, sy - half_h, 2 * half_w, 2 * half_h)
         tracts.append(
             {
                 "id": tract.geoid,
@@ -241,6 +382,7 @@ def tile_view(
                 "code": codes.get(tract.geoid),
                 "at": [round(x, 1), round(y, 1)],
                 "room": round(float(geometry.room[index]) * project.scale * px_per_mm, 1),
+                "label_clear": not any(label_box.intersects(area) for area in occupied),
                 "rings": [ring for ring in rings if len(ring) >= 6],
             }
         )

@@ -111,6 +111,22 @@ async def index(app: CensusApp, request: Request, services: Services, wall: Wall
     return render(request, "census/index.html", wall=wall, dataset=dataset, groups=by_group)
 
 
+async def cluster(app: CensusApp, scan: Scan) -> Response:
+    """A cluster code: the tracts under it, each a tap from its page (as the index)."""
+    state, dataset = await shown_dataset(app, scan.services, scan.wall)
+    geoids = [str(g) for g in scan.tag.params.get("geoids", [])]
+    tracts = [t for g in geoids if (t := dataset.tract(g)) is not None]
+    hidden = {t.geoid for t in tracts if not group_shown(state, dataset.group_of.get(t.geoid, ""))}
+    return render(
+        scan.request,
+        "census/cluster.html",
+        wall=scan.wall,
+        dataset=dataset,
+        tracts=tracts,
+        hidden=hidden,
+    )
+
+
 async def toggle(app: CensusApp, scan: Scan) -> Response:
     """A scanned group toggle flips that group on every tile at once."""
     _, dataset = await shown_dataset(app, scan.services, scan.wall)

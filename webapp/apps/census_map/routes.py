@@ -12,7 +12,7 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
 
-from wall_client.layout import Wall
+from wall_client.layout import Rect, Wall
 from webapp.apps.census_map import APP, CensusApp, pages, switch_dataset
 from webapp.apps.census_map.actions import group_shown, open_balloon
 from webapp.apps.census_map.dataset import DataSet
@@ -32,7 +32,7 @@ from webapp.deps import (
 )
 from webapp.models import TagRecord
 from webapp.routes.pages import render
-from webapp.schemas import errors
+from webapp.schemas import PlacedCode, errors
 from webapp.services import Services
 from webapp.tags import get_layout
 from webapp.wall_state import View, WallState, now_ms, read_state
@@ -111,32 +111,41 @@ def _tile_body(
 ) -> bytes:
     dataset = app.dataset(services, dataset_id)
     assert dataset is not None
-    codes = _codes_on(services, wall, layout_id)
-    tracts = {name.removeprefix("census:tract:"): code for name, code in codes.items()}
-    view_body = tile_view(dataset, app.geometry(dataset), wall, tile_id, view, tracts)
-    groups = {f"census:group:{g.id}": g.id for g in dataset.groups}
-    view_body["toggles"] = {code: groups[name] for name, code in codes.items() if name in groups}
-    carried = sum(1 for name in codes if name.startswith("census:tract:"))
+    record = get_layout(services.db, wall.id, layout_id) if layout_id else None
+    placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
+    codes = _census_tags(services, [p.code for p in placed])
+    tracts = {tag.params["geoid"]: code for code, tag in codes.items() if tag.action == "tract"}
+    occupied = [Rect(*p.footprint) for p in placed if p.display == tile_id]
+    view_body = tile_view(dataset, app.geometry(dataset), wall, tile_id, view, tracts, occupied)
+    view_body["toggles"] = {
+        code: tag.params["group"] for code, tag in codes.items() if tag.action == "toggle"
+    }
+    clusters = {
+        code: [str(g) for g in tag.params["geoids"]]
+        for code, tag in codes.items()
+        if tag.action == "cluster"
+    }
+    view_body["clusters"] = {
+        code: sorted({dataset.group_of[g] for g in geoids if g in dataset.group_of})
+        for code, geoids in clusters.items()
+    }
+    clustered = sum(len(geoids) for geoids in clusters.values())
     view_body["caption"] = (
-        f"{dataset.title} · {carried} of {len(dataset.tracts)} tracts carry a code; "
-        "every tract is in the tract index"
+        f"{dataset.title} · {len(tracts)} of {len(dataset.tracts)} tracts carry their own"
+        f" code, {clustered} a shared one; every tract is in the tract index"
     )
     return json.dumps(view_body, separators=(",", ":")).encode()
 
 
-def _codes_on(services: Services, wall: Wall, layout_id: int) -> dict[str, str]:
-    """The census codes placed in a layout, by tag name."""
-    layout = get_layout(services.db, wall.id, layout_id) if layout_id else None
-    placed = [p["code"] for p in layout.placed] if layout else []
-    if not placed:
+def _census_tags(services: Services, codes: list[str]) -> dict[str, TagRecord]:
+    """The census map's tags among ``codes`` (a layout's), by code."""
+    if not codes:
         return {}
     with services.db.session() as session:
-        rows = session.execute(
-            select(TagRecord.name, TagRecord.code).where(
-                TagRecord.code.in_(placed), TagRecord.app == APP
-            )
-        ).all()
-    return {name: code for name, code in rows if name}
+        rows = session.scalars(
+            select(TagRecord).where(TagRecord.code.in_(codes), TagRecord.app == APP)
+        )
+        return {tag.code: tag for tag in rows}
 
 
 # --- phones --------------------------------------------------------------------------

@@ -4,15 +4,20 @@ learn a pin's name and when."""
 from __future__ import annotations
 
 import json
+import re
 from typing import Any
 
 import pytest
 from fastapi.testclient import TestClient
+from markupsafe import escape
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
 from webapp.apps.brain_atlas import BrainApp
+from webapp.apps.brain_atlas.content import Region, TagSetName
+from webapp.apps.brain_atlas.quiz import get_round
+from webapp.markdown import markdown_html
 from webapp.tags import get_layout, wall_tags
-from webapp.wall_state import WallState, read_state
+from webapp.wall_state import WallState, events_since, read_state
 
 
 def state_of(client: TestClient) -> WallState:
@@ -56,12 +61,20 @@ def placed_codes(client: TestClient) -> set[str]:
 def pins_on_wall(client: TestClient, tag_set: str) -> dict[int, str]:
     """Pin number -> code of the set's pins placed on the wall now."""
     on_wall = placed_codes(client)
-    prefix = f"brain:{tag_set}:pin:"
+    prefix = f"brain:{tag_set}:r{state_of(client).quiz_round}:pin:"
     return {
         int(name.removeprefix(prefix)): code
         for name, code in brain_codes(client).items()
         if name.startswith(prefix) and code in on_wall
     }
+
+
+def region_of(client: TestClient, tag_set: TagSetName, number: int) -> Region:
+    """The region pin ``number`` marks in the round on the wall (the key: tests only)."""
+    app = brain(client)
+    quiz_round = app.round_on_wall(services_of(client), "demo", state_of(client))
+    assert quiz_round is not None
+    return app.pins(quiz_round, tag_set)[number]
 
 
 def every_pin(client: TestClient, tag_set: str) -> dict[int, str]:
@@ -131,23 +144,22 @@ def test_pins_are_numbered_and_never_named_anywhere_a_student_can_read(
 def test_a_student_cannot_get_an_answer_early_by_any_route(on_wall: TestClient) -> None:
     register_student(on_wall)
     number, code = next(iter(pins_on_wall(on_wall, "full").items()))
-    region = brain(on_wall).region_of_pin("full", number)
-    assert region is not None
+    region = region_of(on_wall, "full", number)
     csrf = csrf_of(on_wall)
 
     # the instructor's Answer button, posted by a student (a replayed URL and form)
     reveal = on_wall.post(f"/apps/brain/demo/pins/{code}/reveal", data={"csrf": csrf})
     assert reveal.status_code == 403
-    assert region.name not in reveal.text
+    assert escape(region.name) not in reveal.text
     # the staff API with the class's statistics and the CSV export
     assert on_wall.get("/api/walls/demo/brain").status_code == 401
     assert on_wall.get("/api/walls/demo/brain/answers.csv").status_code == 401
     # the progress page before finishing, and finishing before answering everything
     answer(on_wall, code, "no idea")
     progress = on_wall.get("/apps/brain/demo/quiz/full")
-    assert progress.status_code == 200 and region.name not in progress.text
+    assert progress.status_code == 200 and escape(region.name) not in progress.text
     finish = on_wall.post("/apps/brain/demo/quiz/full/finish", data={"csrf": csrf})
-    assert "still need an answer" in finish.text and region.name not in finish.text
+    assert "still need an answer" in finish.text and escape(region.name) not in finish.text
     # the tutor page and its literature search while the quiz is on
     assert on_wall.get(f"/apps/brain/demo/pins/{code}/literature").status_code == 409
     # publishing the pin's page to the public screen
@@ -160,15 +172,14 @@ def test_a_student_cannot_get_an_answer_early_by_any_route(on_wall: TestClient) 
 def test_an_instructor_sees_the_answer_at_once(on_wall: TestClient) -> None:
     sign_in(on_wall, "instructor")
     number, code = next(iter(pins_on_wall(on_wall, "full").items()))
-    region = brain(on_wall).region_of_pin("full", number)
-    assert region is not None
+    region = region_of(on_wall, "full", number)
     page = on_wall.get(f"/t/{code}")
     assert 'id="reveal"' in page.text
 
     revealed = on_wall.post(f"/apps/brain/demo/pins/{code}/reveal", data={"csrf": csrf_of(on_wall)})
 
     assert revealed.status_code == 200
-    assert region.name in revealed.text
+    assert escape(region.name) in revealed.text
 
 
 def test_the_reveal_needs_the_csrf_token(on_wall: TestClient) -> None:
@@ -177,40 +188,166 @@ def test_the_reveal_needs_the_csrf_token(on_wall: TestClient) -> None:
     assert on_wall.post(f"/apps/brain/demo/pins/{code}/reveal").status_code == 403
 
 
-def test_a_student_answers_every_k5_pin_finishes_and_sees_results(on_wall: TestClient) -> None:
-    app = brain(on_wall)
+def answer_every_pin(client: TestClient, pins: dict[int, str], texts: dict[int, str]) -> None:
+    for number, code in sorted(pins.items()):
+        response = answer(client, code, texts[number])
+        assert response.status_code == 303, response.text
+
+
+def finish_set(client: TestClient, tag_set: str) -> str:
+    client.post(f"/apps/brain/demo/quiz/{tag_set}/finish", data={"csrf": csrf_of(client)})
+    return client.get(f"/apps/brain/demo/quiz/{tag_set}").text
+
+
+def test_finishing_shows_no_name_until_the_instructor_closes_the_round(
+    on_wall: TestClient,
+) -> None:
     control(on_wall, tag_set="k5")
     pins = every_pin(on_wall, "k5")
+    names = {n: region_of(on_wall, "k5", n).name for n in pins}
     register_student(on_wall)
-    regions = app.regions("k5")
-    for number, code in sorted(pins.items()):
-        region = regions[number - 1]
-        text = region.name if number % 2 else "the wrong thing"
-        response = answer(on_wall, code, text)
-        assert response.status_code == 303
-        assert response.headers["location"] == "/apps/brain/demo/quiz/k5"
+    answer_every_pin(on_wall, pins, {n: names[n] if n % 2 else "the wrong thing" for n in pins})
     # answers may change until finishing
-    answer(on_wall, pins[2], regions[1].name.upper())
+    answer(on_wall, pins[2], names[2].upper())
 
     before = on_wall.get("/apps/brain/demo/quiz/k5").text
     assert 'id="finish"' in before
-    assert regions[3].name not in before
-    on_wall.post("/apps/brain/demo/quiz/k5/finish", data={"csrf": csrf_of(on_wall)})
+    finished = finish_set(on_wall, "k5")
+
+    assert "You are done" in finished
+    wrong = [names[n] for n in pins if n % 2 == 0 and n != 2]
+    assert not [name for name in wrong if escape(name) in finished]
+    assert "✓" not in finished and "✗" not in finished and 'id="score"' not in finished
+    late = answer(on_wall, pins[4], names[4])
+    assert late.status_code == 422 and "final" in late.text
+
+    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
 
     results = on_wall.get("/apps/brain/demo/quiz/k5").text
     right = sum(1 for n in pins if n % 2) + 1
-    assert f"{right} of {len(regions)} right" in results
-    assert all(r.name in results for r in regions)
-    late = answer(on_wall, pins[4], regions[3].name)
-    assert late.status_code == 422 and "final" in late.text
+    assert f"{right} of {len(pins)} right" in results
+    assert all(escape(name) in results for name in names.values())
+
+
+def test_a_throw_away_visitor_learns_nothing_that_still_counts(on_wall: TestClient) -> None:
+    """The harvest of issue 16: a private tab answers "x" everywhere and finishes,
+    hoping to read the key, then the real phone answers. Nothing is shown until the
+    round closes; once it has, no answer counts any more."""
+    pins = every_pin(on_wall, "full")
+    names = {n: region_of(on_wall, "full", n).name for n in pins}
+    real = TestClient(on_wall.app, base_url=str(on_wall.base_url))
+    register_student(real)
+    register_student(on_wall)  # the throw-away visitor
+    answer_every_pin(on_wall, pins, dict.fromkeys(pins, "x"))
+
+    harvest = finish_set(on_wall, "full")
+    for code in pins.values():
+        harvest += on_wall.get(f"/apps/brain/demo/pins/{code}").text
+        harvest += on_wall.get(f"/t/{code}").text
+    assert not [name for name in names.values() if escape(name) in harvest]
+
+    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    results = on_wall.get("/apps/brain/demo/quiz/full").text
+    assert all(escape(name) in results for name in names.values())  # the key, worthless now
+    number, code = next(iter(pins.items()))
+    late = answer(real, code, names[number])
+    assert late.status_code == 422 and "closed" in late.text
+    assert control(on_wall)["quiz"]["full"]["participants"] == 1
+
+
+def test_names_at_finishing_when_the_instructor_chose_that_for_the_round(
+    on_wall: TestClient,
+) -> None:
+    reset = on_wall.post(
+        "/api/walls/demo/brain/quiz/reset",
+        json={"reveal": "finish"},
+        headers=operator_headers(on_wall),
+    )
+    assert reset.status_code == 200 and reset.json()["round"]["reveal"] == "finish"
+    control(on_wall, tag_set="k5")
+    pins = every_pin(on_wall, "k5")
+    names = {n: region_of(on_wall, "k5", n).name for n in pins}
+    register_student(on_wall)
+    answer_every_pin(on_wall, pins, names)
+
+    results = finish_set(on_wall, "k5")
+
+    assert f"{len(pins)} of {len(pins)} right" in results
+    assert all(escape(name) in results for name in names.values())
+
+
+def test_each_round_numbers_the_pins_afresh_under_new_codes(on_wall: TestClient) -> None:
+    app = brain(on_wall)
+    first = app.round_on_wall(services_of(on_wall), "demo", state_of(on_wall))
+    old = pins_on_wall(on_wall, "full")
+    version = read_state(services_of(on_wall).db, "demo")[0]
+
+    status = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+
+    assert status.json()["round"]["number"] == 2 and status.json()["round"]["open"]
+    second = app.round_on_wall(services_of(on_wall), "demo", state_of(on_wall))
+    assert first is not None and second is not None
+    closed = get_round(services_of(on_wall).db, "demo", first.number)
+    assert closed is not None and not closed.open
+    assert first.orders["full"] != second.orders["full"]
+    assert {r.id for r in app.regions("full")} == set(second.orders["full"])
+    new = pins_on_wall(on_wall, "full")
+    assert new and not set(new.values()) & set(old.values())
+    # the round's codes and numbering came in one change of the wall state
+    changes = events_since(services_of(on_wall).db, "demo", version)
+    assert changes is not None and len(changes) == 1
+    assert {"quiz_round", "tag_layout"} <= set(changes[0].changes)
+    # an old code: a friendly page, not an error
+    register_student(on_wall)
+    page = on_wall.get(f"/t/{next(iter(old.values()))}")
+    assert page.status_code == 200 and "A new round has started" in page.text
+    again = on_wall.get(f"/apps/brain/demo/pins/{next(iter(old.values()))}")
+    assert again.status_code == 200 and "A new round has started" in again.text
+    stale = answer(on_wall, next(iter(old.values())), "thalamus")
+    assert stale.status_code == 409 and "A new round has started" in stale.text
+
+
+def test_my_quiz_sends_students_only_to_views_where_the_pin_has_a_code(
+    on_wall: TestClient,
+) -> None:
+    """Issue 17: hints named views where the pin had no code (pin 9 -> "Left side",
+    unplaced there). Every view named for an open pin places that pin's code."""
+    register_student(on_wall)
+    page = on_wall.get("/apps/brain/demo/quiz/full").text
+    hints = re.findall(r"<li>([^<:]+): ([^<]+)</li>", page.split('id="open-by-view"')[1])
+    assert hints
+    named = {str(escape(p.name)): p.id for p in brain(on_wall).views}
+    for view, pins in hints:
+        control(on_wall, preset=named[view])
+        placed = pins_on_wall(on_wall, "full")
+        numbers = {int(n.removeprefix("pin ")) for n in pins.split(", ")}
+        assert numbers <= set(placed), f"{view}: pins {numbers - set(placed)} have no code"
+    # and the pins placed now are the ones "on the wall now"
+    now = on_wall.get("/apps/brain/demo/quiz/full").text
+    shown = re.search(r'id="open-now">On the wall now: ([^<]+)</p>', now)
+    assert shown is not None
+    assert {int(n.removeprefix("pin ")) for n in shown.group(1).split(", ")} == set(
+        pins_on_wall(on_wall, "full")
+    )
+
+
+def test_a_round_starts_with_the_brain_and_pin_one_is_not_always_the_same_region(
+    client: TestClient,
+) -> None:
+    firsts = set()
+    for _ in range(3):
+        show_brain(client)
+        firsts.add(region_of(client, "full", 1).id)
+        client.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(client))
+        firsts.add(region_of(client, "full", 1).id)
+    assert len(firsts) > 1  # 6 draws from 23: all equal has chance 23**-5
 
 
 def test_answers_are_judged_tolerantly(on_wall: TestClient) -> None:
     register_student(on_wall)
     pins = pins_on_wall(on_wall, "full")
     number, code = next(iter(pins.items()))
-    region = brain(on_wall).region_of_pin("full", number)
-    assert region is not None
+    region = region_of(on_wall, "full", number)
     answer(on_wall, code, f"  left {region.name.lower()}  ")
 
     stats = control(on_wall)["quiz"]["full"]["regions"][number - 1]
@@ -248,22 +385,58 @@ def test_unknown_pins_and_sets_are_404(on_wall: TestClient) -> None:
     assert on_wall.get(f"/apps/brain/demo/pins/{census_like}").status_code == 404
 
 
-def test_scanning_a_group_code_sets_the_visitors_group_and_the_walls_pins(
+def scan_group(client: TestClient, group: str) -> str:
+    page = client.get(f"/t/{brain_codes(client)[f'brain:group:{group}']}")
+    assert page.status_code == 200
+    return page.text
+
+
+def test_a_group_scan_sets_the_phones_group_and_leaves_the_walls_pins(
     on_wall: TestClient,
 ) -> None:
+    """Issue 17: one child's K-5 scan removed the full set from the medical students'
+    wall mid-quiz. The group is the phone's; the wall keeps its pins."""
     register_student(on_wall)
-    code = brain_codes(on_wall)["brain:group:k5"]
+    version = read_state(services_of(on_wall).db, "demo")[0]
 
-    page = on_wall.get(f"/t/{code}")
+    page = scan_group(on_wall, "k5")
 
-    assert page.status_code == 200 and "K-5" in page.text
+    assert "You are in the K-5 group" in page and "your instructor chooses" in page
+    assert 'value="k5" selected' in on_wall.get("/me").text
+    assert state_of(on_wall).tag_set == "brain-full"
+    assert read_state(services_of(on_wall).db, "demo")[0] == version
+
+
+def test_the_audience_switches_the_wall_only_where_allowed_never_mid_round_once_a_cooldown(
+    on_wall: TestClient,
+) -> None:
+    status = control(on_wall, audience_switches=True)
+    assert status["audience_switches"] and status["round"]["open"]
+    register_student(on_wall)
+
+    running = scan_group(on_wall, "k5")
+
+    assert "a quiz round is running" in running
+    assert state_of(on_wall).tag_set == "brain-full"
+
+    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    switched = scan_group(on_wall, "k5")
+    assert "The wall now shows the pins for young explorers" in switched
     assert state_of(on_wall).tag_set == "brain-k5"
     assert pins_on_wall(on_wall, "k5") and not pins_on_wall(on_wall, "full")
-    assert 'value="k5" selected' in on_wall.get("/me").text
+
+    again = scan_group(on_wall, "medical")  # within the cooldown
+    assert "switched a moment ago" in again
+    assert state_of(on_wall).tag_set == "brain-k5"
+    # the instructor's own switch does not wait
+    assert control(on_wall, tag_set="full")["tag_set"] == "full"
 
 
-def test_phones_choose_a_group_without_the_menu_screen(on_wall: TestClient) -> None:
-    """Walls whose menu screen holds fewer codes (or none) still let phones switch."""
+def test_phones_choose_their_group_without_the_menu_screen(on_wall: TestClient) -> None:
+    """Walls whose menu screen holds fewer codes (or none) still let phones choose;
+    the choice is the phone's, whatever the wall allows."""
+    control(on_wall, audience_switches=True)
+    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
     register_student(on_wall)
     listed = on_wall.get("/apps/brain/demo/groups")
     assert listed.status_code == 200
@@ -272,7 +445,7 @@ def test_phones_choose_a_group_without_the_menu_screen(on_wall: TestClient) -> N
     chosen = on_wall.post("/apps/brain/demo/groups/k5", data={"csrf": csrf_of(on_wall)})
 
     assert chosen.status_code == 200 and "K-5 group" in chosen.text
-    assert state_of(on_wall).tag_set == "brain-k5"
+    assert state_of(on_wall).tag_set == "brain-full"
     unknown = on_wall.post("/apps/brain/demo/groups/wizards", data={"csrf": csrf_of(on_wall)})
     assert unknown.status_code == 404
     assert on_wall.post("/apps/brain/demo/groups/k5").status_code == 403  # no CSRF token
@@ -284,18 +457,46 @@ def test_tutor_mode_shows_the_page_for_the_visitors_group_and_publishes_it_in_fu
     control(on_wall, mode="tutor")
     register_student(on_wall)
     number, code = next(iter(pins_on_wall(on_wall, "full").items()))
-    region = brain(on_wall).region_of_pin("full", number)
-    assert region is not None
+    region = region_of(on_wall, "full", number)
 
     page = on_wall.get(f"/t/{code}")
 
-    assert page.status_code == 200 and region.name in page.text
+    assert page.status_code == 200 and escape(region.name) in page.text
     assert "For the Undergraduate group" in page.text
     published = on_wall.post("/publish", data={"csrf": csrf_of(on_wall), "code": code})
     assert published.status_code in (200, 303)
     public = state_of(on_wall).public
     assert public is not None and public.title == region.name
     assert "<script" not in public.html
+    # journal and book titles are italics, not asterisks, on the phone and the screen
+    assert "<em>" in page.text and "*" not in page.text.split('id="tutor-text"')[1]
+    assert "<em>" in public.html and "*" not in public.html
+
+
+def opening(text: str) -> str:
+    """A tutor text's first paragraph as the phone shows it."""
+    return str(markdown_html(text.strip().split("\n\n")[0])).strip()
+
+
+def test_a_child_on_a_full_set_pin_gets_the_childrens_text(on_wall: TestClient) -> None:
+    control(on_wall, mode="tutor")
+    register_student(on_wall)
+    on_wall.post("/apps/brain/demo/groups/k5", data={"csrf": csrf_of(on_wall)})
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    region = region_of(on_wall, "full", number)
+    tutor = brain(on_wall).content.tutors[region.id]
+    assert tutor.k5 is not None and tutor.undergraduate is not None
+
+    page = on_wall.get(f"/t/{code}").text
+
+    assert "For the K-5 group" in page
+    assert opening(tutor.k5.text) in page
+    assert opening(tutor.undergraduate.text) not in page
+    # and an undergraduate on a K-5 pin is told whom its text was written for
+    on_wall.post("/apps/brain/demo/groups/undergraduate", data={"csrf": csrf_of(on_wall)})
+    control(on_wall, tag_set="k5")
+    _, k5_code = next(iter(pins_on_wall(on_wall, "k5").items()))
+    assert "For the K-5 group" in on_wall.get(f"/t/{k5_code}").text
 
 
 def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(
@@ -306,11 +507,15 @@ def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(
     assert (status["mode"], status["tag_set"]) == ("tutor", "k5")
     state = state_of(on_wall)
     assert state.view == app.views[1].view
-    assert status["round"] == 1
+    # tutor pages name every pin: the running round closed with the switch
+    assert (status["round"]["number"], status["round"]["open"]) == (1, False)
+    back = control(on_wall, mode="quiz")  # and quiz mode starts the next one
+    assert (back["round"]["number"], back["round"]["open"]) == (2, True)
+    assert state_of(on_wall).quiz_round == 2
 
     reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
 
-    assert reset.status_code == 200 and reset.json()["round"] == 2
+    assert reset.status_code == 200 and reset.json()["round"]["number"] == 3
     bad = on_wall.post(
         "/api/walls/demo/brain", json={"preset": "nowhere"}, headers=operator_headers(on_wall)
     )

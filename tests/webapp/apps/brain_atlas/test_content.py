@@ -59,10 +59,26 @@ def small(tmp_path: Path) -> Path:
     write(
         tmp_path,
         "tutor/precentral-gyrus.yaml",
-        {"undergraduate": dict(group), "medical": dict(group), "research": research},
+        {
+            "k5": {"text": TEXT},
+            "undergraduate": dict(group),
+            "medical": dict(group),
+            "research": research,
+        },
     )
     write(tmp_path, "tutor/brainstem.yaml", {"k5": {"text": TEXT}})
     return tmp_path
+
+
+def test_every_full_set_region_needs_a_childrens_text_too(small: Path) -> None:
+    """Children scan full-set pins as well: "For the K-5 group" must head a text for
+    children, never the undergraduate one."""
+    path = small / "tutor/precentral-gyrus.yaml"
+    data = yaml.safe_load(path.read_text())
+    del data["k5"]
+    path.write_text(yaml.safe_dump(data))
+
+    assert check(small) == ["tutor/precentral-gyrus.yaml: no text for k5"]
 
 
 def test_a_correct_folder_loads(small: Path) -> None:

@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from wall_client.layout import apply_affine, parse_wall
+from wall_client.layout import apply_affine, load_wall, parse_wall
 from webapp.apps.brain_atlas import pins as pins_module
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import (
@@ -39,6 +39,7 @@ from webapp.apps.brain_atlas.pins import (
     visible_regions,
 )
 from webapp.apps.brain_atlas.views import ViewPreset
+from webapp.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer, lookup_table
 from webapp.volume.render import Camera, Footprint, clip_box, scene_to_plane, slice_depth
 from webapp.volume.store import VolumeMeta
@@ -370,7 +371,7 @@ def test_the_clip_box_hides_what_lies_outside_it() -> None:
 
 # --- plane and scene ----------------------------------------------------------------
 
-WALL_SIZES = [(3649.8, 1374.8), (1200.0, 1600.0)]
+WALLS = ["demo", "irregular"]  # a wide stage, and a tall one
 VIEWS = [
     View(),
     View(zoom=1.8, center=(0.35, 0.6)),
@@ -378,30 +379,33 @@ VIEWS = [
 ]
 
 
-@pytest.mark.parametrize("wall_size", WALL_SIZES)
+@pytest.mark.parametrize("wall_id", WALLS)
 @pytest.mark.parametrize("view", VIEWS)
-def test_pins_go_plane_to_scene_and_back(
-    volumes: AtlasVolumes, wall_size: tuple[float, float], view: View
-) -> None:
+def test_pins_go_plane_to_scene_and_back(volumes: AtlasVolumes, wall_id: str, view: View) -> None:
     rng = np.random.default_rng(11)
     plane = {
         f"p{n}": PlanePin(u=float(u), v=float(v), depth=0.0, area=30.0)
         for n, (u, v) in enumerate(rng.uniform(-120, 120, (40, 2)))
     }
-    placed = scene_pins(plane, wall_size, view, volumes.meta)
-    to_plane = scene_to_plane(view, wall_size, volumes.meta)
-    width, height = wall_size
+    wall = load_wall(CONTENT_DIR / "walls" / f"{wall_id}.toml")
+    placed = scene_pins(plane, wall, view, volumes.meta)
+    to_plane = scene_to_plane(view, wall.stage, volumes.meta)
+    width, height = wall.width, wall.height
+    panels = [wall.viewport(d).scene_rect for d in wall.designated()]
     for region_id, pin in plane.items():
         if region_id not in placed:
-            # left out only when off the scene
+            # left out only when off the wall or under a designated screen
             to_scene = np.linalg.inv(
                 np.array([[to_plane[0], to_plane[2]], [to_plane[1], to_plane[3]]])
             ) @ (np.array([pin.u, pin.v]) - np.array(to_plane[4:]))
             x, y = to_scene
-            assert not (0 <= x <= width and 0 <= y <= height)
+            assert not (0 <= x <= width and 0 <= y <= height) or any(
+                panel.contains((x, y)) for panel in panels
+            )
             continue
         x, y = placed[region_id]
         assert 0 <= x <= width and 0 <= y <= height
+        assert not any(panel.contains((x, y)) for panel in panels)
         assert apply_affine(to_plane, x, y) == pytest.approx((pin.u, pin.v))
     assert placed  # some always land
 
@@ -425,10 +429,10 @@ def test_a_scene_pin_is_where_the_tile_draws_its_plane_point(volumes: AtlasVolum
     )
     view = View(zoom=1.4, center=(0.45, 0.55), yaw=-90)
     pin = PlanePin(u=-31.0, v=12.5, depth=0.0, area=30.0)
-    x, y = scene_pins({"r": pin}, (wall.width, wall.height), view, volumes.meta)["r"]
+    x, y = scene_pins({"r": pin}, wall, view, volumes.meta)["r"]
     display = next(d for d in wall.displays if d.rect.x <= x < d.rect.x + d.rect.width)
     viewport = wall.viewport(display.id)
-    footprint = Footprint.of(viewport, view, (wall.width, wall.height), volumes.meta)
+    footprint = Footprint.of(viewport, view, wall.stage, volumes.meta)
     px, py = apply_affine(viewport.to_pixels, x, y)
     assert apply_affine(footprint.to_plane, px, py) == pytest.approx((pin.u, pin.v))
 

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 import yaml
 
-from wall_client.layout import load_walls
+from wall_client.layout import Wall, load_walls
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache
 from webapp.apps.brain_atlas.views import (
@@ -29,9 +29,9 @@ def cache() -> PinCache:
     return PinCache()
 
 
-def wall_sizes() -> list[tuple[str, tuple[float, float]]]:
+def shipped_walls() -> list[tuple[str, Wall]]:
     walls = load_walls(sorted((CONTENT_DIR / "walls").glob("*.toml")))
-    return [(wall_id, (wall.width, wall.height)) for wall_id, wall in sorted(walls.items())]
+    return sorted(walls.items())
 
 
 # --- the presets in content/brain_atlas/views.yaml ---------------------------------
@@ -65,18 +65,18 @@ def test_every_region_of_both_sets_shows_in_a_preset(
         assert area >= COMFORTABLE, (region.id, best, area)
 
 
-@pytest.mark.parametrize(("wall_id", "wall_size"), wall_sizes())
+@pytest.mark.parametrize(("wall_id", "wall"), shipped_walls())
 def test_every_region_has_its_pin_on_each_walls_scene(
     volumes: AtlasVolumes,
     regions: list[Region],
     presets: list[ViewPreset],
     cache: PinCache,
     wall_id: str,
-    wall_size: tuple[float, float],
+    wall: Wall,
 ) -> None:
     """Zoomed presets leave the edges of the picture off the wall: the pins that
     matter still land on it."""
-    shown = showing(presets, regions, volumes, cache, wall_size)
+    shown = showing(presets, regions, volumes, cache, wall)
     nowhere = sorted(region_id for region_id, where in shown.items() if not where)
     assert not nowhere, f"{wall_id}: no pin on the scene for {nowhere}"
 

@@ -100,19 +100,21 @@ def test_zooming_in_places_more_codes_in_the_same_change(client: TestClient) -> 
 
 def test_a_tile_gets_its_share_of_the_map_with_codes_and_toggles(client: TestClient) -> None:
     state = show_census(client)
-    body = tile_map(client, state, "r1c2")
+    body = tile_map(client, state, "r2c2")  # the map is framed on the stage, r2c2 and r2c3
     assert body["dataset"] == state.dataset and body["tracts"]
+    assert not tile_map(client, state, "r1c2")["tracts"], "nothing lies under the public screen"
     codes = census_codes(client)
     tract_codes = {codes[f"census:tract:{t['id']}"] for t in body["tracts"] if t["code"]}
     assert tract_codes == {t["code"] for t in body["tracts"] if t["code"]}
     groups = {codes[f"census:group:{g}"]: g for g in body["toggles"].values()}
+    groups_of_map = set(groups.values())
     assert body["toggles"] == groups and len(groups) == 10
-    carried = sum(
-        1
-        for p in placed(client, state)
-        if p["code"] in {c for n, c in codes.items() if n.startswith("census:tract:")}
-    )
-    assert f"{carried} of 403 tracts carry a code" in body["caption"]
+    on_wall = {p["code"] for p in placed(client, state)}
+    carried = sum(1 for n, c in codes.items() if n.startswith("census:tract:") and c in on_wall)
+    clusters = {c for n, c in codes.items() if n.startswith("census:cluster:") and c in on_wall}
+    assert clusters and set(body["clusters"]) == clusters
+    assert all(set(groups) <= set(groups_of_map) for groups in body["clusters"].values())
+    assert f"{carried} of 403 tracts carry their own code" in body["caption"]
 
 
 @pytest.mark.parametrize(

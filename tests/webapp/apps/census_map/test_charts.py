@@ -15,9 +15,11 @@ from shapely.geometry import box, shape
 
 from webapp.apps.census_map.charts import (
     BACKGROUND,
+    INNER,
     MUTED,
     PALETTE,
     TEXT,
+    WIDTH,
     ChartStats,
     Spread,
     charts_for,
@@ -94,9 +96,9 @@ def test_parts_shares_and_the_rest() -> None:
     assert "Rest · 80 · 40.0%" in lines
     assert not any("overlap" in line for line in lines)
     widths = segment_widths(svg)
-    assert widths["A"] == pytest.approx(344 * 0.3, abs=0.1)
-    assert widths["B1 B2"] == pytest.approx(344 * 0.3, abs=0.1)
-    assert widths["N A B1 B2"] == pytest.approx(344 * 0.4, abs=0.1)  # the rest's inputs
+    assert widths["A"] == pytest.approx(INNER * 0.3, abs=0.1)
+    assert widths["B1 B2"] == pytest.approx(INNER * 0.3, abs=0.1)
+    assert widths["N A B1 B2"] == pytest.approx(INNER * 0.4, abs=0.1)  # the rest's inputs
 
 
 def test_parts_that_overlap_are_shares_of_the_parts_shown() -> None:
@@ -112,7 +114,7 @@ def test_parts_that_overlap_are_shares_of_the_parts_shown() -> None:
     assert "Hispanic · 30 · 25.0%" in lines
     assert "Other · 0 · 0.0%" in lines  # the rest is clamped at 0
     assert any("shares of the parts shown" in line.lower() for line in lines)
-    assert sum(segment_widths(svg).values()) == pytest.approx(344, abs=0.1)
+    assert sum(segment_widths(svg).values()) == pytest.approx(INNER, abs=0.1)
 
 
 def test_parts_without_a_rest_leave_the_bar_short_of_the_total() -> None:
@@ -120,7 +122,7 @@ def test_parts_without_a_rest_leave_the_bar_short_of_the_total() -> None:
     svg = render(dataset([chart], [tract("1", {"N": 10, "A": 2, "B": 3})]))
 
     assert "A · 2 · 20.0%" in texts(svg)
-    assert sum(segment_widths(svg).values()) == pytest.approx(344 * 0.5, abs=0.1)
+    assert sum(segment_widths(svg).values()) == pytest.approx(INNER * 0.5, abs=0.1)
 
 
 @pytest.mark.parametrize(
@@ -186,7 +188,7 @@ def test_compare_draws_this_tract_against_all_tracts() -> None:
     root = ET.fromstring(svg)
     (dot,) = [c for c in root.iter(f"{SVG}circle") if c.get("class") == "tract"]
     (tick,) = [line for line in root.iter(f"{SVG}line") if line.get("class") == "median"]
-    left, right = 16, 344  # the scale inside the margins
+    left, right = 16, WIDTH - 16  # the scale inside the margins
     assert float(dot.attrib["cx"]) == pytest.approx(left + (right - left) * 0.25, abs=0.1)
     assert float(tick.attrib["x1"]) == pytest.approx((left + right) / 2, abs=0.1)
     assert data_keys(svg) == {"V"}
@@ -195,6 +197,23 @@ def test_compare_draws_this_tract_against_all_tracts() -> None:
     missing = charts_for(data, tracts[-1], 1, stats)[0]
     assert "This tract: not available" in texts(missing)
     assert not [c for c in ET.fromstring(missing).iter(f"{SVG}circle") if c.get("class")]
+
+
+def test_range_ends_that_would_meet_go_on_two_lines() -> None:
+    """At 16 units, "lowest $14,400" and "highest $10,000,000" do not fit one line."""
+    values = [14_400, 200_000, 10_000_000]
+    tracts = [tract(str(i), {"V": v}, x=i) for i, v in enumerate(values)]
+    chart = Chart(title="Values", kind="compare", keys=["V"])
+    attributes = [Attribute(key="V", label="Home value", kind="money")]
+    settings = DataSetSettings(title="t", headline=["V"], attributes=attributes, charts=[chart])
+    data = DataSet(id=8, name="t", settings=settings, tracts=tuple(tracts))
+
+    root = ET.fromstring(charts_for(data, tracts[0], 1, ChartStats())[0])
+
+    ends = {t.text: t for t in root.iter(f"{SVG}text") if (t.text or "").startswith(("low", "hi"))}
+    low, high = ends["lowest $14,400"], ends["highest $10,000,000"]
+    assert float(high.attrib["y"]) > float(low.attrib["y"])  # the next line, not on top
+    assert high.attrib["text-anchor"] == "end"
 
 
 def test_compare_with_no_values_anywhere_is_not_available() -> None:
@@ -318,12 +337,13 @@ def test_every_shipped_chart_is_well_formed_phone_readable_svg(sacramento: DataS
         for svg in svgs:
             root = ET.fromstring(svg)  # well-formed XML, as the page inlines it with |safe
             assert root.tag == f"{SVG}svg"
-            assert root.attrib["viewBox"].startswith("0 0 360 ")
+            assert root.attrib["viewBox"].startswith("0 0 320 ")
             assert root.attrib["width"] == "100%"
             assert root.attrib["role"] == "img"
             ids = [e.attrib["id"] for e in root.iter() if "id" in e.attrib]
             assert root.attrib["aria-labelledby"] in ids
             page_ids += ids
-            assert all(int(t.attrib["font-size"]) >= 13 for t in root.iter(f"{SVG}text"))
+            # drawn at least 328 px wide on a 360 px phone: 16 units read at 16 px or more
+            assert all(int(t.attrib["font-size"]) >= 16 for t in root.iter(f"{SVG}text"))
             assert not re.search(r"<script|href|url\(|@import|\son\w+=", svg)
         assert len(page_ids) == len(set(page_ids))

@@ -103,6 +103,13 @@ def test_values_are_written_for_reading(shipped: DataSet) -> None:
     assert shipped.tract_title(shipped.tracts[0]) == "Tract 220.01, Placer"
 
 
+def test_the_shipped_labels_are_words_not_column_codes(shipped: DataSet) -> None:
+    labels = [label for label, _ in shipped.facts(shipped.tracts[0], 5)]
+    codes = [a.key for a in shipped.settings.attributes]
+    assert not [label for label in labels if any(code in label for code in codes)]
+    assert "Employed civilians in production occupations" in labels
+
+
 def test_default_settings_spread_the_columns_over_the_classes() -> None:
     settings = default_settings("Maricopa", [f"C{i}" for i in range(12)])
     assert settings.headline == ["C0", "C1", "C2", "C3"]

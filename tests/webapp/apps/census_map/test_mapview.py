@@ -15,12 +15,14 @@ from wall_client.layout import Wall, load_walls
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.mapview import (
     MARGIN,
+    MAX_CLUSTER_TRACTS,
     SIMPLIFY_PX,
     MapGeometry,
     code_anchors,
     label_mm,
     projection,
     tile_view,
+    tract_codes,
 )
 from webapp.settings import CONTENT_DIR
 from webapp.wall_state import View
@@ -30,7 +32,8 @@ from webapp.wall_state import View
 def walls() -> dict[str, Wall]:
     loaded = load_walls([CONTENT_DIR / "walls"])
     # the demo wall with every display showing the map (no panels)
-    return {**loaded, "open": dataclasses.replace(loaded["demo"], id="open", screens={})}
+    open_wall = dataclasses.replace(loaded["demo"], id="open", screens={}, stage_ids=())
+    return {**loaded, "open": open_wall}
 
 
 def scene_extent(geometry: MapGeometry, wall: Wall, view: View) -> tuple[float, ...]:
@@ -39,15 +42,19 @@ def scene_extent(geometry: MapGeometry, wall: Wall, view: View) -> tuple[float, 
     return (*project.point(minx, miny), *project.point(maxx, maxy))
 
 
-def test_at_zoom_one_the_data_fills_the_wall_centred(walls: dict[str, Wall]) -> None:
+def test_at_zoom_one_the_data_fills_the_stage_centred(walls: dict[str, Wall]) -> None:
+    """The demo's stage is r2c2 and r2c3: the map lies clear of the public, menu and
+    registration screens."""
     wall = walls["demo"]
+    stage = wall.stage
     geometry = MapGeometry.of(grid_dataset())
     x0, y0, x1, y1 = scene_extent(geometry, wall, View())
-    assert x0 >= wall.width * MARGIN - 1e-6 and x1 <= wall.width * (1 - MARGIN) + 1e-6
-    assert y0 >= wall.height * MARGIN - 1e-6 and y1 <= wall.height * (1 - MARGIN) + 1e-6
-    assert (x0 + x1) / 2 == pytest.approx(wall.width / 2)
-    assert (y0 + y1) / 2 == pytest.approx(wall.height / 2)
-    assert min(x0 - 0, y0 - 0) == pytest.approx(min(wall.width, wall.height) * MARGIN, rel=0.5)
+    assert x0 >= stage.x + stage.width * MARGIN - 1e-6
+    assert x1 <= stage.right - stage.width * MARGIN + 1e-6
+    assert y0 >= stage.y + stage.height * MARGIN - 1e-6
+    assert y1 <= stage.bottom - stage.height * MARGIN + 1e-6
+    assert ((x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(stage.center)
+    assert y0 - stage.y == pytest.approx(stage.height * MARGIN, rel=0.01), "fills its height"
 
 
 def test_pan_and_zoom_move_the_map_like_every_scene_layer(walls: dict[str, Wall]) -> None:
@@ -57,9 +64,9 @@ def test_pan_and_zoom_move_the_map_like_every_scene_layer(walls: dict[str, Wall]
     panned = projection(geometry, wall, View(center=(0.6, 0.5)))
     zoomed = projection(geometry, wall, View(zoom=2))
     u, v = geometry.label_points[0]
-    assert panned.point(u, v)[0] == pytest.approx(base.point(u, v)[0] - 0.1 * wall.width)
-    # zooming about the wall's centre doubles every distance from it
-    cx, cy = wall.width / 2, wall.height / 2
+    assert panned.point(u, v)[0] == pytest.approx(base.point(u, v)[0] - 0.1 * wall.stage.width)
+    # zooming about the stage's centre doubles every distance from it
+    cx, cy = wall.stage.center
     bx, by = base.point(u, v)
     zx, zy = zoomed.point(u, v)
     assert (zx - cx, zy - cy) == pytest.approx((2 * (bx - cx), 2 * (by - cy)))
@@ -165,7 +172,8 @@ def test_no_code_stands_on_a_panel_or_on_another_code(walls: dict[str, Wall]) ->
         for d in map(wall.display, ids)
     ]
     side = 150.0
-    anchors = code_anchors(geometry, wall, View(), side)
+    zoomed = View(zoom=2.5)  # the map reaches beyond the stage, under the panels
+    anchors = code_anchors(geometry, wall, zoomed, side)
     assert anchors
     for x, y in anchors.values():
         assert not any(r.x <= x < r.right and r.y <= y < r.bottom for r in panels)
@@ -175,3 +183,55 @@ def test_no_code_stands_on_a_panel_or_on_another_code(walls: dict[str, Wall]) ->
             assert abs(x - ox) >= side or abs(y - oy) >= side
     everywhere = code_anchors(geometry, walls["open"], View(), 1.0)
     assert len(everywhere) == len(data.tracts) > len(anchors)
+
+
+# --- own codes and cluster codes ---------------------------------------------------------
+
+
+FOOTPRINT = (156.0, 177.0)  # a 104 mm walk-up code with its caption and gap, on the demo
+
+
+def test_every_tract_on_the_map_gets_its_own_code_or_a_cluster_code(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    wall = walls["demo"]
+    geometry = MapGeometry.of(shipped)
+    codes = tract_codes(geometry, wall, View(), 104.0, FOOTPRINT)
+    clustered = [g for cluster in codes.clusters for g in cluster.geoids]
+    assert len(clustered) == len(set(clustered)), "a tract is in one cluster at most"
+    assert set(clustered).isdisjoint(codes.own)
+    assert len(clustered) + len(codes.own) == len(shipped.tracts) == 403
+    assert all(2 <= len(c.geoids) <= MAX_CLUSTER_TRACTS for c in codes.clusters)
+    for cluster in codes.clusters:  # a cluster's code wants the middle of its tracts
+        project = projection(geometry, wall, View())
+        points = [
+            project.point(*geometry.label_points[geometry.geoids.index(g)]) for g in cluster.geoids
+        ]
+        assert cluster.anchor == pytest.approx(tuple(np.mean(points, axis=0)))
+
+
+def test_panning_keeps_the_clusters_and_zooming_in_gives_more_tracts_their_own_code(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    wall = walls["open"]
+    geometry = MapGeometry.of(shipped)
+    centred = tract_codes(geometry, wall, View(zoom=1.5), 104.0, FOOTPRINT)
+    panned = tract_codes(geometry, wall, View(zoom=1.5, center=(0.52, 0.5)), 104.0, FOOTPRINT)
+    assert {c.geoids for c in centred.clusters} == {c.geoids for c in panned.clusters}
+    closer = tract_codes(geometry, wall, View(zoom=4), 104.0, FOOTPRINT)
+    assert len(closer.own) > len(centred.own)
+
+
+def test_the_tracts_of_a_code_without_a_spot_join_the_nearest_placed_cluster(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    codes = tract_codes(MapGeometry.of(shipped), walls["demo"], View(), 104.0, FOOTPRINT)
+    keys = [key for key, _ in codes.anchors()]
+    lost = [key for key in keys if key.startswith("cluster:")][:2]
+    lost_own = next(key for key in keys if key.startswith("tract:"))
+    kept = codes.keeping(set(keys) - {*lost, lost_own})
+    assert len(kept.clusters) == len(codes.clusters) - 2
+    assert lost_own.removeprefix("tract:") not in kept.own
+    reached = set(kept.own) | {g for c in kept.clusters for g in c.geoids}
+    assert len(reached) == 403, "nobody is lost"
+    assert {c.anchor for c in kept.clusters} <= {c.anchor for c in codes.clusters}
