@@ -308,7 +308,7 @@ async def control(
     return await brain_status(wall, services, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/reset")
+@router.post("/api/walls/{wall_id}/brain/quiz/reset", responses=errors(409))
 async def reset_quiz(
     wall: WallDep, services: ServicesDep, staff: StaffDep, choice: NewRound | None = None
 ) -> BrainStatus:
@@ -327,7 +327,7 @@ async def reset_quiz(
     return await brain_status(wall, services, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/close")
+@router.post("/api/walls/{wall_id}/brain/quiz/close", responses=errors(409))
 async def close_quiz(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
     """Close the round on the wall: answers stop counting and every student sees the
     correct names and their results."""
