@@ -33,7 +33,7 @@ function apply([a, b, c, d, e, f], x, y) {
 }
 
 // A scene-mm rectangle as whole device pixels under `matrix` (rotation included).
-function pixelBox(matrix, x, y, w, h) {
+export function pixelBox(matrix, x, y, w, h) {
   const [x0, y0] = apply(matrix, x, y);
   const [x1, y1] = apply(matrix, x + w, y + h);
   const left = Math.round(Math.min(x0, x1));
@@ -75,36 +75,41 @@ function drawPins(ctx, codes, pxPerMm) {
   }
 }
 
+// A caption in its box (device pixels) on a dark backing, so nothing drawn before shows
+// through; the text turned by `angle` (upright as the panel hangs), as large as fits.
+export function drawCaption(ctx, text, [left, top, boxW, boxH], angle = 0) {
+  const turned = Math.abs(Math.sin(angle)) > 0.5;
+  ctx.save();
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.fillStyle = CAPTION_BACKING;
+  ctx.fillRect(left, top, boxW, boxH);
+  const [width, height] = turned ? [boxH, boxW] : [boxW, boxH];
+  ctx.setTransform(Math.cos(angle), Math.sin(angle), -Math.sin(angle), Math.cos(angle),
+    left + boxW / 2, top + boxH / 2);
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
+  let size = Math.floor(height * 0.8);
+  ctx.font = `bold ${size}px sans-serif`;
+  const measured = ctx.measureText(text).width;
+  if (measured > width * 0.96) {
+    size = Math.floor(size * (width * 0.96) / measured);
+    ctx.font = `bold ${size}px sans-serif`;
+  }
+  ctx.fillStyle = "#fff";
+  ctx.fillText(text, 0, 0);
+  ctx.restore();
+}
+
 // Every labelled code carries its caption in the strip placement reserved under it (same
-// display, clear of other codes and captions): on a dark backing, so nothing drawn
-// before shows through, upright as the panel hangs, in the largest type that fits.
+// display, clear of other codes and captions).
 function drawCaptions(ctx, codes, matrix) {
   const [a, b] = matrix;
   const angle = Math.atan2(b, a);  // the panel's rotation: text turns with the scene
-  const turned = Math.abs(Math.sin(angle)) > 0.5;
-  ctx.save();
-  ctx.textAlign = "center";
-  ctx.textBaseline = "middle";
   for (const code of codes) {
-    if (!code.label || !code.caption) continue;
-    const [left, top, boxW, boxH] = pixelBox(matrix, ...code.caption);
-    ctx.setTransform(1, 0, 0, 1, 0, 0);
-    ctx.fillStyle = CAPTION_BACKING;
-    ctx.fillRect(left, top, boxW, boxH);
-    const [width, height] = turned ? [boxH, boxW] : [boxW, boxH];
-    ctx.setTransform(Math.cos(angle), Math.sin(angle), -Math.sin(angle), Math.cos(angle),
-      left + boxW / 2, top + boxH / 2);
-    let size = Math.floor(height * 0.8);
-    ctx.font = `bold ${size}px sans-serif`;
-    const measured = ctx.measureText(code.label).width;
-    if (measured > width * 0.96) {
-      size = Math.floor(size * (width * 0.96) / measured);
-      ctx.font = `bold ${size}px sans-serif`;
+    if (code.label && code.caption) {
+      drawCaption(ctx, code.label, pixelBox(matrix, ...code.caption), angle);
     }
-    ctx.fillStyle = "#fff";
-    ctx.fillText(code.label, 0, 0);
   }
-  ctx.restore();
 }
 
 /**

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page, expect
@@ -83,37 +84,41 @@ def quiz_post(server: ServerProcess, action: str, **body: Any) -> None:
     response.raise_for_status()
 
 
-def caption_reads(tile: Page, image: Image.Image, box: tuple[int, int, int], total: int) -> int:
+def caption_reads(
+    tile: Page, image: Image.Image, caption: tuple[float, float, float, float], total: int
+) -> int:
     """The pin number the caption under a code shows, read off the screenshot: the
-    caption plate is compared with every candidate drawn by the tile's own caption
+    caption's strip is compared with every candidate drawn by the tile's own caption
     function; the one that matches best is what a person reads there."""
-    x, y, side = box
     candidates = tile.evaluate(
-        """async ([box, texts]) => {
-          const {drawCaption} = await import("/static/js/codes.js");
+        """async ([caption, texts]) => {
+          const {drawCaption, pixelBox} = await import("/static/js/codes.js");
+          const viewport = JSON.parse(document.body.dataset.viewport);
+          const [a, b] = viewport.to_pixels;
+          const box = pixelBox(viewport.to_pixels, ...caption);
           return texts.map((text) => {
             const canvas = new OffscreenCanvas(1920, 1080);
             const ctx = canvas.getContext("2d");
-            const [px, py, pw, ph] = drawCaption(ctx, text, box);
-            const data = ctx.getImageData(px, py, pw, ph).data;
+            drawCaption(ctx, text, box, Math.atan2(b, a));
+            const data = ctx.getImageData(...box).data;
             const grey = [];
             for (let i = 0; i < data.length; i += 4) grey.push(data[i + 1]);
-            return [[px, py, pw, ph], grey];
+            return [box, grey];
           });
         }""",
-        [[x, y, side, side], [f"Pin {n}" for n in range(1, total + 1)]],
+        [list(caption), [f"Pin {n}" for n in range(1, total + 1)]],
     )
-    green = image.convert("RGB").getchannel("G")
+    green = np.asarray(image.convert("RGB"))[:, :, 1]
     scores = []
     for number, ((px, py, pw, ph), expected) in enumerate(candidates, start=1):
-        seen = list(green.crop((px, py, px + pw, py + ph)).getdata())
-        if len(seen) != len(expected):  # the plate would leave the display
+        seen = green[py : py + ph, px : px + pw].ravel().tolist()
+        if len(seen) != len(expected):  # the strip would leave the display
             continue
         scores.append(
             (sum(abs(a - b) for a, b in zip(seen, expected, strict=True)) / len(seen), number)
         )
     best, number = min(scores)
-    assert best < 8, f"no caption plate reads as a pin number under the code at {box}"
+    assert best < 8, f"no caption reads as a pin number in the strip at {caption}"
     return number
 
 
@@ -131,7 +136,8 @@ def pins_seen(server: ServerProcess, tiles: dict[str, Page]) -> dict[int, str]:
                 continue
             number = int(entry.label.removeprefix("Pin "))
             total = len(load_content().in_set("k5" if layout.tag_set == "brain-k5" else "full"))
-            assert caption_reads(tiles[tile], image, entry.pixels, total) == number
+            assert entry.caption is not None, f"pin {number} has no caption"
+            assert caption_reads(tiles[tile], image, entry.caption, total) == number
             found[number] = code.payload
     return found
 

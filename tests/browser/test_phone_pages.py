@@ -130,7 +130,11 @@ def core_pages(tour: Tour) -> tuple[Page, Page]:
         httpx.get(f"{url}/codes/{codes[label].rsplit('/', 1)[1]}.png?scale=8").content
         for label in ("Display r2c2", "Display r2c3")
     ]
-    photo(student, "codes.png", picture_of([*two, segno_png("WIFI:T:WPA;S:room;;")]))
+    photo(student, "codes.png", picture_of(two))  # neither nearer the middle: it asks
+    expect(student.locator("h1")).to_have_text("Which code did you mean?")
+    tour.look("scan-ask", student)
+    student.goto(f"{url}/scan")
+    photo(student, "wifi.png", picture_of([segno_png("WIFI:T:WPA;S:room;;")]))
     expect(student.locator("h1")).to_have_text("What the photo shows")
     tour.look("scan-found", student)
 
