@@ -33,13 +33,14 @@ from webapp.apps.brain_atlas import (
 from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
-from webapp.deps import limit_action, remember_person
+from webapp.deps import remember_person
 from webapp.markdown import markdown_html
 from webapp.models import TagRecord
 from webapp.people import Person, update_profile
 from webapp.routes.pages import render
 from webapp.settings import USER_GROUPS, UserGroup
 from webapp.tags import find, wall_tags
+from webapp.visitors import Visitor
 from webapp.wall_state import WallState, read_state
 
 if TYPE_CHECKING:
@@ -439,8 +440,6 @@ async def join_group(
     off the menu screen, the wall may follow too (:func:`audience_switch`)."""
     if group not in USER_GROUPS:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no user group {group!r}.")
-    if from_menu:  # the wall may switch: a wall action, within the audience's limits
-        limit_action(services, "group", person.visitor, address, wall.id)
     chosen: UserGroup = group
     updated = await run_in_threadpool(
         update_profile,
@@ -453,7 +452,11 @@ async def join_group(
     )
     remember_person(request, updated)
     wanted = set_of_group(chosen)
-    outcome = await audience_switch(app, services, wall, wanted) if from_menu else None
+    outcome = (
+        await audience_switch(app, services, wall, wanted, person.visitor, address)
+        if from_menu
+        else None
+    )
     state = await wall_state(services, wall)
     return render(
         request,
@@ -467,10 +470,18 @@ async def join_group(
     )
 
 
-async def audience_switch(app: BrainApp, services: Services, wall: Wall, wanted: TagSetName) -> str:
+async def audience_switch(
+    app: BrainApp,
+    services: Services,
+    wall: Wall,
+    wanted: TagSetName,
+    visitor: Visitor,
+    address: str,
+) -> str:
     """Switch the wall to ``wanted``'s pins for an audience scan, if allowed now; says
     what happened: ``same``, ``switched``, ``instructor`` (the instructor keeps the
-    wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown)."""
+    wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown, or the
+    phone's own limits on changing the wall: the phone still joins its group)."""
     state, quiz_round = await round_now(app, services, wall)
     if state.app != APP or set_on_wall(state) == wanted:
         return "same"
@@ -478,6 +489,8 @@ async def audience_switch(app: BrainApp, services: Services, wall: Wall, wanted:
         return "instructor"
     if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
         return "quiz"
+    if services.action_allowed("group", visitor, address, wall.id) is not None:
+        return "wait"
     cooldown = services.settings.brain_group_switch_cooldown
     if not await run_in_threadpool(claim_audience_switch, services.db, wall.id, cooldown):
         return "wait"
