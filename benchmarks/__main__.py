@@ -11,7 +11,17 @@ import platform
 import sys
 from pathlib import Path
 
-BENCHMARKS = ("fanout", "codes", "camera", "placement", "scans", "volume", "census", "brain")
+BENCHMARKS = (
+    "fanout",
+    "codes",
+    "camera",
+    "placement",
+    "scans",
+    "volume",
+    "census",
+    "brain",
+    "signin",
+)
 RESULTS = Path(__file__).parent / "results"
 
 

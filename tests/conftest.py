@@ -90,6 +90,9 @@ def settings(tmp_path: Path, database_url: str) -> Settings:
         wall_configs=[CONTENT_DIR / "walls"],
         apply_lead_ms=50,
         swap_timeout_ms=500,
+        # Tests act faster than people: a phone counts as settled at once. The abuse
+        # limits' own tests (tests/webapp/routes/test_limits.py) use the default.
+        visitor_settle_s=0,
     )
 
 

@@ -8,19 +8,24 @@ import logging
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
 from pathlib import Path
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.concurrency import run_in_threadpool
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse, Response
+from fastapi.routing import APIRoute, iter_route_contexts
 from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
+from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.layout import load_walls
+from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
-from webapp.db import Database
+from webapp.db import Database, database_problem, is_outage
+from webapp.deps import DEPENDENCY_ERRORS
 from webapp.hub import WallHub
 from webapp.markdown import markdown_html, markdown_inline
 from webapp.routes import (
@@ -37,15 +42,19 @@ from webapp.routes import (
     walls,
     ws,
 )
+from webapp.schemas import ERROR_MEANINGS, Problem
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
 from webapp.tags import declare, show_tag_set
+from webapp.tokens import REFRESH_S as TOKEN_REFRESH_S
+from webapp.tokens import load_tokens
 from webapp.visitors import SessionCookieMiddleware
 from webapp.wall_state import WallState, read_state
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"
+OUTAGE_RETRY_S = 5
 STATIC_DIR = PROJECT_ROOT / "static"
 
 
@@ -70,12 +79,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        services.tokens = await run_in_threadpool(load_tokens, db, services.secret)
         await prepare_walls(services)
-        recorder = asyncio.create_task(services.scan_log.run())
+        tasks = [
+            asyncio.create_task(services.scan_log.run()),
+            asyncio.create_task(_keep_tokens_fresh(services)),
+        ]
         yield
-        recorder.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await recorder
+        for task in tasks:
+            task.cancel()
+        for task in tasks:
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
         await run_in_threadpool(services.scan_log.flush)
         await hub.close()
         db.dispose()
@@ -87,6 +102,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.templates.env.filters["markdown_inline"] = markdown_inline
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
+    app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     for router in (
         health.router,
@@ -107,7 +123,61 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if (app_router := wall_app.router()) is not None:
             app.include_router(app_router)
     _add_error_pages(app)
+    _document_errors(app, services)
     return app
+
+
+def _example_names(schema: dict[str, Any], services: Services) -> None:
+    """Give the ``wall_id`` and ``tile_id`` parameters this server's names as examples,
+    for people reading the document and for tools that try the API."""
+    walls = list(services.walls.values())
+    names = {
+        "wall_id": [wall.id for wall in walls],
+        "tile_id": [display.id for display in walls[0].displays] if walls else [],
+    }
+    for operation in (op for path in schema["paths"].values() for op in path.values()):
+        for parameter in operation.get("parameters", []):
+            if names.get(parameter["name"]):
+                parameter["schema"]["examples"] = names[parameter["name"]]
+
+
+def _document_errors(app: FastAPI, services: Services) -> None:
+    """The OpenAPI document lists, for every operation, the errors its dependencies
+    answer with (``deps.DEPENDENCY_ERRORS``), 400 where it reads a body (one that is
+    not JSON) and 503 (the database may be down), beside those its route declares."""
+    problem = {"$ref": "#/components/schemas/Problem"}
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = FastAPI.openapi(app)
+        schema.setdefault("components", {}).setdefault("schemas", {})["Problem"] = (
+            Problem.model_json_schema()
+        )
+        for route in iter_route_contexts(app.routes):
+            if not isinstance(route.original_route, APIRoute) or not route.include_in_schema:
+                continue
+            codes = {400, 503} if route.body_field is not None else {503}
+            pending = list(route.dependant.dependencies)
+            while pending:
+                dependency = pending.pop()
+                codes.update(DEPENDENCY_ERRORS.get(dependency.call, ()))
+                pending.extend(dependency.dependencies)
+            for method in route.methods or ():
+                responses = schema["paths"][route.path_format][method.lower()]["responses"]
+                for code in sorted(codes):
+                    responses.setdefault(
+                        str(code),
+                        {
+                            "description": ERROR_MEANINGS[code],
+                            "content": {"application/json": {"schema": problem}},
+                        },
+                    )
+        _example_names(schema, services)
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
 
 
 async def prepare_walls(services: Services) -> None:
@@ -133,12 +203,28 @@ async def prepare_walls(services: Services) -> None:
         await show_tag_set(services.hub, wall, tag_set, services.base_url)
 
 
+async def _keep_tokens_fresh(services: Services) -> None:
+    """Read the token salts again every few seconds: a rotation by the CLI (or another
+    process) takes effect here too. A database that does not answer keeps the tokens
+    as they were."""
+    while True:
+        await asyncio.sleep(TOKEN_REFRESH_S)
+        try:
+            services.tokens = await run_in_threadpool(load_tokens, services.db, services.secret)
+        except SQLAlchemyError as error:
+            log.warning("could not read the token salts: %s", error.__class__.__name__)
+
+
 def _becomes(new: WallState) -> Callable[[WallState], WallState]:
     return lambda _old: new
 
 
 def _wants_json(request: Request) -> bool:
-    return request.url.path.startswith("/api/") or request.url.path == "/healthz"
+    """Whether errors are JSON: on /api/ paths, /healthz and whatever else the OpenAPI
+    document lists (the census KML feeds); pages get an error page."""
+    route = request.scope.get("route")
+    listed = isinstance(route, APIRoute) and route.include_in_schema
+    return listed or request.url.path.startswith("/api/") or request.url.path == "/healthz"
 
 
 def _add_error_pages(app: FastAPI) -> None:
@@ -163,6 +249,17 @@ def _add_error_pages(app: FastAPI) -> None:
         if _wants_json(request):
             return JSONResponse({"detail": jsonable_errors(error)}, 422)
         return error_page(request, 400, "The request was malformed.")
+
+    @app.exception_handler(SQLAlchemyError)
+    async def database_error(request: Request, error: SQLAlchemyError) -> Response:
+        """The database down or unreachable is an outage, not a bug: 503, one log line."""
+        if not is_outage(error):
+            return await server_error(request, error)
+        url = request.app.state.services.db.url
+        log.warning("%s (on %s)", database_problem(error, url), request.url.path)
+        response = error_page(request, 503, "The database is not answering. Try again in a moment.")
+        response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
+        return response
 
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:

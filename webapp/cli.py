@@ -6,15 +6,18 @@ import logging
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 from pydantic import ValidationError
+from pydantic_settings import SettingsError
+from sqlalchemy.exc import SQLAlchemyError
 
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall, WallConfigError, load_wall, load_walls
-from webapp.db import Database
+from webapp.db import Database, database_problem
 from webapp.settings import Settings, lan_address
+from webapp.tokens import Tokens, load_tokens
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
 if TYPE_CHECKING:
@@ -31,30 +34,85 @@ def load_settings(**overrides: Any) -> Settings:
     except ValidationError as error:
         for problem in error.errors():
             field = ".".join(str(part) for part in problem["loc"]) or "settings"
-            click.echo(f"error: {field}: {problem['msg']}", err=True)
-        sys.exit(EXIT_USAGE)
+            click.echo(f"error: {_setting_name(field)}: {problem['msg']}", err=True)
+    except SettingsError as error:  # a value that is not even JSON, before validation
+        field = str(error).removeprefix('error parsing value for field "').split('"')[0]
+        reason = error.__cause__ or error
+        click.echo(f"error: {_setting_name(field)}: not valid JSON ({reason})", err=True)
+    sys.exit(EXIT_USAGE)
+
+
+def _setting_name(field: str) -> str:
+    """``info_class_max`` as the operator wrote it: ``TAGWALL_INFO_CLASS_MAX``."""
+    head, _, rest = field.partition(".")
+    known = head in Settings.model_fields
+    return f"TAGWALL_{head.upper()}{'.' + rest if rest else ''}" if known else field
+
+
+def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
 
 
 def load_configured_walls(settings: Settings) -> dict[str, Wall]:
+    """The configured walls; exit 2 when a config is invalid or there is none at all."""
     try:
-        return load_walls(settings.wall_configs)
+        walls = load_walls(settings.wall_configs)
     except WallConfigError as error:
         click.echo(str(error), err=True)
         sys.exit(EXIT_USAGE)
+    if not walls:
+        where = ", ".join(str(path) for path in settings.wall_configs) or "(nothing)"
+        fail(
+            f"no wall configs found in {where}; point TAGWALL_WALL_CONFIGS at wall .toml "
+            "files or folders (see docs/wall-config.md)"
+        )
+    return walls
 
 
-def pick_wall(walls: dict[str, Wall], wall_id: str) -> Wall:
-    if wall_id not in walls:
+def pick_wall(walls: dict[str, Wall], wall_id: str | None, settings: Settings) -> Wall:
+    """The wall named by ``--wall``, else ``TAGWALL_DEFAULT_WALL``; exit 2 naming which
+    one is unknown."""
+    chosen = wall_id or settings.default_wall
+    if chosen not in walls:
         known = ", ".join(sorted(walls)) or "none"
-        click.echo(f"error: no wall {wall_id!r} (configured: {known})", err=True)
-        sys.exit(EXIT_USAGE)
-    return walls[wall_id]
+        source = "" if wall_id else "TAGWALL_DEFAULT_WALL: "
+        fail(f"{source}no wall {chosen!r} (configured: {known})")
+    return walls[chosen]
+
+
+def open_database(settings: Settings, *, migrate: bool = True) -> Database:
+    """The database, migrated first unless told not to; exit 2 with one line saying
+    what is wrong when it cannot be reached or used."""
+    from webapp.migrate import upgrade
+
+    url = settings.resolved_database_url
+    try:
+        if migrate:
+            upgrade(url)
+        return Database(url)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, url))
+
+
+def current_tokens(settings: Settings) -> Tokens:
+    """The operator and tile tokens as the server checks them (rotations included)."""
+    database = open_database(settings, migrate=False)
+    try:
+        return load_tokens(database, settings.resolved_secret_key)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, settings.resolved_database_url))
+    finally:
+        database.dispose()
 
 
 @click.group()
 def main() -> None:
     """tagwall: one interactive screen from a wall of monitors."""
+    from webapp.logs import redact_root_handlers
+
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    redact_root_handlers()
     logging.getLogger("alembic.runtime.plugins").setLevel(logging.WARNING)  # startup noise
 
 
@@ -66,12 +124,13 @@ def serve(host: str | None, port: int | None) -> None:
     import uvicorn
 
     from webapp.app import create_app
-    from webapp.migrate import upgrade
+    from webapp.logs import uvicorn_log_config
 
     settings = load_settings(host=host, port=port)
     walls = load_configured_walls(settings)
-    upgrade(settings.resolved_database_url)
-    print_urls(settings, walls)
+    pick_wall(walls, None, settings)
+    open_database(settings).dispose()
+    print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
     app = create_app(settings)
     uvicorn.run(
         app,
@@ -79,23 +138,38 @@ def serve(host: str | None, port: int | None) -> None:
         port=settings.port,
         ws_max_size=settings.max_frame_bytes,
         log_level="info",
+        log_config=uvicorn_log_config(),
+        # Client addresses come from webapp.addresses, from TAGWALL_TRUSTED_PROXIES only:
+        # uvicorn's own proxy headers would believe X-Forwarded-For from 127.0.0.1.
+        proxy_headers=False,
     )
 
 
-def print_urls(settings: Settings, walls: dict[str, Wall]) -> None:
+def print_urls(
+    settings: Settings, walls: dict[str, Wall], tokens: Tokens, *, reveal: bool = True
+) -> None:
+    """The dashboard, overview and tile URLs; with ``reveal`` off, their tokens masked
+    (a server's output usually ends up in a log)."""
+    from webapp.logs import redact
+
+    def say(line: str) -> None:
+        click.echo(line if reveal else redact(line))
+
     for line in reach(settings):
-        click.echo(line)
-    click.echo(f"  dashboard: {dashboard_url(settings)}")
-    click.echo("    (the operator's admin sign-in: keep it private, open it on this machine)")
+        say(line)
+    say(f"  dashboard: {dashboard_url(settings, tokens)}")
+    say("    (the operator's admin sign-in: keep it private, open it on this machine)")
     for wall in walls.values():
         if wall.id != settings.default_wall and len(walls) > 1:
             continue
-        click.echo(f"  overview:  {overview_url(settings, wall.id)}")
+        say(f"  overview:  {overview_url(settings, wall.id)}")
         for display in wall.displays:
-            click.echo(f"  tile {display.id}: {tile_url(settings, wall.id, display.id)}")
+            say(f"  tile {display.id}: {tile_url(settings, tokens, wall.id, display.id)}")
     others = sorted(set(walls) - {settings.default_wall})
     if others and settings.default_wall in walls:
-        click.echo(f"  other walls: {', '.join(others)} (tagwall tiles --wall NAME)")
+        say(f"  other walls: {', '.join(others)} (tagwall tiles --wall NAME)")
+    if not reveal:
+        say("  (tokens are kept out of logs: `tagwall urls` prints the full URLs)")
 
 
 def reach(settings: Settings) -> list[str]:
@@ -140,7 +214,9 @@ def reach(settings: Settings) -> list[str]:
 def urls() -> None:
     """Print the dashboard, overview and tile URLs of the configured walls."""
     settings = load_settings()
-    print_urls(settings, load_configured_walls(settings))
+    walls = load_configured_walls(settings)
+    pick_wall(walls, None, settings)
+    print_urls(settings, walls, current_tokens(settings))
 
 
 @main.command()
@@ -148,9 +224,10 @@ def urls() -> None:
 def tiles(wall_id: str | None) -> None:
     """Print one tile URL per line, token included (for kiosk browsers)."""
     settings = load_settings()
-    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    wall = pick_wall(load_configured_walls(settings), wall_id, settings)
+    tokens = current_tokens(settings)
     for display in wall.displays:
-        click.echo(tile_url(settings, wall.id, display.id))
+        click.echo(tile_url(settings, tokens, wall.id, display.id))
 
 
 @main.command()
@@ -163,13 +240,24 @@ def tiles(wall_id: str | None) -> None:
     default=None,
     help="Folder for per-display browser profiles (default: VAR_DIR/kiosk).",
 )
+@click.option(
+    "--token",
+    default=None,
+    help="The wall's tile token (default: read from the database; give it on render "
+    "nodes without database access after `tagwall tokens rotate tiles`).",
+)
 @click.option("--dry-run", is_flag=True, help="Print the commands instead of running them.")
 def kiosk(
-    wall_id: str | None, node: str, browser: str | None, profiles: Path | None, dry_run: bool
+    wall_id: str | None,
+    node: str,
+    browser: str | None,
+    profiles: Path | None,
+    token: str | None,
+    dry_run: bool,
 ) -> None:
     """Launch one kiosk browser per display of a render node; restart any that crash."""
     settings = load_settings()
-    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    wall = pick_wall(load_configured_walls(settings), wall_id, settings)
     displays = wall.nodes().get(node)
     if not displays:
         known = ", ".join(wall.nodes())
@@ -180,7 +268,8 @@ def kiosk(
     except KioskError as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_USAGE)
-    tile_urls = {d.id: tile_url(settings, wall.id, d.id) for d in displays}
+    tile_token = token or current_tokens(settings).tile(wall.id)
+    tile_urls = {d.id: settings.server_url + tile_path(tile_token, wall.id, d.id) for d in displays}
     commands = plan(
         displays,
         tile_urls,
@@ -253,7 +342,7 @@ def codes_size(
     from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 
     settings = load_settings()
-    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    wall = pick_wall(load_configured_walls(settings), wall_id, settings)
     distance = distance or wall.design_distance_m(purpose)
     camera = Camera()
     module_mm = min_module_mm(distance, camera)
@@ -286,21 +375,19 @@ def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
     import httpx
 
     from webapp.check import check_wall, fetch_layout
-    from webapp.security import operator_token
 
     settings = load_settings()
-    wall = pick_wall(load_configured_walls(settings), wall_id or settings.default_wall)
+    wall = pick_wall(load_configured_walls(settings), wall_id, settings)
     server_url = (server or settings.local_url).rstrip("/")
+    tokens = current_tokens(settings)
     try:
         executable = browser or find_browser()
-        version, layout = fetch_layout(
-            server_url, wall.id, operator_token(settings.resolved_secret_key)
-        )
+        version, layout = fetch_layout(server_url, wall.id, tokens.operator)
     except (KioskError, httpx.HTTPError) as error:
         click.echo(f"error: {error}", err=True)
         sys.exit(EXIT_USAGE)
-    secret = settings.resolved_secret_key
-    urls = {d.id: server_url + tile_path(secret, wall.id, d.id) for d in wall.displays}
+    token = tokens.tile(wall.id)
+    urls = {d.id: server_url + tile_path(token, wall.id, d.id) for d in wall.displays}
     report = check_wall(wall, urls, version, layout, executable)
     for line in report.lines():
         click.echo(line)
@@ -320,7 +407,10 @@ def db_upgrade(revision: str) -> None:
     from webapp.migrate import upgrade
 
     settings = load_settings()
-    upgrade(settings.resolved_database_url, revision)
+    try:
+        upgrade(settings.resolved_database_url, revision)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, settings.resolved_database_url))
     click.echo(f"database at {revision}")
 
 
@@ -329,20 +419,12 @@ def user() -> None:
     """Instructor and admin accounts."""
 
 
-def _migrated_db(settings: Settings) -> Database:
-    """The database, migrated first: a command may run before the server ever has."""
-    from webapp.migrate import upgrade
-
-    upgrade(settings.resolved_database_url)
-    return Database(settings.resolved_database_url)
-
-
 def _account_action(action: Callable[[Database], str]) -> None:
     """Run ``action`` on the database; its message on success, exit 1 with the reason
     when the account request cannot be carried out."""
     from webapp.accounts import AccountError
 
-    database = _migrated_db(load_settings())
+    database = open_database(load_settings())
     try:
         click.echo(action(database))
     except AccountError as error:
@@ -408,6 +490,45 @@ def user_passwd(name: str, password: str) -> None:
         return f"password of {name} changed"
 
     _account_action(change)
+
+
+@main.group()
+def tokens() -> None:
+    """The operator's and the tiles' tokens."""
+
+
+@tokens.command("rotate")
+@click.argument("which", type=click.Choice(["operator", "tiles"]))
+@click.option("--wall", "wall_id", default=None, help="Only this wall's tile token.")
+def tokens_rotate(which: str, wall_id: str | None) -> None:
+    """Replace the operator token or the tile tokens; the old ones stop working within
+    seconds, on every server process, and the new URLs are printed."""
+    from webapp.people import revoke
+    from webapp.tokens import OPERATOR, rotate, tile_purpose
+
+    settings = load_settings()
+    walls = load_configured_walls(settings)
+    chosen = [pick_wall(walls, wall_id, settings)] if wall_id else list(walls.values())
+    database = open_database(settings)
+    try:
+        if which == "operator":
+            rotate(database, [OPERATOR], actor="cli")
+            signed_out = revoke(database, ["operator"], actor="cli")
+        else:
+            rotate(database, [tile_purpose(wall.id) for wall in chosen], actor="cli")
+        new = load_tokens(database, settings.resolved_secret_key)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, settings.resolved_database_url))
+    finally:
+        database.dispose()
+    if which == "operator":
+        click.echo(f"new operator sign-in link: {dashboard_url(settings, new)}")
+        click.echo(f"browsers signed in with the old link signed out: {signed_out}")
+        return
+    for wall in chosen:
+        click.echo(f"wall {wall.id}: new tile URLs (open tiles are closed within seconds)")
+        for display in wall.displays:
+            click.echo(f"  {tile_url(settings, new, wall.id, display.id)}")
 
 
 @main.group()
@@ -534,7 +655,7 @@ def census_import(
     from webapp.apps.census_map.importer import CensusImportError, import_files
 
     settings = load_settings()
-    database = _migrated_db(settings)
+    database = open_database(settings)
     try:
         report = import_files(
             database,
@@ -560,10 +681,8 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
     The import already made it current, so a server that is down shows it at start."""
     import httpx
 
-    from webapp.security import operator_token
-
     url = f"{settings.local_url}/api/census/current"
-    token = operator_token(settings.resolved_secret_key)
+    token = current_tokens(settings).operator
     try:
         response = httpx.post(
             url,
@@ -602,7 +721,7 @@ def census_list() -> None:
     """The stored data sets, the current one marked with *."""
     from webapp.apps.census_map.store import list_datasets
 
-    database = _migrated_db(load_settings())
+    database = open_database(load_settings())
     try:
         datasets = list_datasets(database)
     finally:

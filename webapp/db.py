@@ -6,10 +6,18 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
+from annotated_types import Interval
 from sqlalchemy import Engine, MetaData, create_engine, event, text
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import (
+    ArgumentError,
+    DBAPIError,
+    InterfaceError,
+    OperationalError,
+    SQLAlchemyError,
+)
 from sqlalchemy.orm import DeclarativeBase, Session, sessionmaker
 
 # Stable constraint names keep Alembic autogenerate and SQLite batch mode honest.
@@ -20,6 +28,15 @@ NAMING_CONVENTION = {
     "fk": "fk_%(table_name)s_%(column_0_name)s_%(referred_table_name)s",
     "pk": "pk_%(table_name)s",
 }
+
+
+ROW_ID_MAX = 2**31 - 1
+"""The largest id an INTEGER column holds on PostgreSQL (SQLite holds more): the API
+takes only ids both databases can look up, and answers anything larger like any
+unknown id, instead of failing in the driver."""
+
+RowId = Annotated[int, Interval(ge=1, le=ROW_ID_MAX)]
+"""A row id (publication, layout, census data set, quiz round) as the API accepts it."""
 
 
 class Base(DeclarativeBase):
@@ -77,6 +94,36 @@ class Database:
 
     def dispose(self) -> None:
         self.engine.dispose()
+
+
+def is_outage(error: SQLAlchemyError) -> bool:
+    """True when ``error`` means the database cannot be reached or used right now (down,
+    restarting, out of connections, a lost connection), not that a query was wrong."""
+    if isinstance(error, DBAPIError) and error.connection_invalidated:
+        return True
+    return isinstance(error, OperationalError | InterfaceError)
+
+
+def database_problem(error: Exception, url: str) -> str:
+    """One line saying what is wrong with the database at ``url`` (password hidden), for
+    an operator who has to fix it."""
+    try:
+        shown = make_url(url).render_as_string(hide_password=True)
+    except ArgumentError:
+        shown = repr(url)
+    if isinstance(error, ArgumentError):
+        return (
+            f"TAGWALL_DATABASE_URL {shown} is not a database URL tagwall can use "
+            "(like sqlite:///var/tagwall.db or postgresql+psycopg://user@host:5432/tagwall)"
+        )
+    reason = str(getattr(error, "orig", None) or error).strip().splitlines()
+    first = reason[0] if reason else type(error).__name__
+    if "file is not a database" in first or "malformed" in first:
+        return (
+            f"the SQLite database {make_url(url).database} is damaged or not a database "
+            f"({first}); restore it from a backup, or move it away to start afresh"
+        )
+    return f"cannot use the database at {shown}: {first}"
 
 
 def as_utc(value: datetime) -> datetime:

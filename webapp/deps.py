@@ -6,7 +6,8 @@ the thread pool, a hop that cost more than the work itself on every request.
 
 from __future__ import annotations
 
-from typing import Annotated
+from collections.abc import Callable
+from typing import Annotated, Any
 from urllib.parse import quote
 
 from fastapi import Depends, Header, HTTPException, Query, Request, status
@@ -14,11 +15,12 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-from webapp.addresses import client_address
+from webapp.addresses import address_of
 from webapp.people import Person, load_person
+from webapp.ratelimit import WallAction
 from webapp.security import csrf_token, token_matches
 from webapp.services import Services
-from webapp.visitors import adopt, visitor_of
+from webapp.visitors import Visitor, adopt, visitor_of
 
 
 async def get_services(request: Request) -> Services:
@@ -69,14 +71,31 @@ BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 
 
-async def get_client_address(request: Request, services: ServicesDep) -> str:
+async def get_client_address(request: Request) -> str:
     """The client's address (``X-Forwarded-For`` only from trusted proxies)."""
-    peer = request.client.host if request.client else ""
-    forwarded = request.headers.get("x-forwarded-for")
-    return client_address(peer, forwarded, services.settings.trusted_proxies)
+    return address_of(request)
 
 
 ClientAddressDep = Annotated[str, Depends(get_client_address)]
+
+
+def too_fast(wait: float) -> HTTPException:
+    """The 429 for a phone that acts faster than its limits allow."""
+    seconds = int(wait) + 1
+    return HTTPException(
+        status.HTTP_429_TOO_MANY_REQUESTS,
+        f"That was a lot in a short time. Try again in {seconds} seconds.",
+        headers={"Retry-After": str(seconds)},
+    )
+
+
+def limit_action(
+    services: Services, kind: WallAction, visitor: Visitor, address: str, wall_id: str
+) -> None:
+    """Count one ``kind`` of action on the wall; 429 when it is one too many."""
+    wait = services.action_allowed(kind, visitor, address, wall_id)
+    if wait is not None:
+        raise too_fast(wait)
 
 
 def remember_person(request: Request, person: Person) -> None:
@@ -159,7 +178,7 @@ async def require_staff(request: Request, services: ServicesDep, credentials: Be
             "The bearer token is not the operator token.",
             headers={"WWW-Authenticate": "Bearer"},
         )
-    person = await get_person(request, services, await get_client_address(request, services))
+    person = await get_person(request, services, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
@@ -185,7 +204,7 @@ async def require_tile_or_staff_for_detail(
     instructors get them; the instant fallback is for everyone (the overview)."""
     if detail == "fallback" or token_matches(services.tile_token(wall.id), token):
         return
-    person = await get_person(request, services, await get_client_address(request, services))
+    person = await get_person(request, services, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
@@ -195,3 +214,14 @@ async def require_tile_or_staff_for_detail(
 
 DetailedRenderAccess = Depends(require_tile_or_staff_for_detail)
 StaffOnly = Depends(require_staff)
+
+
+DEPENDENCY_ERRORS: dict[Callable[..., Any], tuple[int, ...]] = {
+    get_wall: (404,),
+    get_tile: (404,),
+    require_tile_token: (403,),
+    require_staff: (401, 403),
+    require_tile_or_staff_for_detail: (403,),
+}
+"""The error statuses each dependency answers with: every API route that uses one lists
+them in the OpenAPI document (see ``webapp.app``)."""

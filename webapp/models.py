@@ -332,3 +332,16 @@ class BrainQuizFinishRecord(Base):
     finished_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, nullable=False
     )
+
+
+class TokenSaltRecord(Base):
+    """A random salt mixed into one token (``operator``, ``tile:WALL``): replacing it
+    rotates that token without touching the secret key (sessions stay valid)."""
+
+    __tablename__ = "token_salts"
+
+    purpose: Mapped[str] = mapped_column(String(80), primary_key=True)
+    salt: Mapped[str] = mapped_column(String(64), nullable=False)
+    rotated_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )

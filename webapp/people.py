@@ -10,6 +10,7 @@ transaction.
 
 from __future__ import annotations
 
+import unicodedata
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -34,6 +35,23 @@ GROUP_LABELS: dict[UserGroup, str] = {
     "medical": "Medical",
     "research": "Research",
 }
+
+
+MAX_DISPLAY_NAME = 40
+
+
+def plain_name(text: str) -> str:
+    """A display name as the public screen may show it: compatibility characters
+    folded (NFKC), no control, format (bidirectional overrides, zero-width) or
+    private-use characters, runs of spaces as one, at most :data:`MAX_DISPLAY_NAME`
+    characters."""
+    folded = unicodedata.normalize("NFKC", text)
+    kept = "".join(
+        " " if char.isspace() else char
+        for char in folded
+        if char.isspace() or not unicodedata.category(char).startswith("C")
+    )
+    return " ".join(kept.split())[:MAX_DISPLAY_NAME].strip()
 
 
 def rank(role: str) -> int:
@@ -69,8 +87,10 @@ class Person:
 
     @property
     def public_name(self) -> str:
-        """How the public screen names this person."""
-        return self.display_name or f"a {ROLE_LABELS[self.role].lower()}"
+        """How the public screen names this person: the role always shows, so a chosen
+        name cannot pass for someone else's (no student publishes as "the instructor")."""
+        role = ROLE_LABELS[self.role].lower()
+        return f"{self.display_name} ({role})" if self.display_name else f"a {role}"
 
 
 def load_person(db: Database, visitor: Visitor, address: str, settings: Settings) -> Person:
@@ -227,7 +247,7 @@ def update_profile(
         rotate=False,
         user_group=user_group,
         info_class=max(1, min(info_class, person.max_info_class)),
-        display_name=display_name.strip()[:60],
+        display_name=plain_name(display_name),
     )
 
 

@@ -27,6 +27,7 @@ from typing import Any
 
 from fastapi.concurrency import run_in_threadpool
 from sqlalchemy import insert, select
+from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.db import Database
 from webapp.models import ScanRecord, TagRecord, WallStateRecord
@@ -142,13 +143,26 @@ class ScanLog:
         return len(rows)
 
     async def run(self) -> None:
-        """Flush every ``interval_s`` until cancelled (the app's lifespan owns this task)."""
+        """Flush every ``interval_s`` until cancelled (the app's lifespan owns this task).
+
+        While the database is down the scans wait in memory; that is said once, and
+        once more when they are written again."""
+        failing = False
         while True:
             await asyncio.sleep(self.interval_s)
             try:
                 await run_in_threadpool(self.flush)
+            except SQLAlchemyError as error:
+                if not failing:
+                    log.warning("could not record scans (%s); will retry", type(error).__name__)
+                failing = True
+                continue
             except Exception:
                 log.exception("could not record scans; will retry")
+                continue
+            if failing:
+                log.warning("recording scans again")
+                failing = False
 
 
 def scans_of(db: Database, code: str) -> list[ScanRecord]:

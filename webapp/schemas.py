@@ -14,6 +14,27 @@ from webapp.volume.layer import VolumeLayer
 from webapp.wall_state import PublicItem, PublicPolicy, View
 
 
+class Problem(BaseModel):
+    """What the API answers when it cannot do what was asked: a sentence for a person."""
+
+    detail: str
+
+
+ERROR_MEANINGS = {
+    400: "The request body could not be read (not JSON, or not UTF-8).",
+    401: "Not signed in as an instructor, or a bearer token that is not the operator token.",
+    403: "Not allowed: a missing or wrong tile token or CSRF header, or a role that may not.",
+    404: "No such wall, tile or other thing named in the path or query.",
+    409: "Not possible in the wall's present state (another app is on the wall, say).",
+    503: "The database does not answer; try again in a moment.",
+}
+
+
+def errors(*codes: int) -> dict[int | str, dict[str, Any]]:
+    """OpenAPI ``responses`` for error statuses an operation answers with."""
+    return {code: {"model": Problem, "description": ERROR_MEANINGS[code]} for code in codes}
+
+
 class DisplayInfo(BaseModel):
     id: str
     rect: tuple[float, float, float, float]

@@ -13,14 +13,19 @@ def derive_token(secret: str, purpose: str) -> str:
     return base64.b32encode(digest[:15]).decode().lower()
 
 
-def tile_token(secret: str, wall_id: str) -> str:
-    """The token every tile of ``wall_id`` presents; tiles receive, they never command."""
-    return derive_token(secret, f"tile:{wall_id}")
+def _salted(purpose: str, salt: str) -> str:
+    return f"{purpose}:{salt}" if salt else purpose
 
 
-def operator_token(secret: str) -> str:
+def tile_token(secret: str, wall_id: str, salt: str = "") -> str:
+    """The token every tile of ``wall_id`` presents; tiles receive, they never command.
+    ``salt`` is the wall's stored tile salt (see ``webapp.tokens``; "" until rotated)."""
+    return derive_token(secret, _salted(f"tile:{wall_id}", salt))
+
+
+def operator_token(secret: str, salt: str = "") -> str:
     """The token of the setup operator (until instructor accounts take over)."""
-    return derive_token(secret, "operator")
+    return derive_token(secret, _salted("operator", salt))
 
 
 def token_matches(expected: str, given: str | None) -> bool:

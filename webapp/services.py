@@ -4,15 +4,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from anyio import CapacityLimiter
+
 from wall_client.layout import Wall
 from webapp.apps import WallApp
 from webapp.db import Database
 from webapp.hub import WallHub
-from webapp.ratelimit import Backoff, RateLimiter
+from webapp.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
 from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
-from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
+from webapp.signin import SignInThrottle
+from webapp.tokens import Tokens
 from webapp.urls import tile_url
+from webapp.visitors import Visitor
 from webapp.volume.catalog import VolumeCatalog
 
 
@@ -23,36 +27,43 @@ class Services:
     hub: WallHub
     walls: dict[str, Wall]
     apps: dict[str, WallApp]
-    scan_limits: tuple[RateLimiter, RateLimiter] = field(init=False)
+    limits: ActionLimits = field(init=False)
     codes: CodeDirectory = field(init=False)
     scan_log: ScanLog = field(init=False)
     scan_feed: ScanFeed = field(init=False)
-    login_backoff: Backoff = field(init=False)
-    publish_limit: RateLimiter = field(init=False)
+    login_throttle: SignInThrottle = field(init=False)
+    password_checks: CapacityLimiter = field(init=False)
     volumes: VolumeCatalog = field(init=False)
+    tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.tokens)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)
         self.scan_log = ScanLog(self.db)
         self.scan_feed = ScanFeed()
-        self.scan_limits = (
-            RateLimiter(self.settings.scan_rate_per_minute),
-            RateLimiter(self.settings.scan_rate_per_address_per_minute),
+        self.limits = action_limits(self.settings)
+        self.login_throttle = SignInThrottle(
+            self.settings.login_free_attempts,
+            self.settings.login_client_free_attempts,
+            self.settings.login_max_delay_s,
         )
-        # Keyed by "account:NAME" and by "client:ADDRESS": both must be allowed.
-        self.login_backoff = Backoff(
-            self.settings.login_free_attempts, max_s=self.settings.login_max_delay_s
-        )
-        self.publish_limit = RateLimiter(self.settings.publish_rate_per_minute)
+        # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn.
+        self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
+        self.tokens = Tokens(self.secret)
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
 
-    def scan_allowed(self, visitor_id: str, client_address: str) -> float | None:
-        """None when this visitor (and its address) may scan now, else seconds to wait."""
-        per_visitor, per_address = self.scan_limits
-        wait = per_visitor.hit(visitor_id)
-        return wait if wait is not None else per_address.hit(client_address)
+    def action_allowed(
+        self, kind: WallAction, visitor: Visitor, address: str, wall_id: str = ""
+    ) -> float | None:
+        """None when this visitor at ``address`` may do ``kind`` on the wall now, else
+        the seconds to wait (counted when allowed)."""
+        return self.limits.hit(kind, Actor.of(visitor, address), wall_id)
+
+    @property
+    def wall_apps(self) -> dict[str, WallApp]:
+        """The apps a wall can show (the core app only adds the registration codes)."""
+        return {name: app for name, app in self.apps.items() if name != "core"}
 
     @property
     def base_url(self) -> str:
@@ -64,11 +75,48 @@ class Services:
         return self.settings.resolved_secret_key
 
     def tile_token(self, wall_id: str) -> str:
-        return tile_token(self.secret, wall_id)
+        return self.tokens.tile(wall_id)
 
     @property
     def operator_token(self) -> str:
-        return operator_token(self.secret)
+        return self.tokens.operator
 
     def tile_url(self, wall_id: str, tile_id: str) -> str:
-        return tile_url(self.settings, wall_id, tile_id)
+        return tile_url(self.settings, self.tokens, wall_id, tile_id)
+
+
+def action_limits(settings: Settings) -> ActionLimits:
+    """The limits on what phones do, from the settings (see docs/people.md).
+
+    Scans change nothing on the wall: a phone with a cookie is limited as itself, and
+    only phones without one share their address's budget (a hall's 300 first scans
+    fit in it). What changes the shared wall is limited per visitor, for visitors not
+    yet settled also per address together, for everyone per address and per wall.
+    """
+    scans = ActionPolicy(
+        per_visitor=settings.scan_rate_per_minute,
+        per_new_address=settings.scan_rate_per_address_per_minute,
+        per_address=None,
+        per_wall=None,
+        settle_s=0,
+    )
+
+    def on_wall(per_visitor: int) -> ActionPolicy:
+        return ActionPolicy(
+            per_visitor=per_visitor,
+            per_new_address=settings.new_visitor_actions_per_address_per_minute,
+            per_address=settings.actions_per_address_per_minute,
+            per_wall=settings.actions_per_wall_per_minute,
+            settle_s=settings.visitor_settle_s,
+        )
+
+    actions = on_wall(settings.wall_action_rate_per_minute)
+    return ActionLimits(
+        {
+            "scan": scans,
+            "publish": on_wall(settings.publish_rate_per_minute),
+            "balloon": actions,
+            "toggle": actions,
+            "group": actions,
+        }
+    )

@@ -63,6 +63,11 @@ class Settings(BaseSettings):
     max_frame_bytes: int = Field(default=4_096, ge=256)
     scan_rate_per_minute: int = Field(default=30, ge=1)
     scan_rate_per_address_per_minute: int = Field(default=600, ge=1)
+    visitor_settle_s: int = Field(default=10, ge=0, le=3_600)
+    wall_action_rate_per_minute: int = Field(default=12, ge=1)
+    new_visitor_actions_per_address_per_minute: int = Field(default=6, ge=1)
+    actions_per_address_per_minute: int = Field(default=300, ge=1)
+    actions_per_wall_per_minute: int = Field(default=120, ge=1)
     scan_upload_max_bytes: int = Field(default=10_000_000, ge=10_000)
     trusted_proxies: Annotated[list[IPvAnyNetwork], NoDecode] = Field(default_factory=list)
     address_rules_grant_roles: bool = False
@@ -73,7 +78,9 @@ class Settings(BaseSettings):
     )
     pairing_ttl_s: int = Field(default=60, ge=10, le=3_600)
     login_free_attempts: int = Field(default=3, ge=1)
+    login_client_free_attempts: int = Field(default=10, ge=1)
     login_max_delay_s: float = Field(default=300.0, ge=1)
+    login_parallel_checks: int = Field(default=2, ge=1, le=64)
     publish_rate_per_minute: int = Field(default=3, ge=1)
     balloon_seconds: int = Field(default=30, ge=1, le=3_600)
     volume_dir: Path | None = None
@@ -115,6 +122,12 @@ class Settings(BaseSettings):
 
     @model_validator(mode="after")
     def _refuse_known_secrets(self) -> Settings:
+        if self.env == "production" and not self.secret_key:
+            raise ValueError(
+                "TAGWALL_SECRET_KEY is required in production: sessions, tile URLs and the "
+                "operator link are signed with it, and every process of a wall must share "
+                "it. Make one with: python3 -c 'import secrets; print(secrets.token_urlsafe(32))'"
+            )
         if self.env != "dev" and self.secret_key:
             if self.secret_key.lower() in KNOWN_DEFAULT_SECRETS:
                 raise ValueError("TAGWALL_SECRET_KEY is a well-known default; set a random one")
@@ -167,7 +180,8 @@ class Settings(BaseSettings):
 
     @cached_property
     def resolved_secret_key(self) -> str:
-        """The signing secret: configured, else generated once into ``var_dir``."""
+        """The signing secret: configured, else (in dev only) generated once into
+        ``var_dir``."""
         if self.secret_key:
             return self.secret_key
         path = self.var_dir / "secret_key"

@@ -18,7 +18,7 @@ from typing import Any
 
 import httpx
 
-from webapp.security import operator_token
+from webapp.security import operator_token, tile_token
 from webapp.urls import tile_path
 
 
@@ -109,7 +109,7 @@ class ServerProcess:
 
     def tile_url(self, wall: str, tile: str, *, scheme: str = "http") -> str:
         base = self.url.replace("http", scheme, 1) + ("/ws" if scheme == "ws" else "")
-        return base + tile_path(self.secret, wall, tile)
+        return base + tile_path(tile_token(self.secret, wall), wall, tile)
 
     def operator(self) -> dict[str, str]:
         return {"Authorization": f"Bearer {operator_token(self.secret)}"}

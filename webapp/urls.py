@@ -3,29 +3,29 @@
 from __future__ import annotations
 
 from tag_service.codes import content_hash
-from webapp.security import operator_token, tile_token
 from webapp.settings import Settings
+from webapp.tokens import Tokens
 
 
-def tile_path(secret: str, wall_id: str, tile_id: str) -> str:
-    """A tile page's path with its token; the tile's websocket is the same under ``/ws``."""
-    return f"/wall/{wall_id}/tile/{tile_id}?token={tile_token(secret, wall_id)}"
+def tile_path(token: str, wall_id: str, tile_id: str) -> str:
+    """A tile page's path with the wall's tile token; the tile's websocket is the same
+    under ``/ws``."""
+    return f"/wall/{wall_id}/tile/{tile_id}?token={token}"
 
 
-def tile_url(settings: Settings, wall_id: str, tile_id: str) -> str:
-    return settings.server_url + tile_path(settings.resolved_secret_key, wall_id, tile_id)
+def tile_url(settings: Settings, tokens: Tokens, wall_id: str, tile_id: str) -> str:
+    return settings.server_url + tile_path(tokens.tile(wall_id), wall_id, tile_id)
 
 
 def overview_url(settings: Settings, wall_id: str) -> str:
     return f"{settings.server_url}/wall/{wall_id}/overview"
 
 
-def dashboard_url(settings: Settings) -> str:
+def dashboard_url(settings: Settings, tokens: Tokens) -> str:
     """The operator's sign-in link: it signs the browser in as admin and opens the
     dashboard (for a new installation, before any account exists). On this machine's
     loopback where the server listens there: the token never crosses the network."""
-    token = operator_token(settings.resolved_secret_key)
-    return f"{settings.local_url}/login/operator?token={token}"
+    return f"{settings.local_url}/login/operator?token={tokens.operator}"
 
 
 def code_image_path(code: str, payload: str, extension: str) -> str:

@@ -10,6 +10,7 @@ so no route has to remember to.
 from __future__ import annotations
 
 import secrets
+import time
 from dataclasses import dataclass, replace
 
 from itsdangerous import BadSignature, URLSafeSerializer
@@ -30,15 +31,25 @@ def new_id() -> str:
 class Visitor:
     id: str
     session_id: str
+    issued: int = 0  # unix seconds its first cookie was issued (0: before this was recorded)
     changed: bool = False  # the cookie must be (re)written
+    brought_cookie: bool = True  # False: made for a request that brought no valid cookie
 
     @classmethod
     def fresh(cls) -> Visitor:
-        return cls(new_id(), new_id(), changed=True)
+        return cls(new_id(), new_id(), int(time.time()), changed=True, brought_cookie=False)
 
     def rotated(self) -> Visitor:
         """The same visitor under a new session id (after any privilege change)."""
         return replace(self, session_id=new_id(), changed=True)
+
+    def age_s(self, now: float | None = None) -> float | None:
+        """How long this phone has kept its cookie (None: it brought none), which the
+        abuse limits read: the time is signed into the cookie, so no phone can make
+        itself older."""
+        if not self.brought_cookie:
+            return None
+        return max(0.0, (time.time() if now is None else now) - self.issued)
 
 
 def _serializer(secret: str) -> URLSafeSerializer:
@@ -65,12 +76,13 @@ def _from_cookie(cookie: str | None, secret: str) -> Visitor | None:
         value = _serializer(secret).loads(cookie)
     except BadSignature:
         return None
-    if (
-        isinstance(value, list)
-        and len(value) == 2
-        and all(isinstance(part, str) and 0 < len(part) <= _MAX_ID_LENGTH for part in value)
+    if not isinstance(value, list) or len(value) not in (2, 3):
+        return None
+    ids, issued = value[:2], value[2] if len(value) == 3 else 0
+    if all(isinstance(part, str) and 0 < len(part) <= _MAX_ID_LENGTH for part in ids) and (
+        isinstance(issued, int) and issued >= 0
     ):
-        return Visitor(value[0], value[1])
+        return Visitor(ids[0], ids[1], issued)
     return None
 
 
@@ -102,7 +114,7 @@ class SessionCookieMiddleware:
         await self.app(scope, receive, send_with_cookie)
 
     def cookie(self, visitor: Visitor, *, https: bool) -> str:
-        value = _serializer(self.secret).dumps([visitor.id, visitor.session_id])
+        value = _serializer(self.secret).dumps([visitor.id, visitor.session_id, visitor.issued])
         secure = "; Secure" if https else ""
         return (
             f"{SESSION_COOKIE}={value}; Max-Age={SESSION_MAX_AGE_S}; Path=/; "

@@ -11,12 +11,12 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from sqlalchemy import delete, select, update
 from sqlalchemy.exc import IntegrityError, OperationalError
 from sqlalchemy.orm import Session
 
-from webapp.db import Database
+from webapp.db import Database, RowId
 from webapp.models import WallEventRecord, WallStateRecord
 from webapp.volume.layer import VolumeLayer
 
@@ -89,12 +89,13 @@ class WallState(BaseModel):
     tag_set: str | None = Field(default=None, max_length=64)
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
-    dataset: int | None = Field(default=None, ge=1)  # the census map's data set
-    quiz_round: int | None = Field(default=None, ge=1)  # the brain quiz's round (its pin codes)
+    dataset: RowId | None = None  # the census map's data set
+    quiz_round: RowId | None = None  # the brain quiz's round (its pin codes)
 
 
 class StatePatch(BaseModel):
-    """A partial state: the fields given replace the current ones."""
+    """A partial state: the fields given replace the current ones; ``volume`` alone may
+    be null (it takes the volume off the wall), other fields are left out to keep them."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -106,6 +107,15 @@ class StatePatch(BaseModel):
     # ``public`` changes only through ``webapp.publishing``, which renders it safely.
     public_policy: PublicPolicy | None = None
     volume: VolumeLayer | None = None  # null takes the volume off the wall
+
+    @model_validator(mode="after")
+    def _only_volume_may_be_null(self) -> StatePatch:
+        nulls = sorted(
+            name for name in self.model_fields_set - {"volume"} if getattr(self, name) is None
+        )
+        if nulls:
+            raise ValueError(f"{', '.join(nulls)} may not be null; leave a field out to keep it")
+        return self
 
     def apply_to(self, state: WallState) -> WallState:
         """The state with this patch's fields replaced (``layers`` merge key by key)."""

@@ -38,6 +38,7 @@ def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
             "TAGWALL_APPLY_LEAD_MS": "400",
+            "TAGWALL_VISITOR_SETTLE_S": "0",  # test phones act faster than people
             **extra_env,
         },
     )

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from wall_client.layout import load_wall
 from webapp.check import check_wall, fetch_layout
-from webapp.security import operator_token
+from webapp.security import operator_token, tile_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 from webapp.urls import tile_path
@@ -46,7 +46,8 @@ def test_check_reports_a_tile_that_shows_the_wrong_code(server: ServerProcess) -
     wrong = layout.placed[0]
     expected = wrong.model_copy(update={"payload": wrong.payload + "X"})
     tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
-    urls = {d.id: server.url + tile_path(server.secret, "demo", d.id) for d in wall.displays}
+    token = tile_token(server.secret, "demo")
+    urls = {d.id: server.url + tile_path(token, "demo", d.id) for d in wall.displays}
     chromium = shutil.which("chromium")
     assert chromium is not None
 

@@ -84,7 +84,7 @@ def test_broken_wall_configs_stop_commands_with_a_message(
 
 def test_invalid_setting_exits_2(env: dict[str, str]) -> None:
     code, _, err = run({**env, "TAGWALL_PORT": "seventy"}, "tiles")
-    assert code == 2 and "port" in err
+    assert code == 2 and "TAGWALL_PORT" in err
 
 
 def test_db_upgrade_creates_tables(env: dict[str, str], database_url: str) -> None:
@@ -264,3 +264,75 @@ def test_volume_build_refuses_bad_input_with_a_message(
     assert not (tmp_path / "var" / "volumes").exists() or not any(
         (tmp_path / "var" / "volumes").iterdir()
     )
+
+
+# --- configuration and database problems: one clear line, exit 2, never a traceback ---
+
+
+def refused(env: dict[str, str], *args: str) -> str:
+    """Run a command that must refuse; its one line of error."""
+    code, out, err = run(env, *args)
+    assert code == 2, (out, err)
+    assert "Traceback" not in out + err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("error: ")
+    return lines[0]
+
+
+def test_a_setting_that_is_not_json_is_one_line(env: dict[str, str]) -> None:
+    line = refused({**env, "TAGWALL_INFO_CLASS_MAX": "{student: 3"}, "serve")
+    assert "TAGWALL_INFO_CLASS_MAX" in line and "JSON" in line
+
+
+def test_an_unreachable_database_is_one_line(env: dict[str, str]) -> None:
+    url = "postgresql+psycopg://tagwall:hunter2@127.0.0.1:1/tagwall"
+    line = refused({**env, "TAGWALL_DATABASE_URL": url}, "serve")
+    assert "cannot use the database at postgresql+psycopg://tagwall:***@127.0.0.1:1" in line
+    assert "hunter2" not in line
+
+
+@pytest.mark.parametrize("url", ["not a url", "mysqlx://somewhere/db", "sqlite+nodriver:///x"])
+def test_a_nonsense_database_url_is_one_line(env: dict[str, str], url: str) -> None:
+    line = refused({**env, "TAGWALL_DATABASE_URL": url}, "serve")
+    assert "is not a database URL tagwall can use" in line
+
+
+def test_a_damaged_sqlite_file_is_one_line(env: dict[str, str], tmp_path: Path) -> None:
+    damaged = tmp_path / "damaged.db"
+    damaged.write_bytes(b"these bytes were never a database " * 200)
+    line = refused({**env, "TAGWALL_DATABASE_URL": f"sqlite:///{damaged}"}, "serve")
+    assert "damaged.db is damaged or not a database" in line
+    assert damaged.read_bytes().startswith(b"these bytes"), "nothing written over it"
+
+
+def test_no_walls_configured_is_one_line(env: dict[str, str], tmp_path: Path) -> None:
+    empty = tmp_path / "walls"
+    empty.mkdir()
+    line = refused({**env, "TAGWALL_WALL_CONFIGS": str(empty)}, "serve")
+    assert "no wall configs found" in line and str(empty) in line
+
+
+def test_an_unknown_default_wall_is_one_line(env: dict[str, str]) -> None:
+    for command in (("serve",), ("urls",), ("tiles",)):
+        line = refused({**env, "TAGWALL_DEFAULT_WALL": "atlantis"}, *command)
+        assert "TAGWALL_DEFAULT_WALL" in line and "'atlantis'" in line and "demo" in line
+
+
+def test_production_without_a_secret_refuses_to_start(env: dict[str, str]) -> None:
+    production = {**env, "TAGWALL_ENV": "production", "TAGWALL_SECRET_KEY": ""}
+    line = refused(production, "serve")
+    assert "TAGWALL_SECRET_KEY is required in production" in line
+    assert not (Path(env["TAGWALL_VAR_DIR"]) / "secret_key").exists(), "none was made up"
+
+
+def test_tokens_rotate_prints_the_new_urls(env: dict[str, str]) -> None:
+    _, before, _ = run(env, "tiles", "--wall", "demo")
+    code, out, _ = run(env, "tokens", "rotate", "tiles", "--wall", "demo")
+    _, after, _ = run(env, "tiles", "--wall", "demo")
+    assert code == 0 and "wall demo: new tile URLs" in out
+    assert before != after and after.splitlines()[0] in out
+    _, other_before, _ = run(env, "tiles", "--wall", "kl-3x3")
+    code, out, _ = run(env, "tokens", "rotate", "operator")
+    assert code == 0 and "new operator sign-in link: http://127.0.0.1:8111/login/operator" in out
+    assert run(env, "tiles", "--wall", "kl-3x3")[1] == other_before, "other walls keep theirs"

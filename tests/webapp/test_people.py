@@ -8,11 +8,13 @@ from sqlalchemy import select
 from webapp.db import Database
 from webapp.models import AddressRuleRecord, AuditRecord, VisitorRecord
 from webapp.people import (
+    MAX_DISPLAY_NAME,
     Person,
     address_grant,
     assume,
     grant,
     load_person,
+    plain_name,
     revoke,
     sign_out,
     update_profile,
@@ -164,11 +166,11 @@ def test_the_profile_is_stored_and_capped_by_the_role(db: Database, settings: Se
     )
     assert updated.user_group == "k5"
     assert updated.info_class == 3, "a student's maximum"
-    assert updated.display_name == "x" * 60
+    assert updated.display_name == "x" * 40
     assert updated.visitor == person.visitor, "no privilege changed: no rotation"
     loaded = load_person(db, person.visitor, HERE, settings)
-    assert (loaded.user_group, loaded.info_class, loaded.display_name) == ("k5", 3, "x" * 60)
-    assert loaded.public_name == "x" * 60
+    assert (loaded.user_group, loaded.info_class, loaded.display_name) == ("k5", 3, "x" * 40)
+    assert loaded.public_name == "x" * 40 + " (student)"
     low = update_profile(db, loaded, settings, user_group="k5", info_class=0, display_name=" Ann ")
     assert low.info_class == 1 and low.display_name == "Ann"
     staff = update_profile(
@@ -247,3 +249,18 @@ def test_revoke_demotes_every_phone_of_an_authority(db: Database, settings: Sett
     assert sorted(e.visitor_id for e in entries) == sorted([first.visitor.id, second.visitor.id])
     assert {e.actor for e in entries} == {"admin"}
     assert revoke(db, ["login:nobody"], actor="admin") == 0
+
+
+@pytest.mark.parametrize(
+    "typed,kept",
+    [
+        ("  Ann  ", "Ann"),
+        ("\u202eThe Dean\u200b", "The Dean"),  # a bidi override and a zero-width space
+        ("Ann\n\n(instructor)\tsays", "Ann (instructor) says"),
+        ("\uff24\uff45\uff41\uff4e", "Dean"),  # fullwidth letters folded
+        ("a" * 100, "a" * MAX_DISPLAY_NAME),
+        ("\x00\x07\u2066", ""),
+    ],
+)
+def test_display_names_are_plain_and_short(typed: str, kept: str) -> None:
+    assert plain_name(typed) == kept

@@ -96,3 +96,9 @@ def test_pubmed_settings_defaults_and_environment(monkeypatch: pytest.MonkeyPatc
 def test_pubmed_settings_out_of_bounds_are_rejected(field: str, value: Any) -> None:
     with pytest.raises(ValidationError, match=field):
         Settings(**{field: value})
+
+
+def test_production_needs_a_secret_key() -> None:
+    with pytest.raises(ValidationError, match="TAGWALL_SECRET_KEY is required in production"):
+        Settings(env="production", secret_key="")
+    assert Settings(env="production", secret_key="s" * 32).resolved_secret_key == "s" * 32

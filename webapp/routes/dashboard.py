@@ -8,14 +8,14 @@ import time
 from typing import Annotated
 from urllib.parse import urlsplit
 
-from fastapi import APIRouter, Form, Query, Request, WebSocket, status
+from fastapi import APIRouter, Form, HTTPException, Query, Request, WebSocket, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
 from webapp.accounts import AccountError, add_account, list_accounts, remove_account
 from webapp.address_rules import RuleError, add_rule, list_rules, remove_rule
-from webapp.addresses import client_address
+from webapp.addresses import address_of
 from webapp.audit import recent_entries
 from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep
 from webapp.people import GROUP_LABELS, load_person
@@ -30,6 +30,7 @@ from webapp.visitors import visitor_of
 router = APIRouter(include_in_schema=False)
 
 STATUS_INTERVAL_S = 1.0
+AUTHORITY_CHECK_S = 1.0  # how often an open dashboard socket checks who it serves
 
 
 @router.get("/dashboard")
@@ -40,9 +41,15 @@ def dashboard_page(
     wall: Annotated[str | None, Query(max_length=64)] = None,
 ) -> HTMLResponse:
     walls = list(services.walls.values())
+    if not walls:
+        raise HTTPException(
+            status.HTTP_503_SERVICE_UNAVAILABLE,
+            "No walls are configured. Point TAGWALL_WALL_CONFIGS at wall config files "
+            "(see docs/wall-config.md) and start the server again.",
+        )
     current = services.walls.get(wall or "") or services.walls.get(services.settings.default_wall)
     current = current or walls[0]
-    apps = [app for app in services.apps.values() if app.name != "core"]
+    apps = list(services.wall_apps.values())
     panels = [panel for app in apps if (panel := app.dashboard_panel(current))]
     return render(
         request,
@@ -68,26 +75,42 @@ async def dashboard_socket(websocket: WebSocket, wall_id: str) -> None:
     if not _same_origin(websocket):
         await websocket.close(CLOSE_POLICY, "cross-site connection refused")
         return
-    peer = websocket.client.host if websocket.client else ""
-    address = client_address(
-        peer, websocket.headers.get("x-forwarded-for"), services.settings.trusted_proxies
-    )
     visitor = visitor_of(websocket, services.secret)
-    person = await run_in_threadpool(load_person, services.db, visitor, address, services.settings)
-    if not person.is_staff:
+    address = address_of(websocket)
+
+    async def still_staff() -> bool:
+        """Sign-out, a password change, a removed account or a role given up rotate or
+        demote the session: the socket's cookie then stands for nobody."""
+        person = await run_in_threadpool(
+            load_person, services.db, visitor, address, services.settings
+        )
+        return person.is_staff
+
+    if not await still_staff():
         await websocket.close(CLOSE_POLICY, "instructors only")
         return
     with services.scan_feed.subscribe(wall.id) as scans:
         sender = asyncio.create_task(_send_updates(websocket, services, wall.id, scans))
+        reader = asyncio.create_task(_until_closed(websocket))
         try:
-            while True:  # dashboards only listen; reading notices the close
-                await websocket.receive_text()
-        except WebSocketDisconnect:
-            pass
+            while not sender.done() and not reader.done():
+                await asyncio.wait({sender, reader}, timeout=AUTHORITY_CHECK_S)
+                if not reader.done() and not await still_staff():
+                    await websocket.close(CLOSE_POLICY, "signed out: sign in again")
+                    break
         finally:
-            sender.cancel()
-            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
-                await sender
+            for task in (sender, reader):
+                task.cancel()
+            for task in (sender, reader):
+                with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+                    await task
+
+
+async def _until_closed(websocket: WebSocket) -> None:
+    """Dashboards only listen; reading notices the close."""
+    with contextlib.suppress(WebSocketDisconnect):
+        while True:
+            await websocket.receive_text()
 
 
 def _same_origin(websocket: WebSocket) -> bool:

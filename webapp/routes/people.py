@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
+from anyio import to_thread
 from fastapi import APIRouter, Form, Query, Request, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
@@ -22,6 +23,7 @@ from webapp.routes.pages import render
 from webapp.security import token_matches
 from webapp.services import Services
 from webapp.settings import USER_GROUPS
+from webapp.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
 
 router = APIRouter(include_in_schema=False)
 
@@ -40,19 +42,22 @@ async def login_page(
     return render(request, "login.html", next=safe_next(next), error=None)
 
 
-def _login_wait(services: Services, username: str, address: str) -> float | None:
-    """Seconds until this account and this client may try again (None: now)."""
-    waits = [
-        services.login_backoff.wait(f"account:{username.strip().lower()}"),
-        services.login_backoff.wait(f"client:{address}"),
-    ]
-    known = [w for w in waits if w is not None]
-    return max(known) if known else None
+def _too_many(request: Request, template: str, wait: float, **context: object) -> Response:
+    seconds = int(wait) + 1
+    response = render(
+        request,
+        template,
+        status.HTTP_429_TOO_MANY_REQUESTS,
+        status=429,
+        detail=f"Too many failed sign-ins. Try again in {seconds} seconds.",
+        error=f"Too many failed sign-ins. Try again in {seconds} seconds.",
+        **context,
+    )
+    response.headers["Retry-After"] = str(seconds)
+    return response
 
 
-def _failed_login(services: Services, username: str, address: str) -> None:
-    services.login_backoff.failed(f"account:{username.strip().lower()}")
-    services.login_backoff.failed(f"client:{address}")
+def _audit_failure(services: Services, username: str, address: str) -> None:
     with services.db.session() as session:
         audit(session, "login_failed", actor=username[:64], address=address)
 
@@ -68,21 +73,16 @@ async def login(
     next: Annotated[str | None, Form()] = None,
 ) -> Response:
     target = safe_next(next)
-    wait = _login_wait(services, username, address)
-    if wait is not None:
-        seconds = int(wait) + 1
-        response = render(
-            request,
-            "login.html",
-            status.HTTP_429_TOO_MANY_REQUESTS,
-            next=target,
-            error=f"Too many failed sign-ins. Try again in {seconds} seconds.",
-        )
-        response.headers["Retry-After"] = str(seconds)
-        return response
-    account = await run_in_threadpool(authenticate, services.db, username, password)
+    name = username.strip().lower()
+    device = device_of(services.secret, request.cookies.get(DEVICE_COOKIE), name)
+    attempt = services.login_throttle.reserve(name, address, device)
+    if not isinstance(attempt, Attempt):
+        return _too_many(request, "login.html", attempt, next=target)
+    account = await to_thread.run_sync(
+        authenticate, services.db, username, password, limiter=services.password_checks
+    )
     if account is None:
-        await run_in_threadpool(_failed_login, services, username, address)
+        await run_in_threadpool(_audit_failure, services, username, address)
         return render(
             request,
             "login.html",
@@ -90,8 +90,7 @@ async def login(
             next=target,
             error="Wrong username or password.",
         )
-    services.login_backoff.succeeded(f"account:{account.username}")
-    services.login_backoff.succeeded(f"client:{address}")
+    services.login_throttle.succeeded(attempt)
     signed_in = await run_in_threadpool(
         grant,
         services.db,
@@ -102,7 +101,9 @@ async def login(
         address,
     )
     remember_person(request, signed_in)
-    return RedirectResponse(target, status.HTTP_303_SEE_OTHER)
+    response = RedirectResponse(target, status.HTTP_303_SEE_OTHER)
+    response.headers.append("set-cookie", device_cookie(services.secret, account.username))
+    return response
 
 
 @router.get("/login/operator")
@@ -115,17 +116,11 @@ async def operator_sign_in(
 ) -> Response:
     """The link `tagwall urls` prints: signs this browser in as administrator, so a new
     installation can reach the dashboard and make the first accounts."""
-    wait = services.login_backoff.wait(f"client:{address}")
-    if wait is not None:
-        return render(
-            request,
-            "error.html",
-            status.HTTP_429_TOO_MANY_REQUESTS,
-            status=429,
-            detail=f"Too many failed sign-ins. Try again in {int(wait) + 1} seconds.",
-        )
+    attempt = services.login_throttle.reserve("operator", address, None)
+    if not isinstance(attempt, Attempt):
+        return _too_many(request, "error.html", attempt)
     if not token_matches(services.operator_token, token):
-        await run_in_threadpool(_failed_login, services, "operator", address)
+        await run_in_threadpool(_audit_failure, services, "operator", address)
         return render(
             request,
             "error.html",
@@ -133,6 +128,7 @@ async def operator_sign_in(
             status=403,
             detail="This operator link is wrong or out of date; `tagwall urls` prints it.",
         )
+    services.login_throttle.succeeded(attempt)
     signed_in = await run_in_threadpool(
         grant, services.db, person, "admin", "operator", services.settings, address
     )
@@ -161,7 +157,7 @@ async def change_profile(
     services: ServicesDep,
     user_group: Annotated[str, Form()],
     info_class: Annotated[int, Form(ge=1, le=5)],
-    display_name: Annotated[str, Form(max_length=60)] = "",
+    display_name: Annotated[str, Form(max_length=1_000)] = "",  # made plain and short
 ) -> HTMLResponse:
     if user_group not in USER_GROUPS:
         return render(

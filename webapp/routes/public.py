@@ -10,6 +10,7 @@ from fastapi.responses import HTMLResponse
 
 from tag_service.codes import normalize_code
 from webapp.apps import Scan
+from webapp.db import RowId
 from webapp.deps import (
     ClientAddressDep,
     CsrfDep,
@@ -21,7 +22,7 @@ from webapp.deps import (
 )
 from webapp.publishing import PublishRefused, clear, decide, set_policy, submit, waiting
 from webapp.routes.pages import render
-from webapp.schemas import PublicationInfo, PublicScreenInfo
+from webapp.schemas import PublicationInfo, PublicScreenInfo, errors
 from webapp.tags import find, is_live
 from webapp.wall_state import PublicPolicy, read_state
 
@@ -44,7 +45,7 @@ async def publish(
     app = services.apps.get(tag.app) if tag else None
     if tag is None or wall is None or app is None or not is_live(tag):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is nothing to publish for that code.")
-    wait = services.publish_limit.hit(person.visitor.id)
+    wait = services.action_allowed("publish", person.visitor, address, wall.id)
     if wait is not None:
         response = render(
             request,
@@ -95,9 +96,13 @@ async def public_screen(wall: WallDep, services: ServicesDep) -> PublicScreenInf
     )
 
 
-@router.post("/api/walls/{wall_id}/public/{publication_id}/{decision}", tags=["public"])
+@router.post(
+    "/api/walls/{wall_id}/public/{publication_id}/{decision}",
+    tags=["public"],
+    responses=errors(404),
+)
 async def moderate(
-    wall: WallDep, publication_id: int, decision: str, services: ServicesDep, actor: StaffDep
+    wall: WallDep, publication_id: RowId, decision: str, services: ServicesDep, actor: StaffDep
 ) -> PublicationInfo:
     """``approve`` (show it now) or ``reject`` a waiting publication."""
     if decision not in ("approve", "reject"):

@@ -47,7 +47,7 @@ async def resolve(
         response: Response = problem_page(
             request, 404, "Unknown code", "This is not one of this wall's codes."
         )
-    elif (wait := services.scan_allowed(visitor.id, address)) is not None:
+    elif (wait := services.action_allowed("scan", visitor, address)) is not None:
         response = problem_page(
             request,
             429,

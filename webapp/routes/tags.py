@@ -9,9 +9,10 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
+from webapp.db import RowId
 from webapp.deps import ServicesDep, StaffOnly, WallDep
 from webapp.models import TagRecord
-from webapp.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate
+from webapp.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate, errors
 from webapp.services import Services
 from webapp.tags import (
     TagSpec,
@@ -87,12 +88,12 @@ async def _tag(code: str, services: Services) -> TagRecord:
     return tag
 
 
-@router.get("/tags/{code}", dependencies=[StaffOnly])
+@router.get("/tags/{code}", dependencies=[StaffOnly], responses=errors(404))
 async def get_tag(code: str, services: ServicesDep) -> TagInfo:
     return tag_info(await _tag(code, services), services)
 
 
-@router.patch("/tags/{code}", dependencies=[StaffOnly])
+@router.patch("/tags/{code}", dependencies=[StaffOnly], responses=errors(404))
 async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> TagInfo:
     """Relabel, switch off or set an expiry; the wall re-places when that changes it."""
     tag = await _tag(code, services)
@@ -119,7 +120,7 @@ async def list_tag_sets(wall: WallDep, services: ServicesDep) -> TagSetsInfo:
     )
 
 
-@router.put("/walls/{wall_id}/tag-set", dependencies=[StaffOnly])
+@router.put("/walls/{wall_id}/tag-set", dependencies=[StaffOnly], responses=errors(404))
 async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: ServicesDep) -> TagSetsInfo:
     """Switch the wall's codes to another set: placed, then shown by every tile at once."""
     sets = await run_in_threadpool(tag_sets, services.db, wall.id)
@@ -137,7 +138,7 @@ async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: Services
 @router.get("/walls/{wall_id}/layouts/{layout_id}")
 async def get_wall_layout(
     wall: WallDep,
-    layout_id: int,
+    layout_id: RowId,
     services: ServicesDep,
     display: Annotated[str | None, Query(max_length=64)] = None,
 ) -> JSONResponse:

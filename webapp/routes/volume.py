@@ -9,7 +9,7 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import ValidationError
 
 from webapp.deps import DetailedRenderAccess, ServicesDep, StaffOnly, TileDep, WallDep
-from webapp.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene
+from webapp.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene, errors
 from webapp.services import Services
 from webapp.volume.store import VolumeStore, VolumeStoreError
 from webapp.volume.tiles import (
@@ -51,7 +51,11 @@ def list_volumes(services: ServicesDep) -> list[VolumeInfo]:
     return infos
 
 
-@router.get("/api/walls/{wall_id}/tiles/{tile_id}/volume", dependencies=[DetailedRenderAccess])
+@router.get(
+    "/api/walls/{wall_id}/tiles/{tile_id}/volume",
+    dependencies=[DetailedRenderAccess],
+    responses=errors(404),
+)
 async def tile_volume_image(
     wall: WallDep,
     tile: TileDep,
@@ -91,7 +95,7 @@ async def tile_volume_image(
     )
 
 
-@router.get("/api/walls/{wall_id}/volume/detail", dependencies=[StaffOnly])
+@router.get("/api/walls/{wall_id}/volume/detail", dependencies=[StaffOnly], responses=errors(404))
 async def volume_detail(wall: WallDep, services: ServicesDep) -> VolumeDetail:
     """Which level each tile shows for the wall's current view (refined)."""
     version, state = await run_in_threadpool(read_state, services.db, wall.id)

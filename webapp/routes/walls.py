@@ -45,6 +45,11 @@ async def status_of(services: Services, wall: Wall) -> WallStatus:
 async def change_wall_state(
     wall: WallDep, patch: StatePatch, services: ServicesDep
 ) -> ChangeResult:
+    if patch.app is not None and patch.app not in services.wall_apps:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT,
+            f"There is no app called {patch.app!r}; apps: {', '.join(sorted(services.wall_apps))}.",
+        )
     if patch.volume is not None and patch.volume.volume not in services.volumes:
         raise HTTPException(
             status.HTTP_422_UNPROCESSABLE_CONTENT,

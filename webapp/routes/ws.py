@@ -15,10 +15,13 @@ import time
 from anyio import to_thread
 from fastapi import APIRouter, WebSocket
 from pydantic import ValidationError
+from sqlalchemy.exc import SQLAlchemyError
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from wall_client.layout import Wall
+from webapp.addresses import address_of
 from webapp.bus import SubscriberTooSlow, Subscription
+from webapp.db import is_outage
 from webapp.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
@@ -42,6 +45,7 @@ router = APIRouter()
 log = logging.getLogger(__name__)
 
 HELLO_TIMEOUT_S = 10.0
+TOKEN_CHECK_S = 2.0  # how often an open tile socket checks that its token still holds
 
 
 class CloseConnection(Exception):
@@ -66,7 +70,7 @@ async def tile_socket(
     if not token_matches(services.tile_token(wall_id), token):
         await websocket.close(CLOSE_POLICY, "bad tile token")
         return
-    await Connection(websocket, services, wall, tile_id).serve()
+    await Connection(websocket, services, wall, tile_id, token).serve()
 
 
 @router.websocket("/ws/wall/{wall_id}/view")
@@ -84,13 +88,19 @@ class Connection:
     """One tile's (or viewer's) socket: a reader and a writer sharing a send lock."""
 
     def __init__(
-        self, websocket: WebSocket, services: Services, wall: Wall, tile_id: str | None
+        self,
+        websocket: WebSocket,
+        services: Services,
+        wall: Wall,
+        tile_id: str | None,
+        token: str | None = None,
     ) -> None:
         self.websocket = websocket
         self.services = services
         self.hub = services.hub
         self.wall = wall
         self.tile_id = tile_id
+        self.token = token
         self.send_lock = asyncio.Lock()
 
     async def serve(self) -> None:
@@ -101,8 +111,7 @@ class Connection:
             async with self.hub.bus.subscribe(self.wall.id) as subscription:
                 await self.catch_up(hello)
                 if self.tile_id:
-                    address = self.websocket.client.host if self.websocket.client else None
-                    self.hub.tile_connected(self.wall.id, self.tile_id, address)
+                    self.hub.tile_connected(self.wall.id, self.tile_id, address_of(self.websocket))
                 try:
                     await self.pump(subscription)
                 finally:
@@ -114,6 +123,11 @@ class Connection:
             await self.close(CLOSE_POLICY, "no hello in time")
         except WebSocketDisconnect:
             pass  # the peer went away; nothing to tell it
+        except SQLAlchemyError as error:
+            if not is_outage(error):
+                raise
+            log.warning("tile socket of %s: the database is not answering", self.wall.id)
+            await self.close(CLOSE_TRY_AGAIN, "the database is not answering: reconnect")
 
     async def catch_up(self, hello: Hello) -> None:
         """Replay what the tile missed, or send a snapshot when history is too short."""
@@ -142,6 +156,8 @@ class Connection:
             asyncio.create_task(self.read_loop()),
             asyncio.create_task(self.write_loop(subscription)),
         }
+        if self.tile_id:
+            tasks.add(asyncio.create_task(self.watch_token()))
         try:
             done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
         finally:
@@ -173,6 +189,14 @@ class Connection:
                 self.hub.tile_applied(
                     self.wall.id, self.tile_id, message.version, message.server_time
                 )
+
+    async def watch_token(self) -> None:
+        """A tile whose token was rotated (``tagwall tokens rotate tiles``) is closed:
+        the old URL is worth nothing from then on, open or not."""
+        while True:
+            await asyncio.sleep(TOKEN_CHECK_S)
+            if not token_matches(self.services.tile_token(self.wall.id), self.token):
+                raise CloseConnection(CLOSE_POLICY, "the tile token was rotated")
 
     async def write_loop(self, subscription: Subscription) -> None:
         try:

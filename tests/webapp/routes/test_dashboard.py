@@ -1,13 +1,22 @@
-"""The dashboard pages: app panels, the admin's forms and their errors."""
+"""The dashboard pages: app panels, the admin's forms and their errors, and the live
+socket, which closes when its instructor's authority ends."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from pathlib import Path
+
 import pytest
 from fastapi.testclient import TestClient
+from starlette.websockets import WebSocketDisconnect
 
-from tests.conftest import TEST_PASSWORD, csrf_of, services_of, sign_in
-from webapp.accounts import authenticate, list_accounts
+from tests.conftest import TEST_PASSWORD, csrf_of, register_student, services_of, sign_in
+from webapp.accounts import authenticate, list_accounts, remove_account, set_password
 from webapp.address_rules import list_rules
+from webapp.app import create_app
+from webapp.migrate import upgrade
+from webapp.protocol import CLOSE_POLICY
+from webapp.settings import Settings
 
 
 def test_the_dashboard_includes_each_apps_panel(client: TestClient) -> None:
@@ -92,3 +101,51 @@ def test_a_duplicate_rule_is_refused(client: TestClient) -> None:
             "/dashboard/admin/rules", data={"network": "10.0.0.0/8", "csrf": csrf_of(client)}
         )
     assert response.status_code == 400 and "already a rule" in response.text
+
+
+def _remove(client: TestClient) -> None:
+    remove_account(services_of(client).db, "instructor-one", actor="test")
+
+
+def _new_password(client: TestClient) -> None:
+    set_password(services_of(client).db, "instructor-one", "another-password", actor="test")
+
+
+def _sign_out(client: TestClient) -> None:
+    client.post("/logout", data={"csrf": csrf_of(client)})
+
+
+REVOCATIONS: dict[str, Callable[[TestClient], object]] = {
+    "account removed": _remove,
+    "password changed": _new_password,
+    "signed out": _sign_out,
+    "stepped down to student": register_student,
+}
+
+
+@pytest.mark.parametrize("how", sorted(REVOCATIONS))
+def test_an_open_dashboard_socket_closes_when_its_authority_ends(
+    client: TestClient, how: str
+) -> None:
+    sign_in(client, "instructor")
+    with client.websocket_connect(
+        "/ws/dashboard/demo", headers={"origin": "http://testserver"}
+    ) as socket:
+        assert socket.receive_json()["type"] == "status"
+        REVOCATIONS[how](client)
+        with pytest.raises(WebSocketDisconnect) as closed:
+            for _ in range(60):  # status arrives every second until the socket closes
+                socket.receive_json()
+        assert closed.value.code == CLOSE_POLICY
+
+
+def test_without_walls_the_dashboard_says_so(settings: Settings, tmp_path: Path) -> None:
+    empty = tmp_path / "no-walls"
+    empty.mkdir()
+    bare = settings.model_copy(update={"wall_configs": [empty]})
+    upgrade(bare.resolved_database_url)
+    with TestClient(create_app(bare)) as browser:
+        sign_in(browser, "instructor")
+        page = browser.get("/dashboard")
+    assert page.status_code == 503
+    assert "No walls are configured" in page.text and "TAGWALL_WALL_CONFIGS" in page.text

@@ -77,7 +77,7 @@ def test_the_app_the_scan_and_the_cookie_agree_on_a_new_visitor(client: TestClie
     response = client.get(f"/t/{tag.code}")
     assert response.status_code == 200
     serializer = URLSafeSerializer(services(client).secret, salt="tagwall.session")
-    cookie_id, _session_id = serializer.loads(response.cookies[SESSION_COOKIE])
+    cookie_id, _session_id, _issued = serializer.loads(response.cookies[SESSION_COOKIE])
     (scan,) = recorded(client, tag.code)
     assert response.text == scan.visitor_id == cookie_id
 

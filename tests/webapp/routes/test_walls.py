@@ -1,3 +1,4 @@
+import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import operator_headers as operator
@@ -67,3 +68,52 @@ def test_malformed_change_is_rejected_and_stores_nothing(client: TestClient) -> 
     )
     assert not_json.status_code == 422
     assert version_now(client) == start
+
+
+@pytest.mark.parametrize("field", ["view", "app", "mode", "balloons", "layers", "public_policy"])
+def test_null_for_a_field_that_cannot_be_empty_is_422(client: TestClient, field: str) -> None:
+    start = version_now(client)
+    response = client.post("/api/walls/demo/state", json={field: None}, headers=operator(client))
+    assert response.status_code == 422, response.text
+    assert "may not be null" in response.text
+    assert version_now(client) == start
+
+
+@pytest.mark.parametrize("name", ["0", "core", "Brain"])
+def test_an_app_that_is_not_one_is_422(client: TestClient, name: str) -> None:
+    start = version_now(client)
+    response = client.post("/api/walls/demo/state", json={"app": name}, headers=operator(client))
+    assert response.status_code == 422, response.text
+    assert "no app called" in response.json()["detail"]
+    assert version_now(client) == start
+
+
+def test_null_volume_still_takes_the_volume_off(client: TestClient) -> None:
+    response = client.post("/api/walls/demo/state", json={"volume": None}, headers=operator(client))
+    assert response.status_code == 200
+
+
+HUGE = "99999999999999999999999"
+
+
+@pytest.mark.parametrize(
+    "method,url,body",
+    [
+        ("GET", f"/api/walls/demo/layouts/{HUGE}", None),
+        ("GET", f"/api/walls/demo/layouts/{2**31}", None),
+        ("GET", f"/api/walls/demo/tiles/r1c1/census?dataset={HUGE}", None),
+        ("GET", f"/api/walls/demo/tiles/r1c1/census?dataset=1&layout={HUGE}", None),
+        ("GET", f"/api/census/datasets/{HUGE}", None),
+        ("POST", "/api/census/current", {"dataset": int(HUGE)}),
+        ("GET", f"/api/walls/demo/brain/answers.csv?round={HUGE}", None),
+        ("POST", f"/api/walls/demo/public/{HUGE}/approve", None),
+    ],
+)
+def test_numbers_too_large_for_the_database_are_refused_not_500(
+    client: TestClient, method: str, url: str, body: object
+) -> None:
+    """On SQLite and PostgreSQL alike, anonymously and as the operator."""
+    for headers in ({}, operator(client)):
+        response = client.request(method, url, json=body, headers=headers)
+        assert response.status_code in (401, 404, 422), (headers, response.text)
+    assert response.status_code == 422

@@ -40,6 +40,7 @@ from webapp.people import Person, update_profile
 from webapp.routes.pages import render
 from webapp.settings import USER_GROUPS, UserGroup
 from webapp.tags import find, wall_tags
+from webapp.visitors import Visitor
 from webapp.wall_state import WallState, read_state
 
 if TYPE_CHECKING:
@@ -420,7 +421,9 @@ async def choose_group(app: BrainApp, scan: Scan) -> Response:
     wall follows only where the instructor lets the audience switch it."""
     person = await scan.person()
     group = str(scan.tag.params.get("group", ""))
-    return await join_group(app, scan.request, scan.services, scan.wall, person, group, True)
+    return await join_group(
+        app, scan.request, scan.services, scan.wall, person, group, True, scan.address
+    )
 
 
 async def join_group(
@@ -431,6 +434,7 @@ async def join_group(
     person: Person,
     group: str,
     from_menu: bool = False,
+    address: str = "",
 ) -> Response:
     """The phone joins ``group`` (its pages speak to that group from now on). Scanned
     off the menu screen, the wall may follow too (:func:`audience_switch`)."""
@@ -448,7 +452,11 @@ async def join_group(
     )
     remember_person(request, updated)
     wanted = set_of_group(chosen)
-    outcome = await audience_switch(app, services, wall, wanted) if from_menu else None
+    outcome = (
+        await audience_switch(app, services, wall, wanted, person.visitor, address)
+        if from_menu
+        else None
+    )
     state = await wall_state(services, wall)
     return render(
         request,
@@ -462,10 +470,18 @@ async def join_group(
     )
 
 
-async def audience_switch(app: BrainApp, services: Services, wall: Wall, wanted: TagSetName) -> str:
+async def audience_switch(
+    app: BrainApp,
+    services: Services,
+    wall: Wall,
+    wanted: TagSetName,
+    visitor: Visitor,
+    address: str,
+) -> str:
     """Switch the wall to ``wanted``'s pins for an audience scan, if allowed now; says
     what happened: ``same``, ``switched``, ``instructor`` (the instructor keeps the
-    wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown)."""
+    wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown, or the
+    phone's own limits on changing the wall: the phone still joins its group)."""
     state, quiz_round = await round_now(app, services, wall)
     if state.app != APP or set_on_wall(state) == wanted:
         return "same"
@@ -473,6 +489,8 @@ async def audience_switch(app: BrainApp, services: Services, wall: Wall, wanted:
         return "instructor"
     if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
         return "quiz"
+    if services.action_allowed("group", visitor, address, wall.id) is not None:
+        return "wait"
     cooldown = services.settings.brain_group_switch_cooldown
     if not await run_in_threadpool(claim_audience_switch, services.db, wall.id, cooldown):
         return "wait"

@@ -35,8 +35,10 @@ from webapp.apps.brain_atlas.quiz import (
     start_round,
     statistics,
 )
+from webapp.db import RowId
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
+from webapp.schemas import errors
 from webapp.services import Services
 from webapp.wall_state import WallState
 
@@ -255,7 +257,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
     )
 
 
-@router.post("/api/walls/{wall_id}/brain")
+@router.post("/api/walls/{wall_id}/brain", responses=errors(404, 409))
 async def control(
     choice: BrainControl, wall: WallDep, services: ServicesDep, staff: StaffDep
 ) -> BrainStatus:
@@ -306,7 +308,7 @@ async def control(
     return await brain_status(wall, services, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/reset")
+@router.post("/api/walls/{wall_id}/brain/quiz/reset", responses=errors(409))
 async def reset_quiz(
     wall: WallDep, services: ServicesDep, staff: StaffDep, choice: NewRound | None = None
 ) -> BrainStatus:
@@ -325,7 +327,7 @@ async def reset_quiz(
     return await brain_status(wall, services, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/close")
+@router.post("/api/walls/{wall_id}/brain/quiz/close", responses=errors(409))
 async def close_quiz(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
     """Close the round on the wall: answers stop counting and every student sees the
     correct names and their results."""
@@ -342,7 +344,7 @@ async def answers_csv(
     wall: WallDep,
     services: ServicesDep,
     staff: StaffDep,
-    round_number: Annotated[int | None, Query(alias="round", ge=1, le=2**31 - 1)] = None,
+    round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
     """Every answer of a round (default: the one on the wall), for a spreadsheet."""
     if round_number is None:

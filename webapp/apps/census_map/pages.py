@@ -15,9 +15,11 @@ from webapp.apps import Scan
 from webapp.apps.census_map.actions import group_shown, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.deps import limit_action
 from webapp.models import TagRecord
 from webapp.people import Person
 from webapp.routes.pages import render
+from webapp.visitors import Visitor
 from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
@@ -129,14 +131,22 @@ async def toggle(app: CensusApp, scan: Scan) -> Response:
     """A scanned group toggle flips that group on every tile at once."""
     _, dataset = await shown_dataset(app, scan.services, scan.wall)
     group_id = str(scan.tag.params.get("group", ""))
-    return await toggled(scan.request, scan.services, scan.wall, dataset, group_id)
+    actor = (scan.visitor, scan.address)
+    return await toggled(scan.request, scan.services, scan.wall, dataset, group_id, actor)
 
 
 async def toggled(
-    request: Request, services: Services, wall: Wall, dataset: DataSet, group_id: str
+    request: Request,
+    services: Services,
+    wall: Wall,
+    dataset: DataSet,
+    group_id: str,
+    actor: tuple[Visitor, str],
 ) -> Response:
+    """Flip a group for ``actor`` (a visitor at an address), within the wall's limits."""
     group = next((g for g in dataset.groups if g.id == group_id), None)
     if group is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
+    limit_action(services, "toggle", *actor, wall.id)
     shown = await toggle_group(services, wall, group.id)
     return render(request, "census/toggled.html", wall=wall, group=group, shown=shown)

@@ -9,7 +9,7 @@ from typing import Annotated, Literal, cast
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
@@ -19,10 +19,20 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.store import list_datasets, make_current
-from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffOnly, TileDep, WallDep
+from webapp.db import ROW_ID_MAX, RowId
+from webapp.deps import (
+    ClientAddressDep,
+    CsrfDep,
+    PersonDep,
+    ServicesDep,
+    StaffOnly,
+    TileDep,
+    WallDep,
+    limit_action,
+)
 from webapp.models import TagRecord
 from webapp.routes.pages import render
-from webapp.schemas import PlacedCode
+from webapp.schemas import PlacedCode, errors
 from webapp.services import Services
 from webapp.tags import get_layout
 from webapp.wall_state import View, WallState, now_ms, read_state
@@ -40,7 +50,7 @@ def census_app(services: Services) -> CensusApp:
 class DataSetChoice(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
-    dataset: int = Field(ge=1)
+    dataset: RowId
 
 
 class DataSetEntry(BaseModel):
@@ -55,13 +65,13 @@ class DataSetEntry(BaseModel):
 # --- tiles ---------------------------------------------------------------------------
 
 
-@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census")
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census", responses=errors(404))
 async def tile_map(
     wall: WallDep,
     tile: TileDep,
     services: ServicesDep,
-    dataset: Annotated[int, Query(ge=1)],
-    layout: Annotated[int, Query(ge=0)] = 0,
+    dataset: RowId,
+    layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
     cx: float = 0.5,
     cy: float = 0.5,
     zoom: float = 1.0,
@@ -165,29 +175,24 @@ async def tract_here(
     return await pages.tract_here(census_app(services), request, services, wall, geoid, person)
 
 
-def _slow_down(services: Services, person_id: str, address: str) -> None:
-    wait = services.scan_allowed(person_id, address)
-    if wait is not None:
-        raise HTTPException(
-            status.HTTP_429_TOO_MANY_REQUESTS,
-            f"That was a lot in a short time. Try again in {int(wait) + 1} seconds.",
-            headers={"Retry-After": str(int(wait) + 1)},
-        )
-
-
 @router.post(
     "/apps/census/{wall_id}/tracts/{geoid}/balloon",
     include_in_schema=False,
     dependencies=[CsrfDep],
 )
 async def show_on_wall(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: PersonDep,
+    address: ClientAddressDep,
+    geoid: str,
 ) -> Response:
     """ "Show on the wall": the tract's balloon opens beside it on every tile."""
     app = census_app(services)
     _, dataset = await pages.shown_dataset(app, services, wall)
     tract = pages.tract_of(dataset, geoid)
-    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
+    limit_action(services, "balloon", person.visitor, address, wall.id)
     balloon = await open_balloon(app, services, wall, dataset, tract)
     return render(
         request,
@@ -206,11 +211,16 @@ async def show_on_wall(
     dependencies=[CsrfDep],
 )
 async def toggle_group(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group_id: str
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: PersonDep,
+    address: ClientAddressDep,
+    group_id: str,
 ) -> Response:
     _, dataset = await pages.shown_dataset(census_app(services), services, wall)
-    _slow_down(services, person.visitor.id, request.client.host if request.client else "")
-    return await pages.toggled(request, services, wall, dataset, group_id)
+    actor = (person.visitor, address)
+    return await pages.toggled(request, services, wall, dataset, group_id, actor)
 
 
 # --- Google Earth --------------------------------------------------------------------
@@ -275,7 +285,7 @@ async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
 WallQuery = Annotated[str | None, Query(alias="wall", max_length=64)]
 
 
-@router.get("/apps/census/census.kml")
+@router.get("/apps/census/census.kml", responses=errors(404))
 async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     """The map as Google Earth shows it: tracts, groups as folders, open balloons."""
     inputs = await _kml_of(services, wall_id)
@@ -283,7 +293,7 @@ async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     return Response(body, media_type=KML_TYPE)
 
 
-@router.get("/apps/census/census.kmz")
+@router.get("/apps/census/census.kmz", responses=errors(404))
 async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     inputs = await _kml_of(services, wall_id)
     body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
@@ -294,7 +304,7 @@ async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     )
 
 
-@router.get("/apps/census/network-link.kml")
+@router.get("/apps/census/network-link.kml", responses=errors(404))
 async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
     """Open once in Google Earth Pro: it fetches census.kml every few seconds, so
     Earth follows the wall's groups and balloons."""
@@ -329,7 +339,7 @@ async def datasets(services: ServicesDep) -> list[DataSetEntry]:
     ]
 
 
-@router.post("/api/census/current", dependencies=[StaffOnly])
+@router.post("/api/census/current", dependencies=[StaffOnly], responses=errors(404))
 async def choose_dataset(choice: DataSetChoice, services: ServicesDep) -> DataSetChoice:
     """Make a data set the one the census map shows; walls showing it switch in sync."""
     try:
@@ -355,8 +365,8 @@ class DataSetDetail(BaseModel):
     groups: list[GroupEntry]
 
 
-@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly])
-async def dataset_detail(dataset_id: int, services: ServicesDep) -> DataSetDetail:
+@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
+async def dataset_detail(dataset_id: RowId, services: ServicesDep) -> DataSetDetail:
     """A data set's groups, for the dashboard's toggles."""
     dataset = await run_in_threadpool(census_app(services).dataset, services, dataset_id)
     if dataset is None:

@@ -1,0 +1,66 @@
+"""The database going away while the server runs: pages and the API answer 503 with
+Retry-After (never a 500 or a traceback), and everything works again when it is back."""
+
+from __future__ import annotations
+
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+from fastapi.testclient import TestClient
+from sqlalchemy import create_engine, text
+from sqlalchemy.engine import make_url
+
+from tests.conftest import POSTGRES_URL, operator_headers, register_student
+from webapp.app import create_app
+from webapp.migrate import upgrade
+from webapp.settings import Settings
+
+
+def outage(url: str, tmp_path: Path) -> tuple[Callable[[], None], Callable[[], None]]:
+    """How to take the database at ``url`` away and bring it back."""
+    if url.startswith("sqlite"):
+        folder = Path(make_url(url).database or "").parent
+        away = tmp_path / "away"
+        return (lambda: shutil.move(folder, away)), (lambda: shutil.move(away, folder))
+    name = make_url(url).database
+    admin = create_engine(make_url(POSTGRES_URL), isolation_level="AUTOCOMMIT")
+
+    def run(*statements: str) -> None:
+        with admin.connect() as connection:
+            for statement in statements:
+                connection.execute(text(statement))
+
+    down = (
+        f'ALTER DATABASE "{name}" ALLOW_CONNECTIONS false',
+        f"SELECT pg_terminate_backend(pid) FROM pg_stat_activity WHERE datname = '{name}'",
+    )
+    return (lambda: run(*down)), (lambda: run(f'ALTER DATABASE "{name}" ALLOW_CONNECTIONS true'))
+
+
+def test_a_database_outage_is_503_not_500(
+    settings: Settings, database_url: str, tmp_path: Path
+) -> None:
+    if database_url.startswith("sqlite"):  # in a folder of its own, so it can go away
+        database_url = f"sqlite:///{tmp_path / 'db' / 'tagwall.db'}"
+    settings = settings.model_copy(update={"database_url": database_url})
+    upgrade(database_url)
+    app = create_app(settings)
+    take_down, bring_back = outage(database_url, tmp_path)
+    with TestClient(app, raise_server_exceptions=False) as phone:
+        register_student(phone)
+        operator = operator_headers(phone)
+        take_down()
+        app.state.services.db.engine.dispose()  # connections of the old database go too
+        try:
+            page = phone.get("/me")
+            api = phone.get("/api/walls/demo/status", headers=operator)
+            health = phone.get("/healthz")
+        finally:
+            bring_back()
+        assert (page.status_code, api.status_code, health.status_code) == (503, 503, 503)
+        assert "The database is not answering" in page.text and "Traceback" not in page.text
+        assert api.json() == {"detail": "The database is not answering. Try again in a moment."}
+        assert page.headers["retry-after"] == api.headers["retry-after"] == "5"
+        assert phone.get("/me").status_code == 200, "and back when the database is"
+        assert phone.get("/api/walls/demo/status", headers=operator).status_code == 200

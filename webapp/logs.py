@@ -1,0 +1,51 @@
+"""Logging without secrets: tokens in URLs never reach a log file.
+
+Tile URLs and the operator's sign-in link carry their token in the query string, and
+uvicorn logs every request's path (access log) and every websocket's (error log).
+:class:`RedactSecrets` masks them on the handlers, whatever logger the line came from.
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import re
+from typing import Any
+
+_SECRET_QUERY = re.compile(r"((?:^|[?&;\s])(?:token|csrf)=)[^&;\s\"']+", re.IGNORECASE)
+REDACTED = "[redacted]"
+
+
+def redact(text: str) -> str:
+    """``text`` with the values of ``token=`` and ``csrf=`` query parameters masked."""
+    return _SECRET_QUERY.sub(rf"\g<1>{REDACTED}", text)
+
+
+class RedactSecrets(logging.Filter):
+    """Masks secrets in a record's message and its string arguments (uvicorn's access
+    formatter reads the arguments one by one, so they are masked in place)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        if isinstance(record.msg, str):
+            record.msg = redact(record.msg)
+        if isinstance(record.args, tuple):
+            record.args = tuple(redact(a) if isinstance(a, str) else a for a in record.args)
+        return True
+
+
+def uvicorn_log_config() -> dict[str, Any]:
+    """uvicorn's logging configuration with :class:`RedactSecrets` on every handler."""
+    from uvicorn.config import LOGGING_CONFIG
+
+    config: dict[str, Any] = copy.deepcopy(LOGGING_CONFIG)
+    config.setdefault("filters", {})["redact_secrets"] = {"()": f"{__name__}.RedactSecrets"}
+    for handler in config["handlers"].values():
+        handler.setdefault("filters", []).append("redact_secrets")
+    return config
+
+
+def redact_root_handlers() -> None:
+    """Mask secrets in what tagwall's own loggers write, too."""
+    for handler in logging.getLogger().handlers:
+        if not any(isinstance(f, RedactSecrets) for f in handler.filters):
+            handler.addFilter(RedactSecrets())
