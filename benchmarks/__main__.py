@@ -21,6 +21,7 @@ BENCHMARKS = (
     "census",
     "brain",
     "signin",
+    "sync",
 )
 RESULTS = Path(__file__).parent / "results"
 

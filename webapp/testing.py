@@ -134,3 +134,34 @@ class ServerProcess:
     def version(self, wall: str) -> int:
         """The wall's current state version (walls start past 0: their codes are shown)."""
         return int(self.status(wall)["version"])
+
+
+# Debian Chromium as the browser tests and benchmarks drive it: headless in a sandbox
+# without a GPU, and never throttled in the background (a tile is never "hidden").
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-dev-shm-usage",
+    "--disable-background-networking",
+    "--disable-background-timer-throttling",
+    "--disable-backgrounding-occluded-windows",
+    "--disable-renderer-backgrounding",
+]
+
+# Records, in a tile's page, the true time (performance.timeOrigin is never skewed) at
+# which it showed each version: ``window.__shown[version]``.
+RECORD_SHOWN = """
+window.__shown = {};
+new MutationObserver(() => {
+  window.__shown[document.body.dataset.version] = performance.timeOrigin + performance.now();
+}).observe(document.documentElement, {attributes: true, subtree: true,
+                                      attributeFilter: ["data-version"]});
+"""
+
+
+def skewed_clock(skew_ms: int) -> str:
+    """An init script that puts a page's ``Date.now`` ``skew_ms`` off the true time."""
+    return (
+        f"(() => {{ const now = Date.now.bind(Date); const skew = {skew_ms};"
+        " Date.now = () => now() + skew; })();"
+    )

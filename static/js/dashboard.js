@@ -30,13 +30,23 @@ function button(text, onClick) {
 
 // --- live status -----------------------------------------------------------------------
 
+// A choice follows the wall when the wall's value changes, so a status arriving while
+// the instructor is picking (or between picking and pressing Switch) never undoes it.
+const onWall = {};
+
+function follow(id, value) {
+  if (onWall[id] === value) return;
+  onWall[id] = value;
+  $(id).value = value;
+}
+
 function showStatus(status, waiting) {
   const state = status.state;
   $("version").textContent = status.version;
   $("app").textContent = state.app;
   $("mode").textContent = state.mode;
-  if (document.activeElement !== $("mode-choice")) $("mode-choice").value = state.mode;
-  if (document.activeElement !== $("app-choice")) $("app-choice").value = state.app;
+  follow("mode-choice", state.mode);
+  follow("app-choice", state.app);
   $("public-shown").textContent = state.public
     ? `${state.public.title} (by ${state.public.author})` : "nothing";
   $("public-moderated").checked = state.public_policy.moderated;

@@ -16,17 +16,7 @@ from playwright.sync_api import Browser, Page, sync_playwright
 
 from tests.conftest import TEST_SECRET
 from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess
-
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-dev-shm-usage",
-    "--disable-background-networking",
-    "--disable-background-timer-throttling",
-    "--disable-backgrounding-occluded-windows",
-    "--disable-renderer-backgrounding",
-]
+from webapp.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
 
 
 def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
@@ -84,10 +74,7 @@ def open_tiles(
     for index, tile in enumerate(tiles):
         context = browser.new_context(viewport=viewport, device_scale_factor=1)
         if skews_ms:
-            context.add_init_script(
-                f"(() => {{ const now = Date.now.bind(Date); const skew = {skews_ms[index]};"
-                " Date.now = () => now() + skew; })();"
-            )
+            context.add_init_script(skewed_clock(skews_ms[index]))
         page = context.new_page()
         page.goto(server.tile_url(wall, tile))
         pages.append(page)
