@@ -78,9 +78,7 @@ class WallHub:
         matches its view)."""
         return self._placing.setdefault(wall_id, asyncio.Lock())
 
-    async def commit(
-        self, wall_id: str, update: Callable[[WallState], WallState]
-    ) -> Change | None:
+    async def commit(self, wall_id: str, update: Callable[[WallState], WallState]) -> Change | None:
         """Bump the version, persist, then publish.
 
         Only the door (``webapp.changes``) calls this: it places the codes a change

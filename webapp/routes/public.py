@@ -107,9 +107,7 @@ async def moderate(
     if decision not in ("approve", "reject"):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "Decide with approve or reject.")
     try:
-        record = await decide(
-            services, wall, publication_id, decision == "approve", actor
-        )
+        record = await decide(services, wall, publication_id, decision == "approve", actor)
     except KeyError:
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, "No publication with that id is waiting."
