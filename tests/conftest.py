@@ -12,9 +12,11 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
+import hypothesis
 import numpy as np
 import pytest
 from fastapi import FastAPI
+from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
@@ -33,17 +35,27 @@ POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
 
 
 def pytest_configure(config: pytest.Config) -> None:
+    # Property tests prove rules, not speed: no per-example deadline (a loaded two-core
+    # machine runs an example several times slower), and in CI the same examples each
+    # run, so a failure there is reproducible rather than a roll of the dice.
+    hypothesis.settings.register_profile("dev", deadline=None)
+    hypothesis.settings.register_profile("ci", deadline=None, derandomize=True)
+    hypothesis.settings.load_profile("ci" if os.environ.get("CI") else "dev")
     config.addinivalue_line(
         "markers", "postgres: needs PostgreSQL (runs whenever TAGWALL_TEST_DATABASE_URL is set)"
+    )
+    config.addinivalue_line(
+        "markers", "browser: drives Debian Chromium against a server process (-m 'not browser')"
     )
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    if POSTGRES_URL:
-        return
+    browser_tests = Path(__file__).parent / "browser"
     skip = pytest.mark.skip(reason="set TAGWALL_TEST_DATABASE_URL to run PostgreSQL tests")
     for item in items:
-        if "postgres" in item.keywords:
+        if item.path.is_relative_to(browser_tests):
+            item.add_marker(pytest.mark.browser)
+        if "postgres" in item.keywords and not POSTGRES_URL:
             item.add_marker(skip)
 
 
@@ -175,3 +187,16 @@ def build_test_volume(settings: Settings, name: str = "blobs") -> str:
         np.save(source, blob_volume())
         build_store(open_source(source), path, name=name, brick=8)
     return name
+
+
+def routes_of(app: FastAPI) -> set[tuple[str, str]]:
+    """Every (method, path) the app answers, websockets as ``WS``."""
+    found = set()
+    for included in app.routes:
+        router = getattr(included, "original_router", None)
+        for route in router.routes if router else [included]:
+            if isinstance(route, APIRoute):
+                found |= {(method, route.path) for method in route.methods}
+            elif isinstance(route, APIWebSocketRoute):
+                found.add(("WS", route.path))
+    return found

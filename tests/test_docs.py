@@ -8,7 +8,9 @@ from pathlib import Path
 
 import click
 import pytest
+from fastapi.testclient import TestClient
 
+from tests.conftest import routes_of
 from webapp import protocol
 from webapp.cli import main
 from webapp.settings import PROJECT_ROOT, Settings
@@ -89,3 +91,13 @@ def test_readme_links_to_every_reference_doc() -> None:
     readme = (PROJECT_ROOT / "README.md").read_text()
     for doc in sorted(Path(DOCS).glob("*.md")):
         assert f"docs/{doc.name}" in readme, f"README does not link docs/{doc.name}"
+
+
+def test_every_route_is_listed_in_the_url_reference(client: TestClient) -> None:
+    text = (DOCS / "urls.md").read_text()
+    missing = [
+        f"{method} {path}"
+        for method, path in sorted(routes_of(client.app))  # type: ignore[arg-type]
+        if method != "HEAD" and f"`{method} {path}`" not in text
+    ]
+    assert not missing, f"routes missing from docs/urls.md: {missing}"

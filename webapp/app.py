@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 from pathlib import Path
 from typing import Any
@@ -24,6 +24,7 @@ from wall_client.layout import load_walls
 from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
 from webapp.bus import MemoryBus
+from webapp.changes import open_wall
 from webapp.db import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
 from webapp.hub import WallHub
@@ -46,11 +47,9 @@ from webapp.schemas import ERROR_MEANINGS, Problem
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
-from webapp.tags import declare, show_tag_set
 from webapp.tokens import REFRESH_S as TOKEN_REFRESH_S
 from webapp.tokens import load_tokens
 from webapp.visitors import SessionCookieMiddleware
-from webapp.wall_state import WallState, read_state
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"
@@ -80,7 +79,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         services.tokens = await run_in_threadpool(load_tokens, db, services.secret)
-        await prepare_walls(services)
+        for wall in services.walls.values():
+            await open_wall(services, wall)
         tasks = [
             asyncio.create_task(services.scan_log.run()),
             asyncio.create_task(_keep_tokens_fresh(services)),
@@ -180,29 +180,6 @@ def _document_errors(app: FastAPI, services: Services) -> None:
     app.openapi = openapi  # type: ignore[method-assign]
 
 
-async def prepare_walls(services: Services) -> None:
-    """Settle the app each wall shows, declare every app's tags on every wall and put
-    each wall's tag set up.
-
-    Idempotent: codes stay as they were and an unchanged set is not placed again, so
-    every server process of a wall may do this at start.
-    """
-    for wall in services.walls.values():
-        _, state = await run_in_threadpool(read_state, services.db, wall.id)
-        if (shown := services.apps.get(state.app)) is not None:
-            settled: WallState = await run_in_threadpool(shown.settle, services, wall, state)
-            if settled != state:
-                await services.hub.change_state(wall.id, _becomes(settled))
-                state = settled
-        for wall_app in services.apps.values():
-            tags = await run_in_threadpool(wall_app.declare_tags, services, wall, state)
-            await run_in_threadpool(declare, services.db, wall.id, wall_app.name, tags)
-        tag_set = state.tag_set
-        if not state.tag_layout and state.app in services.apps:
-            tag_set = services.apps[state.app].default_tag_set
-        await show_tag_set(services.hub, wall, tag_set, services.base_url)
-
-
 async def _keep_tokens_fresh(services: Services) -> None:
     """Read the token salts again every few seconds: a rotation by the CLI (or another
     process) takes effect here too. A database that does not answer keeps the tokens
@@ -213,10 +190,6 @@ async def _keep_tokens_fresh(services: Services) -> None:
             services.tokens = await run_in_threadpool(load_tokens, services.db, services.secret)
         except SQLAlchemyError as error:
             log.warning("could not read the token salts: %s", error.__class__.__name__)
-
-
-def _becomes(new: WallState) -> Callable[[WallState], WallState]:
-    return lambda _old: new
 
 
 def _wants_json(request: Request) -> bool:

@@ -374,7 +374,11 @@ def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
     """Screenshot every tile of a running wall and decode its codes; exit 1 on any failure."""
     import httpx
 
-    from webapp.check import check_wall, fetch_layout
+    try:
+        from webapp.check import check_wall, fetch_layout
+    except ImportError as missing:  # Playwright is the `check` extra
+        click.echo(f"error: tagwall check needs pip install 'tagwall[check]' ({missing})", err=True)
+        sys.exit(EXIT_USAGE)
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)

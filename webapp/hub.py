@@ -73,17 +73,17 @@ class WallHub:
         self._tasks: set[asyncio.Task[None]] = set()
 
     def placing(self, wall_id: str) -> asyncio.Lock:
-        """Held while a change's codes are placed and committed with it, so two such
-        changes of one wall never interleave (a layout always matches its view)."""
+        """Held by the door (``webapp.changes``) through a whole change, placing its
+        codes included, so two changes of one wall never interleave (a layout always
+        matches its view)."""
         return self._placing.setdefault(wall_id, asyncio.Lock())
 
-    async def change_state(
-        self, wall_id: str, update: Callable[[WallState], WallState]
-    ) -> Change | None:
-        """Bump the version, persist, then publish: the one way a wall's state changes.
+    async def commit(self, wall_id: str, update: Callable[[WallState], WallState]) -> Change | None:
+        """Bump the version, persist, then publish.
 
-        The per-wall lock makes publication order equal commit order, so tiles see
-        versions one by one.
+        Only the door (``webapp.changes``) calls this: it places the codes a change
+        moves before committing. The per-wall lock makes publication order equal
+        commit order, so tiles see versions one by one.
         """
         lock = self._locks.setdefault(wall_id, asyncio.Lock())
         async with lock:

@@ -10,7 +10,7 @@ approved, rejected, cleared) is one function here.
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from fastapi.concurrency import run_in_threadpool
 from jinja2 import Environment
@@ -18,11 +18,15 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from wall_client.layout import Wall
+from webapp.changes import change_wall
 from webapp.db import Database
-from webapp.hub import WallHub
 from webapp.models import PublicationRecord
 from webapp.people import Person
 from webapp.wall_state import PublicItem, PublicPolicy, WallState, now_ms
+
+if TYPE_CHECKING:
+    from webapp.services import Services
 
 Status = Literal["shown", "pending", "rejected", "cleared"]
 
@@ -77,17 +81,16 @@ def _show(record: PublicationRecord) -> PublicItem:
     )
 
 
-async def _put_on_screen(hub: WallHub, wall_id: str, item: PublicItem | None) -> None:
-    await hub.change_state(wall_id, lambda state: state.model_copy(update={"public": item}))
+async def _put_on_screen(services: Services, wall: Wall, item: PublicItem | None) -> None:
+    await change_wall(services, wall, lambda state: state.model_copy(update={"public": item}))
 
 
 async def submit(
-    db: Database,
-    hub: WallHub,
+    services: Services,
+    wall: Wall,
     state: WallState,
     templates: Environment,
     person: Person,
-    wall_id: str,
     publication: Publication,
     source: str,
 ) -> PublicationRecord:
@@ -98,7 +101,7 @@ async def submit(
     status: Status = "pending" if policy.moderated and not person.is_staff else "shown"
     now = now_ms()
     record = PublicationRecord(
-        wall_id=wall_id,
+        wall_id=wall.id,
         visitor_id=person.visitor.id,
         author=person.public_name[:100],
         title=publication.title,
@@ -109,14 +112,14 @@ async def submit(
     )
 
     def store() -> None:
-        with db.session() as session:
+        with services.db.session() as session:
             if status == "shown":
-                _retire_shown(session, wall_id)
+                _retire_shown(session, wall.id)
             session.add(record)
 
     await run_in_threadpool(store)
     if status == "shown":
-        await _put_on_screen(hub, wall_id, _show(record))
+        await _put_on_screen(services, wall, _show(record))
     return record
 
 
@@ -131,17 +134,17 @@ def _retire_shown(session: Session, wall_id: str) -> None:
 
 
 async def decide(
-    db: Database, hub: WallHub, wall_id: str, publication_id: int, approve: bool, actor: str
+    services: Services, wall: Wall, publication_id: int, approve: bool, actor: str
 ) -> PublicationRecord:
     """Approve (show) or reject a waiting publication; KeyError if none is waiting."""
 
     def store() -> PublicationRecord:
-        with db.session() as session:
+        with services.db.session() as session:
             record = session.get(PublicationRecord, publication_id)
-            if record is None or record.wall_id != wall_id or record.status != "pending":
+            if record is None or record.wall_id != wall.id or record.status != "pending":
                 raise KeyError(publication_id)
             if approve:
-                _retire_shown(session, wall_id)
+                _retire_shown(session, wall.id)
             record.status = "shown" if approve else "rejected"
             record.decided_at = datetime.now(UTC)
             record.decided_by = actor[:120]
@@ -149,24 +152,24 @@ async def decide(
 
     record = await run_in_threadpool(store)
     if approve:
-        await _put_on_screen(hub, wall_id, _show(record))
+        await _put_on_screen(services, wall, _show(record))
     return record
 
 
-async def clear(db: Database, hub: WallHub, wall_id: str) -> None:
+async def clear(services: Services, wall: Wall) -> None:
     """Empty the public screen."""
 
     def store() -> None:
-        with db.session() as session:
-            _retire_shown(session, wall_id)
+        with services.db.session() as session:
+            _retire_shown(session, wall.id)
 
     await run_in_threadpool(store)
-    await _put_on_screen(hub, wall_id, None)
+    await _put_on_screen(services, wall, None)
 
 
-async def set_policy(hub: WallHub, wall_id: str, policy: PublicPolicy) -> None:
-    await hub.change_state(
-        wall_id, lambda state: state.model_copy(update={"public_policy": policy})
+async def set_policy(services: Services, wall: Wall, policy: PublicPolicy) -> None:
+    await change_wall(
+        services, wall, lambda state: state.model_copy(update={"public_policy": policy})
     )
 
 

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal
 
-from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from sqlalchemy import delete, or_, select
 from sqlalchemy.exc import IntegrityError
@@ -39,10 +38,8 @@ from tag_service.placement import CAPTION_OF_SIDE, SPREAD_OF_SIDE, PlacementRequ
 from tag_service.sizing import code_size, min_module_mm
 from wall_client.layout import CodePurpose, Wall
 from webapp.db import Database, as_utc
-from webapp.hub import WallHub
 from webapp.models import TagLayoutRecord, TagRecord, WallStateRecord
 from webapp.schemas import PlacedCode, TagUpdate, UnplacedCode
-from webapp.wall_state import Change, WallState, read_state
 
 LAYOUTS_KEPT = 20
 """Layouts kept per wall: the one in use and a few before it (tiles mid-swap fetch them)."""
@@ -184,31 +181,6 @@ def _issue(
     _fill(record, spec)
     session.flush()
     return record
-
-
-async def show_tag_set(
-    hub: WallHub, wall: Wall, tag_set: str | None, base_url: str
-) -> Change | None:
-    """Put ``tag_set`` on the wall: place it, then switch every tile in sync."""
-    layout_id = await run_in_threadpool(layout_for, hub.db, wall, tag_set, base_url)
-
-    def switch(state: WallState) -> WallState:
-        return state.model_copy(update={"tag_set": tag_set, "tag_layout": layout_id})
-
-    return await hub.change_state(wall.id, switch)
-
-
-async def refresh_tags(hub: WallHub, wall: Wall, base_url: str) -> Change | None:
-    """Re-place the active set after its tags changed (nothing happens if none did)."""
-    _, state = await run_in_threadpool(read_state, hub.db, wall.id)
-    layout_id = await run_in_threadpool(layout_for, hub.db, wall, state.tag_set, base_url)
-
-    def replace(current: WallState) -> WallState:
-        if current.tag_set != state.tag_set:  # switched meanwhile: that switch placed it
-            return current
-        return current.model_copy(update={"tag_layout": layout_id})
-
-    return await hub.change_state(wall.id, replace)
 
 
 def declare(db: Database, wall_id: str, app: str, specs: Sequence[TagSpec]) -> None:

@@ -86,7 +86,8 @@ class ServerProcess:
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
-        wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
+        # A start places every wall's codes: slow on a loaded two-core machine.
+        wait_until(self.healthy, timeout=90, what=f"the server to answer (log: {self.log})")
 
     def healthy(self) -> bool:
         assert self.process is not None

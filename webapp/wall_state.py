@@ -1,8 +1,9 @@
 """The authoritative state of a wall and the one function that changes it.
 
 Tiles are pure renderers: they draw the state they are sent. Every change goes
-through :func:`change_state`, which bumps the wall's version, persists the new
-state with the event that describes it, and only then publishes the event.
+through the door (``webapp.changes``) to :func:`commit_change`, which bumps the wall's
+version and persists the new state with the event that describes it; only then is the
+event published.
 """
 
 from __future__ import annotations

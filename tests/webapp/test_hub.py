@@ -29,7 +29,7 @@ def mode(value: str) -> StatePatch:
 async def test_light_change_is_published_with_apply_time(hub: WallHub) -> None:
     async with hub.bus.subscribe("demo") as inbox:
         before = now_ms()
-        change = await hub.change_state("demo", mode("quiz").apply_to)
+        change = await hub.commit("demo", mode("quiz").apply_to)
         message = json.loads(await inbox.next())
     assert change is not None
     assert message["type"] == "event" and message["version"] == 1
@@ -38,9 +38,9 @@ async def test_light_change_is_published_with_apply_time(hub: WallHub) -> None:
 
 
 async def test_unchanged_state_publishes_nothing(hub: WallHub) -> None:
-    await hub.change_state("demo", mode("quiz").apply_to)
+    await hub.commit("demo", mode("quiz").apply_to)
     async with hub.bus.subscribe("demo") as inbox:
-        assert await hub.change_state("demo", mode("quiz").apply_to) is None
+        assert await hub.commit("demo", mode("quiz").apply_to) is None
         assert inbox.drain() == []
 
 
@@ -48,7 +48,7 @@ async def test_heavy_change_swaps_once_every_connected_tile_is_ready(hub: WallHu
     hub.tile_connected("demo", "r1c1", None)
     hub.tile_connected("demo", "r1c2", None)
     async with hub.bus.subscribe("demo") as inbox:
-        await hub.change_state("demo", StatePatch(view=View(zoom=2)).apply_to)
+        await hub.commit("demo", StatePatch(view=View(zoom=2)).apply_to)
         prepare = json.loads(await inbox.next())
         assert prepare["type"] == "prepare" and prepare["version"] == 1
         hub.tile_ready("demo", "r1c1", 1)
@@ -66,7 +66,7 @@ async def test_heavy_change_swaps_after_timeout_without_a_silent_tile(hub: WallH
     hub.tile_connected("demo", "r1c1", None)
     async with hub.bus.subscribe("demo") as inbox:
         started = now_ms()
-        await hub.change_state("demo", StatePatch(app="atlas").apply_to)
+        await hub.commit("demo", StatePatch(app="atlas").apply_to)
         assert json.loads(await inbox.next())["type"] == "prepare"
         swap = json.loads(await asyncio.wait_for(inbox.next(), 2))
     assert swap["type"] == "swap"
@@ -76,7 +76,7 @@ async def test_heavy_change_swaps_after_timeout_without_a_silent_tile(hub: WallH
 async def test_disconnecting_tile_releases_the_barrier(hub: WallHub) -> None:
     hub.tile_connected("demo", "r1c1", None)
     async with hub.bus.subscribe("demo") as inbox:
-        await hub.change_state("demo", StatePatch(app="atlas").apply_to)
+        await hub.commit("demo", StatePatch(app="atlas").apply_to)
         await inbox.next()
         hub.tile_disconnected("demo", "r1c1")
         swap = json.loads(await asyncio.wait_for(inbox.next(), 0.2))
@@ -85,7 +85,7 @@ async def test_disconnecting_tile_releases_the_barrier(hub: WallHub) -> None:
 
 async def test_concurrent_changes_are_published_in_version_order(hub: WallHub) -> None:
     async with hub.bus.subscribe("demo") as inbox:
-        await asyncio.gather(*(hub.change_state("demo", mode(f"m{i}").apply_to) for i in range(15)))
+        await asyncio.gather(*(hub.commit("demo", mode(f"m{i}").apply_to) for i in range(15)))
         versions = [json.loads(await inbox.next())["version"] for _ in range(15)]
     assert versions == list(range(1, 16))
 

@@ -63,12 +63,11 @@ async def publish(
 ) -> PublicationRecord:
     _, state = read_state(services.db, WALL)
     return await submit(
-        services.db,
-        services.hub,
+        services,
+        services.walls[WALL],
         state,
         templates_of(app),
         person,
-        WALL,
         Publication(title=title, blocks=[Block(kind="text", text=f"about {title}")]),
         source="test",
     )
@@ -205,7 +204,7 @@ async def test_a_new_publication_retires_the_one_shown(app: FastAPI) -> None:
 
 async def test_moderated_student_publications_wait(app: FastAPI) -> None:
     async with running(app) as services:
-        await set_policy(services.hub, WALL, PublicPolicy(moderated=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(moderated=True))
         assert read_state(services.db, WALL)[1].public_policy.moderated
         first = await publish(app, services, student(services), "First")
         second = await publish(app, services, student(services), "Second")
@@ -223,12 +222,12 @@ async def test_moderated_student_publications_wait(app: FastAPI) -> None:
 async def test_approving_shows_it_and_retires_the_one_shown(app: FastAPI) -> None:
     async with running(app) as services:
         shown = await publish(app, services, student(services), "Shown")
-        await set_policy(services.hub, WALL, PublicPolicy(moderated=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(moderated=True))
         held = await publish(app, services, student(services), "Held")
         assert held.status == "pending"
         item = on_screen(services.db)
         assert item is not None and item.id == shown.id, "a held one leaves the screen alone"
-        decided = await decide(services.db, services.hub, WALL, held.id, True, "login:ines")
+        decided = await decide(services, services.walls[WALL], held.id, True, "login:ines")
         assert decided.status == "shown" and decided.decided_by == "login:ines"
         assert decided.decided_at is not None
         item = on_screen(services.db)
@@ -240,10 +239,10 @@ async def test_approving_shows_it_and_retires_the_one_shown(app: FastAPI) -> Non
 async def test_rejecting_leaves_the_screen_as_it_was(app: FastAPI) -> None:
     async with running(app) as services:
         shown = await publish(app, services, student(services), "Shown")
-        await set_policy(services.hub, WALL, PublicPolicy(moderated=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(moderated=True))
         held = await publish(app, services, student(services), "Held")
         version, _ = read_state(services.db, WALL)
-        decided = await decide(services.db, services.hub, WALL, held.id, False, "login:ines")
+        decided = await decide(services, services.walls[WALL], held.id, False, "login:ines")
         assert decided.status == "rejected" and decided.decided_by == "login:ines"
         assert status_of(services.db, held.id) == "rejected"
         assert status_of(services.db, shown.id) == "shown"
@@ -256,31 +255,32 @@ async def test_rejecting_leaves_the_screen_as_it_was(app: FastAPI) -> None:
 async def test_only_a_waiting_publication_can_be_decided(app: FastAPI) -> None:
     async with running(app) as services:
         shown = await publish(app, services, student(services), "Shown")
-        await set_policy(services.hub, WALL, PublicPolicy(moderated=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(moderated=True))
         rejected = await publish(app, services, student(services), "Rejected")
-        await decide(services.db, services.hub, WALL, rejected.id, False, "login:ines")
+        await decide(services, services.walls[WALL], rejected.id, False, "login:ines")
         held = await publish(app, services, student(services), "Held")
         for publication_id in (999_999, rejected.id, shown.id):
             for approve in (True, False):
                 with pytest.raises(KeyError):
                     await decide(
-                        services.db, services.hub, WALL, publication_id, approve, "login:ines"
+                        services, services.walls[WALL], publication_id, approve, "login:ines"
                     )
         with pytest.raises(KeyError):
-            await decide(services.db, services.hub, "another-wall", held.id, True, "login:ines")
+            another = next(wall for name, wall in services.walls.items() if name != WALL)
+            await decide(services, another, held.id, True, "login:ines")
         assert status_of(services.db, rejected.id) == "rejected"
         assert status_of(services.db, held.id) == "pending"
         item = on_screen(services.db)
         assert item is not None and item.id == shown.id
-        approved = await decide(services.db, services.hub, WALL, held.id, True, "login:ines")
+        approved = await decide(services, services.walls[WALL], held.id, True, "login:ines")
         assert approved.status == "shown"
         with pytest.raises(KeyError):
-            await decide(services.db, services.hub, WALL, held.id, True, "login:ines")
+            await decide(services, services.walls[WALL], held.id, True, "login:ines")
 
 
 async def test_a_locked_screen_refuses_students_but_not_instructors(app: FastAPI) -> None:
     async with running(app) as services:
-        await set_policy(services.hub, WALL, PublicPolicy(locked=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(locked=True))
         with pytest.raises(PublishRefused, match="locked"):
             await publish(app, services, student(services), "Refused")
         with services.db.session() as session:
@@ -295,10 +295,10 @@ async def test_a_locked_screen_refuses_students_but_not_instructors(app: FastAPI
 async def test_clear_empties_the_screen(app: FastAPI) -> None:
     async with running(app) as services:
         shown = await publish(app, services, student(services), "Shown")
-        await clear(services.db, services.hub, WALL)
+        await clear(services, services.walls[WALL])
         assert on_screen(services.db) is None
         assert status_of(services.db, shown.id) == "cleared"
-        await clear(services.db, services.hub, WALL)  # clearing an empty screen is fine
+        await clear(services, services.walls[WALL])  # clearing an empty screen is fine
         assert on_screen(services.db) is None
 
 
@@ -306,10 +306,10 @@ async def test_the_screen_the_queue_and_the_policy_survive_a_restart(
     app: FastAPI, settings: Settings, db: Database
 ) -> None:
     async with running(app) as services:
-        await set_policy(services.hub, WALL, PublicPolicy(moderated=True))
+        await set_policy(services, services.walls[WALL], PublicPolicy(moderated=True))
         approved = await publish(app, services, student(services), "Approved")
         held = await publish(app, services, student(services), "Held")
-        await decide(services.db, services.hub, WALL, approved.id, True, "login:ines")
+        await decide(services, services.walls[WALL], approved.id, True, "login:ines")
     # the app is shut down; a new connection to the same database sees it all
     _, state = read_state(db, WALL)
     assert state.public is not None and state.public.id == approved.id

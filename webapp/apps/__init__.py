@@ -10,27 +10,21 @@ own pages and API (``router``).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from fastapi import APIRouter, Request, Response
-from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
 from webapp.models import TagRecord
 from webapp.people import Person
 from webapp.publishing import Publication
-from webapp.tags import TagSpec, declare, layout_for
+from webapp.tags import TagSpec
 from webapp.visitors import Visitor
-from webapp.wall_state import Change, WallState, read_state
+from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
     from webapp.services import Services
-
-PLACING_FIELDS = ("app", "view", "dataset", "volume", "tag_set", "quiz_round")
-"""State fields that decide which codes stand where: changing one declares the app's
-tags again and places the set shown."""
 
 
 @dataclass(frozen=True)
@@ -63,7 +57,7 @@ class WallApp(Protocol):
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """The named tags the app needs on ``wall`` in ``state`` (declared at every
-        start, and again whenever one of :data:`PLACING_FIELDS` changes)."""
+        start, and again whenever one of :data:`webapp.changes.PLACING_FIELDS` changes)."""
         ...
 
     async def on_scan(self, scan: Scan) -> Response:
@@ -96,55 +90,6 @@ class WallApp(Protocol):
     def router(self) -> APIRouter | None:
         """The app's own pages and API (None: it has none)."""
         ...
-
-
-async def change_state(
-    services: Services, wall: Wall, update: Callable[[WallState], WallState]
-) -> Change | None:
-    """Change a wall's state, moving its codes with the scene.
-
-    When the change touches what codes are anchored to (:data:`PLACING_FIELDS`), the
-    app on the wall declares its tags for the new state and they are placed before
-    the change commits, so the new codes arrive in the same swap as the new scene.
-    A change of app also puts up that app's tag set.
-    """
-    async with services.hub.placing(wall.id):
-        _, current = await run_in_threadpool(read_state, services.db, wall.id)
-        target = update(current)
-        if all(getattr(target, f) == getattr(current, f) for f in PLACING_FIELDS):
-            return await services.hub.change_state(wall.id, update)
-        app = services.apps.get(target.app)
-        tag_set = target.tag_set
-        settled: dict[str, Any] = {}
-        if target.app != current.app and app is not None:
-            tag_set = app.default_tag_set
-            ready = await run_in_threadpool(app.settle, services, wall, target)
-            settled = {
-                name: getattr(ready, name)
-                for name in WallState.model_fields
-                if getattr(ready, name) != getattr(target, name)
-            }
-            target = ready
-        leaving = services.apps.get(current.app) if current.app != target.app else None
-        apps = [a for a in (leaving, app) if a is not None]
-        layout_id = await run_in_threadpool(_place_for, services, wall, apps, target, tag_set)
-        placed = {**settled, "tag_set": tag_set, "tag_layout": layout_id}
-
-        def with_codes(state: WallState) -> WallState:
-            return update(state).model_copy(update=placed)
-
-        return await services.hub.change_state(wall.id, with_codes)
-
-
-def _place_for(
-    services: Services, wall: Wall, apps: list[WallApp], state: WallState, tag_set: str | None
-) -> int:
-    """Declare the tags of ``apps`` (the one leaving the wall too) for ``state``, then
-    place ``tag_set``; returns the layout's id."""
-    for app in apps:
-        declare(services.db, wall.id, app.name, app.declare_tags(services, wall, state))
-    services.codes.forget()
-    return layout_for(services.db, wall, tag_set, services.base_url)
 
 
 def builtin_apps() -> dict[str, WallApp]:

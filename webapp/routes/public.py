@@ -64,12 +64,11 @@ async def publish(
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
     try:
         record = await submit(
-            services.db,
-            services.hub,
+            services,
+            wall,
             state,
             request.app.state.templates.env,
             person,
-            wall.id,
             publication,
             source=f"{tag.app}:{tag.code}",
         )
@@ -108,9 +107,7 @@ async def moderate(
     if decision not in ("approve", "reject"):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "Decide with approve or reject.")
     try:
-        record = await decide(
-            services.db, services.hub, wall.id, publication_id, decision == "approve", actor
-        )
+        record = await decide(services, wall, publication_id, decision == "approve", actor)
     except KeyError:
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, "No publication with that id is waiting."
@@ -120,11 +117,11 @@ async def moderate(
 
 @router.post("/api/walls/{wall_id}/public/clear", tags=["public"], dependencies=[StaffOnly])
 async def clear_screen(wall: WallDep, services: ServicesDep) -> dict[str, bool]:
-    await clear(services.db, services.hub, wall.id)
+    await clear(services, wall)
     return {"cleared": True}
 
 
 @router.put("/api/walls/{wall_id}/public/policy", tags=["public"], dependencies=[StaffOnly])
 async def change_policy(wall: WallDep, policy: PublicPolicy, services: ServicesDep) -> PublicPolicy:
-    await set_policy(services.hub, wall.id, policy)
+    await set_policy(services, wall, policy)
     return policy

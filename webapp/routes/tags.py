@@ -9,6 +9,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
+from webapp.changes import change_wall, unchanged
 from webapp.db import RowId
 from webapp.deps import ServicesDep, StaffOnly, WallDep
 from webapp.models import TagRecord
@@ -21,8 +22,6 @@ from webapp.tags import (
     get_layout,
     issue,
     payload_of,
-    refresh_tags,
-    show_tag_set,
     tag_sets,
     update_tag,
     wall_tags,
@@ -75,8 +74,7 @@ async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagI
         tag = await run_in_threadpool(issue, services.db, wall.id, spec, "operator")
     except PayloadError as error:  # pragma: no cover - TagSpec validation catches these first
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-    await refresh_tags(services.hub, wall, services.base_url)
-    services.codes.forget()
+    await change_wall(services, wall, unchanged, replace_codes=True)
     return tag_info(tag, services)
 
 
@@ -100,8 +98,9 @@ async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> Tag
     tag = await run_in_threadpool(update_tag, services.db, tag.code, update)
     wall = services.walls.get(tag.wall_id)
     if wall is not None:
-        await refresh_tags(services.hub, wall, services.base_url)
-    services.codes.forget()
+        await change_wall(services, wall, unchanged, replace_codes=True)
+    else:
+        services.codes.forget()  # a tag of a wall not served here: nothing to place
     return tag_info(tag, services)
 
 
@@ -130,8 +129,9 @@ async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: Services
             status.HTTP_404_NOT_FOUND,
             f"Wall {wall.id!r} has no tag set {choice.name!r} (sets: {known}).",
         )
-    await show_tag_set(services.hub, wall, choice.name, services.base_url)
-    services.codes.forget()
+    await change_wall(
+        services, wall, lambda state: state.model_copy(update={"tag_set": choice.name})
+    )
     return await list_tag_sets(wall, services)
 
 

@@ -6,7 +6,7 @@ from fastapi import APIRouter, HTTPException, status
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
-from webapp.apps import change_state
+from webapp.changes import change_wall
 from webapp.deps import ServicesDep, StaffOnly, WallDep
 from webapp.hub import TileStatus
 from webapp.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
@@ -56,7 +56,7 @@ async def change_wall_state(
             f"There is no volume called {patch.volume.volume!r}; "
             "build one with `tagwall volume build`.",
         )
-    change = await change_state(services, wall, patch.apply_to)
+    change = await change_wall(services, wall, patch.apply_to)
     if change is None:
         version, _ = await run_in_threadpool(read_state, services.db, wall.id)
         return ChangeResult(wall=wall.id, version=version, changed=[])

@@ -14,7 +14,6 @@ from urllib.parse import urlencode
 
 import pytest
 from fastapi import FastAPI
-from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
@@ -23,6 +22,7 @@ from tests.conftest import (
     build_test_volume,
     csrf_of,
     register_student,
+    routes_of,
     services_of,
     sign_in,
 )
@@ -368,18 +368,6 @@ def test_the_privilege_matrix(app: FastAPI) -> None:
     finally:
         for client in clients:
             client.__exit__(None, None, None)
-
-
-def routes_of(app: FastAPI) -> set[tuple[str, str]]:
-    found = set()
-    for included in app.routes:
-        router = getattr(included, "original_router", None)
-        for route in router.routes if router else [included]:
-            if isinstance(route, APIRoute):
-                found |= {(method, route.path) for method in route.methods}
-            elif isinstance(route, APIWebSocketRoute):
-                found.add(("WS", route.path))
-    return found
 
 
 WEBSOCKETS = {

@@ -19,7 +19,7 @@ from fastapi.responses import RedirectResponse
 
 from tag_service.codes import normalize_code
 from wall_client.layout import Wall
-from webapp.apps import Scan, change_state
+from webapp.apps import Scan
 from webapp.apps.brain_atlas import (
     APP,
     GROUP_LABELS,
@@ -33,6 +33,7 @@ from webapp.apps.brain_atlas import (
 from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
+from webapp.changes import change_wall
 from webapp.deps import remember_person
 from webapp.markdown import markdown_html
 from webapp.models import TagRecord
@@ -513,4 +514,4 @@ async def show_set(services: Services, wall: Wall, tag_set: TagSetName) -> None:
             return state
         return state.model_copy(update={"tag_set": TAG_SETS[tag_set]})
 
-    await change_state(services, wall, switch)
+    await change_wall(services, wall, switch)

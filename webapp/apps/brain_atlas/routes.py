@@ -11,7 +11,6 @@ from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, st
 from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field
 
-from webapp.apps import change_state
 from webapp.apps.brain_atlas import (
     APP,
     TAG_SETS,
@@ -35,6 +34,7 @@ from webapp.apps.brain_atlas.quiz import (
     start_round,
     statistics,
 )
+from webapp.changes import change_wall
 from webapp.db import RowId
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.routes.pages import render
@@ -304,7 +304,7 @@ async def control(
             update["quiz_round"] = max(new_round, current.quiz_round or 0)
         return current.model_copy(update=update)
 
-    await change_state(services, wall, apply)
+    await change_wall(services, wall, apply)
     return await brain_status(wall, services, staff)
 
 
@@ -323,7 +323,7 @@ async def reset_quiz(
             update={"quiz_round": max(started.number, current.quiz_round or 0)}
         )
 
-    await change_state(services, wall, apply)
+    await change_wall(services, wall, apply)
     return await brain_status(wall, services, staff)
 
 

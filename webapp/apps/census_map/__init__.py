@@ -18,12 +18,13 @@ from fastapi import APIRouter, Response
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
-from webapp.apps import Scan, change_state
+from webapp.apps import Scan
 from webapp.apps.census_map.charts import ChartStats
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
 from webapp.apps.census_map.store import DataSets, current_id, seed
 from webapp.caching import SizedCache
+from webapp.changes import change_wall
 from webapp.publishing import Block, Publication
 from webapp.tags import TagSpec, anchored_code_side_mm, anchored_footprint_mm, places_anchored
 from webapp.wall_state import WallState
@@ -244,4 +245,4 @@ async def switch_dataset(services: Services, dataset_id: int) -> None:
                 return state
             return state.model_copy(update={"dataset": dataset_id})
 
-        await change_state(services, wall, show)
+        await change_wall(services, wall, show)

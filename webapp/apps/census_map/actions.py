@@ -1,7 +1,7 @@
 """What phones do to the census map on the wall: flip a tract group, open a balloon.
 
-Each is one state change; balloons are placed while the wall's placing lock is
-held, so two opened at once never land on each other.
+Each is one state change through the door (``webapp.changes``); a balloon is placed
+while the door holds the wall, so two opened at once never land on each other.
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.mapview import label_mm, projection
+from webapp.changes import Update, change_wall, plan_change
 from webapp.schemas import PlacedCode
 from webapp.tags import get_layout
-from webapp.wall_state import Balloon, WallState, now_ms, read_state
+from webapp.wall_state import Balloon, WallState, now_ms
 
 if TYPE_CHECKING:
     from webapp.apps.census_map import CensusApp
@@ -42,7 +43,7 @@ async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
         shown_now = not group_shown(state, group_id)
         return state.model_copy(update={"layers": {**state.layers, group_id: shown_now}})
 
-    await services.hub.change_state(wall.id, flip)
+    await change_wall(services, wall, flip)
     return shown_now
 
 
@@ -59,8 +60,10 @@ async def open_balloon(
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
     are open)."""
-    async with services.hub.placing(wall.id):
-        _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    opened: Balloon | None = None
+
+    async def place(state: WallState) -> Update:
+        nonlocal opened
         layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
         geometry = await run_in_threadpool(app.geometry, dataset)
         project = projection(geometry, wall, state.view)
@@ -80,7 +83,7 @@ async def open_balloon(
             Rect(anchor[0] - keep_clear, anchor[1] - keep_clear, 2 * keep_clear, 2 * keep_clear)
         )
         box = place_box(wall, balloon_size(title, lines, font), anchor, obstacles)
-        balloon = Balloon(
+        opened = Balloon(
             id=f"tract-{tract.geoid}",
             anchor=anchor,
             rect=box.xywh if box else None,
@@ -88,8 +91,9 @@ async def open_balloon(
             lines=lines,
             closes_at=now + services.settings.balloon_seconds * 1000,
         )
-        kept = [*others[-(MAX_BALLOONS - 1) :], balloon]
-        await services.hub.change_state(
-            wall.id, lambda current: current.model_copy(update={"balloons": kept})
-        )
-        return balloon
+        kept = [*others[-(MAX_BALLOONS - 1) :], opened]
+        return lambda current: current.model_copy(update={"balloons": kept})
+
+    await plan_change(services, wall, place)
+    assert opened is not None
+    return opened
