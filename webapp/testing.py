@@ -86,7 +86,9 @@ class ServerProcess:
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
-        wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
+        # A server that fails exits (``healthy`` raises), so a long bound costs nothing;
+        # startup imports and places every wall's codes, 40 s on a loaded 2-core machine.
+        wait_until(self.healthy, timeout=120, what=f"the server to answer (log: {self.log})")
 
     def healthy(self) -> bool:
         assert self.process is not None
