@@ -86,8 +86,9 @@ class ServerProcess:
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
-        # A start places every wall's codes: slow on a loaded two-core machine.
-        wait_until(self.healthy, timeout=90, what=f"the server to answer (log: {self.log})")
+        # A server that fails exits (``healthy`` raises), so a long bound costs nothing;
+        # startup imports and places every wall's codes, 40 s on a loaded 2-core machine.
+        wait_until(self.healthy, timeout=120, what=f"the server to answer (log: {self.log})")
 
     def healthy(self) -> bool:
         assert self.process is not None

@@ -1,10 +1,11 @@
-"""The sliding-window rate limiter behind the scan and publish limits, and the sign-in backoff."""
+"""The sliding-window rate limiter, the limits on what phones do to a wall, and the
+sign-in backoff."""
 
 from __future__ import annotations
 
 import pytest
 
-from webapp.ratelimit import Backoff, RateLimiter
+from webapp.ratelimit import ActionLimits, ActionPolicy, Actor, Backoff, RateLimiter
 
 
 def test_allows_the_limit_then_says_how_long_to_wait() -> None:
@@ -133,3 +134,119 @@ def test_memory_is_bounded_by_forgetting_the_least_recently_failed() -> None:
     assert backoff.wait("a", now=2.0) is not None
     assert backoff.wait("b", now=2.0) is None
     assert backoff.wait("c", now=2.0) is not None
+
+
+# --- ActionLimits: what phones do to a shared wall ---------------------------------
+
+
+def limits(
+    per_visitor: int = 100,
+    per_new_address: int | None = 100,
+    per_address: int | None = 100,
+    per_wall: int | None = 100,
+    settle_s: float = 10.0,
+) -> ActionLimits:
+    """Balloons limited as given (every other budget roomy), scans as the server does:
+    per visitor and per address for new visitors only."""
+    return ActionLimits(
+        {
+            "balloon": ActionPolicy(per_visitor, per_new_address, per_address, per_wall, settle_s),
+            "scan": ActionPolicy(3, 5, None, None, 0.0),
+        },
+        window_s=60.0,
+    )
+
+
+SETTLED = 60.0  # seconds since the cookie was issued: past the settle time
+NEW = 1.0  # a cookie issued a moment ago
+NO_COOKIE = None  # the request brought no valid cookie
+
+
+def balloons(
+    action_limits: ActionLimits, actors: list[Actor], wall: str = "demo", now: float = 0.0
+) -> list[bool]:
+    """Which of the actors' balloons (one each, in order) are allowed."""
+    return [action_limits.hit("balloon", actor, wall, now=now) is None for actor in actors]
+
+
+def test_a_visitor_has_its_own_budget() -> None:
+    action_limits = limits(per_visitor=2)
+    phone = Actor("phone", "10.0.0.1", SETTLED)
+    assert balloons(action_limits, [phone] * 3) == [True, True, False]
+    assert balloons(action_limits, [Actor("other", "10.0.0.1", SETTLED)]) == [True]
+
+
+def test_new_and_cookieless_visitors_of_one_address_share_a_small_budget() -> None:
+    action_limits = limits(per_new_address=3)
+    fresh = [Actor(f"fresh-{n}", "10.0.0.1", NEW if n % 2 else NO_COOKIE) for n in range(4)]
+    assert balloons(action_limits, fresh) == [True, True, True, False]
+    assert balloons(action_limits, [Actor("fresh-x", "10.0.0.2", NO_COOKIE)]) == [True], (
+        "another address has its own"
+    )
+    assert balloons(action_limits, [Actor("settled", "10.0.0.1", SETTLED)]) == [True], (
+        "a settled visitor is not held by the new ones' budget"
+    )
+
+
+def test_a_visitor_settles_when_its_cookie_is_old_enough() -> None:
+    action_limits = limits(per_new_address=1, settle_s=10.0)
+    assert balloons(action_limits, [Actor("a", "10.0.0.1", 9.9), Actor("b", "10.0.0.1", 9.9)]) == [
+        True,
+        False,
+    ]
+    assert balloons(action_limits, [Actor("b", "10.0.0.1", 10.0)]) == [True]
+
+
+def test_one_address_has_one_budget_for_all_its_visitors() -> None:
+    action_limits = limits(per_address=3)
+    room = [Actor(f"phone-{n}", "10.0.0.1", SETTLED) for n in range(4)]
+    assert balloons(action_limits, room) == [True, True, True, False]
+    assert balloons(action_limits, [Actor("phone-0", "10.0.0.2", SETTLED)]) == [True]
+
+
+def test_one_wall_has_one_budget_for_everyone() -> None:
+    action_limits = limits(per_wall=3)
+    everyone = [Actor(f"phone-{n}", f"10.0.0.{n}", SETTLED) for n in range(4)]
+    assert balloons(action_limits, everyone) == [True, True, True, False]
+    assert balloons(action_limits, everyone[:1], wall="lobby") == [True], "walls are apart"
+
+
+def test_the_window_slides_for_every_budget() -> None:
+    action_limits = limits(per_visitor=1, per_new_address=1, per_address=1, per_wall=1)
+    phone = Actor("phone", "10.0.0.1", NO_COOKIE)
+    assert action_limits.hit("balloon", phone, "demo", now=0.0) is None
+    assert action_limits.hit("balloon", phone, "demo", now=45.0) == pytest.approx(15.0)
+    assert action_limits.hit("balloon", phone, "demo", now=60.0) is None
+
+
+def test_the_longest_wait_is_given_and_a_refused_action_uses_up_no_budget() -> None:
+    action_limits = limits(per_visitor=1, per_wall=2)
+    first, second = Actor("a", "10.0.0.1", SETTLED), Actor("b", "10.0.0.2", SETTLED)
+    assert action_limits.hit("balloon", first, "demo", now=0.0) is None
+    assert action_limits.hit("balloon", second, "demo", now=10.0) is None
+    # the second visitor's own budget (free at 70) outlasts the wall's (free at 60)
+    assert action_limits.hit("balloon", second, "demo", now=20.0) == pytest.approx(50.0)
+    third = Actor("c", "10.0.0.3", SETTLED)
+    assert action_limits.hit("balloon", third, "demo", now=20.0) == pytest.approx(40.0)
+    # the refusals counted nothing: the wall's budget frees when the first balloon leaves
+    assert action_limits.hit("balloon", third, "demo", now=60.0) is None
+
+
+def test_no_limit_of_a_kind_means_none_is_kept() -> None:
+    action_limits = limits(per_visitor=1000, per_new_address=None, per_address=None, per_wall=None)
+    crowd = [Actor(f"phone-{n}", "10.0.0.1", NO_COOKIE) for n in range(500)]
+    assert all(balloons(action_limits, crowd))
+
+
+def test_kinds_of_action_are_counted_apart() -> None:
+    """Scans (the server's policy: no address or wall budget for settled phones) do not
+    use up balloons, and balloons do not use up scans."""
+    action_limits = limits(per_visitor=1)
+    phone = Actor("phone", "10.0.0.1", SETTLED)
+    assert balloons(action_limits, [phone]) == [True]
+    scans = [action_limits.hit("scan", phone, "demo", now=0.0) is None for _ in range(4)]
+    assert scans == [True, True, True, False]
+    cookieless = [Actor(f"x-{n}", "10.0.0.9", NO_COOKIE) for n in range(6)]
+    assert [action_limits.hit("scan", a, "", now=0.0) is None for a in cookieless] == [True] * 5 + [
+        False
+    ]

@@ -3,16 +3,19 @@ hall behind one NAT address goes through, a phone that drops its cookie does not
 
 from __future__ import annotations
 
+from ipaddress import ip_network
+
 import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
+from httpx import Response
 
 from tests.conftest import csrf_of, operator_headers, services_of
 from webapp.app import create_app
 from webapp.migrate import upgrade
 from webapp.settings import Settings
 from webapp.tags import get_layout, wall_tags
-from webapp.wall_state import read_state
+from webapp.wall_state import WallState, read_state
 
 NAT = ("198.51.100.7", 5000)  # the campus NAT every phone of the hall comes from
 PHONES = 300
@@ -112,6 +115,148 @@ def test_a_cookie_dropper_cannot_fill_the_wall_with_balloons(
     assert opened == defaults.new_visitor_actions_per_address_per_minute
 
 
+def wall_now(client: TestClient) -> tuple[int, WallState]:
+    """The demo wall's version and state."""
+    return read_state(services_of(client).db, "demo")
+
+
+def refused_clearly(answer: Response) -> None:
+    """A refused action: 429 with a page that says how long to wait, as Retry-After does."""
+    assert answer.status_code == 429
+    wait = answer.headers["Retry-After"]
+    assert int(wait) > 0 and f"Try again in {wait} seconds" in answer.text
+
+
+def test_a_cookie_dropper_cannot_flicker_the_census_groups(
+    app_with_defaults: FastAPI, defaults: Settings
+) -> None:
+    """Scanning a group toggle from a fresh session each time: only the new phones'
+    budget of toggles reaches the wall; the rest leave it as it was."""
+    with TestClient(app_with_defaults, client=("203.0.113.50", 5000)) as spammer:
+        changed = spammer.post(
+            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(spammer)
+        )
+        assert changed.status_code == 200, changed.text
+        toggle = next(t for t in wall_tags(services_of(spammer).db, "demo") if t.action == "toggle")
+        flipped = 0
+        for _ in range(20):
+            spammer.cookies.clear()
+            before = wall_now(spammer)
+            answer = spammer.get(f"/t/{toggle.code}")
+            if answer.status_code == 200:
+                flipped += 1
+            else:
+                refused_clearly(answer)
+                assert wall_now(spammer) == before
+    assert flipped == defaults.new_visitor_actions_per_address_per_minute
+
+
+def test_a_cookie_dropper_cannot_keep_switching_the_brains_pins(defaults: Settings) -> None:
+    """Scanning the K-5 and medical menu codes from a fresh session each time, with no
+    cooldown between audience switches: the wall follows only the new phones' budget.
+    The phone still joins its group (the page says the wall waits)."""
+    eager = defaults.model_copy(update={"brain_group_switch_cooldown": 0})
+    upgrade(eager.resolved_database_url)
+    with TestClient(create_app(eager), client=("203.0.113.50", 5000)) as spammer:
+        staff = operator_headers(spammer)
+        assert spammer.post(
+            "/api/walls/demo/state", json={"app": "brain"}, headers=staff
+        ).is_success
+        assert spammer.post(
+            "/api/walls/demo/brain", json={"audience_switches": True}, headers=staff
+        ).is_success
+        assert spammer.post("/api/walls/demo/brain/quiz/close", headers=staff).is_success
+        codes = {t.name: t.code for t in wall_tags(services_of(spammer).db, "demo") if t.name}
+        switches = 0
+        for group in ["k5", "medical"] * 10:
+            spammer.cookies.clear()
+            before = wall_now(spammer)[1].tag_set
+            page = spammer.get(f"/t/{codes[f'brain:group:{group}']}")
+            assert page.status_code == 200
+            after = wall_now(spammer)[1].tag_set
+            switches += after != before
+            wanted = "brain-k5" if group == "k5" else "brain-full"
+            if before != wanted and after == before:
+                assert "switched a moment ago" in page.text, "told that the wall waits"
+    assert switches == eager.new_visitor_actions_per_address_per_minute
+
+
+def test_the_wall_has_one_budget_for_phones_at_every_address(defaults: Settings) -> None:
+    """Settled phones, each at its own address and well within its own limits, share
+    the wall's budget: past it every phone is told to wait and the wall stays as is."""
+    limited = defaults.model_copy(
+        update={
+            "visitor_settle_s": 0,
+            "actions_per_wall_per_minute": 6,
+            "trusted_proxies": [ip_network("10.0.0.2")],
+        }
+    )
+    upgrade(limited.resolved_database_url)
+    with TestClient(create_app(limited), client=("10.0.0.2", 5000)) as proxy:
+        changed = proxy.post(
+            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(proxy)
+        )
+        assert changed.status_code == 200
+        census = services_of(proxy).apps["census"]
+        dataset = census.datasets.current(services_of(proxy).db)  # type: ignore[attr-defined]
+        opened = 0
+        for phone in range(4):
+            proxy.cookies.clear()
+            at = {"X-Forwarded-For": f"192.0.2.{phone + 1}"}
+            csrf = csrf_of(proxy)
+            for tract in dataset.tracts[2 * phone : 2 * phone + 2]:
+                before = wall_now(proxy)
+                answer = proxy.post(
+                    f"/apps/census/demo/tracts/{tract.geoid}/balloon",
+                    data={"csrf": csrf},
+                    headers=at,
+                )
+                if answer.status_code == 200:
+                    opened += 1
+                else:
+                    refused_clearly(answer)
+                    assert wall_now(proxy) == before
+    assert opened == limited.actions_per_wall_per_minute
+
+
+def test_one_address_has_one_budget_for_all_its_phones(defaults: Settings) -> None:
+    """Settled phones behind one address, each within its own limits, share the
+    address's budget (here through the toggle form, not the scan)."""
+    limited = defaults.model_copy(
+        update={"visitor_settle_s": 0, "actions_per_address_per_minute": 4}
+    )
+    upgrade(limited.resolved_database_url)
+    with TestClient(create_app(limited), client=NAT) as room:
+        changed = room.post(
+            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(room)
+        )
+        assert changed.status_code == 200
+        group = next(
+            str(t.params["group"])
+            for t in wall_tags(services_of(room).db, "demo")
+            if t.action == "toggle"
+        )
+        flipped = 0
+        for _ in range(3):
+            room.cookies.clear()
+            csrf = csrf_of(room)
+            for _ in range(2):
+                before = wall_now(room)
+                answer = room.post(f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf})
+                if answer.status_code == 200:
+                    flipped += 1
+                else:
+                    refused_clearly(answer)
+                    assert wall_now(room) == before
+        other = ("198.51.100.8", 5000)
+        with TestClient(room.app, client=other) as elsewhere:
+            answer = elsewhere.post(
+                f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf_of(elsewhere)}
+            )
+            assert answer.status_code == 200, "another address has its own budget"
+    assert flipped == limited.actions_per_address_per_minute
+
+
 def test_settled_phones_of_one_address_are_limited_as_themselves(defaults: Settings) -> None:
     """Phones that kept their cookie past the settle time each have their own budget:
     a room publishing together is not one person."""
@@ -134,8 +279,6 @@ def test_settled_phones_of_one_address_are_limited_as_themselves(defaults: Setti
 def test_behind_a_trusted_proxy_each_phone_has_its_own_address(defaults: Settings) -> None:
     """The census routes read the one client address too: phones behind the proxy are
     told apart by X-Forwarded-For, not lumped under the proxy's address."""
-    from ipaddress import ip_network
-
     proxied = defaults.model_copy(update={"trusted_proxies": [ip_network("10.0.0.2")]})
     upgrade(proxied.resolved_database_url)
     with TestClient(create_app(proxied), client=("10.0.0.2", 5000)) as proxy:
