@@ -86,7 +86,8 @@ class ServerProcess:
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
-        wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
+        # migrations and loading the walls take half a minute on a loaded 2-core machine
+        wait_until(self.healthy, timeout=90, what=f"the server to answer (log: {self.log})")
 
     def healthy(self) -> bool:
         assert self.process is not None

@@ -277,5 +277,7 @@ def test_the_public_screen_names_someone_nameless_with_the_right_article(
         "an instructor",
         "an administrator",
     ]
-    named = update_profile(db, teacher, settings, user_group="k5", info_class=1, display_name="Ines")
+    named = update_profile(
+        db, teacher, settings, user_group="k5", info_class=1, display_name="Ines"
+    )
     assert named.public_name == "Ines (instructor)"
