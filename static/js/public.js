@@ -284,7 +284,7 @@ export class PublicScreen {
         screen.dataset.page = String(index + 1);
         screen.dataset.pages = String(pages.length);
         screen.dataset.pageSince = String(Math.round(since));
-        screen.dataset.pageUntil = String(Math.round(until));
+        screen.dataset.pageUntil = pages.length > 1 ? String(Math.round(until)) : "";
       },
     };
   }
