@@ -29,6 +29,13 @@ ROLE_LABELS: dict[Role, str] = {
     "instructor": "Instructor",
     "admin": "Administrator",
 }
+# How the public screen names someone who chose no name: the role with its article,
+# written out ("an instructor", never "a instructor").
+SOMEONE_IN_ROLE: dict[Role, str] = {
+    "student": "a student",
+    "instructor": "an instructor",
+    "admin": "an administrator",
+}
 GROUP_LABELS: dict[UserGroup, str] = {
     "k5": "K-5",
     "undergraduate": "Undergraduate",
@@ -89,8 +96,9 @@ class Person:
     def public_name(self) -> str:
         """How the public screen names this person: the role always shows, so a chosen
         name cannot pass for someone else's (no student publishes as "the instructor")."""
-        role = ROLE_LABELS[self.role].lower()
-        return f"{self.display_name} ({role})" if self.display_name else f"a {role}"
+        if not self.display_name:
+            return SOMEONE_IN_ROLE[self.role]
+        return f"{self.display_name} ({ROLE_LABELS[self.role].lower()})"
 
 
 def load_person(db: Database, visitor: Visitor, address: str, settings: Settings) -> Person:

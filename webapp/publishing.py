@@ -9,6 +9,7 @@ approved, rejected, cleared) is one function here.
 
 from __future__ import annotations
 
+import math
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Literal
 
@@ -23,6 +24,7 @@ from webapp.changes import change_wall
 from webapp.db import Database
 from webapp.models import PublicationRecord
 from webapp.people import Person
+from webapp.settings import Settings
 from webapp.wall_state import PublicItem, PublicPolicy, WallState, now_ms
 
 if TYPE_CHECKING:
@@ -33,14 +35,28 @@ Status = Literal["shown", "pending", "rejected", "cleared"]
 
 class Block(BaseModel):
     """One part of a publication: a paragraph, Markdown text (rendered without raw
-    HTML), a table of facts, or a site image."""
+    HTML), a table of facts, a site image, or a chart.
+
+    A chart is SVG an app drew on the server from its own data, escaping every text
+    in it (as the census map's charts do); it is the one block shown as markup, and
+    only an app's code, never a request, makes blocks."""
 
     model_config = ConfigDict(extra="forbid")
 
-    kind: Literal["text", "markdown", "facts", "image"]
+    kind: Literal["text", "markdown", "facts", "image", "chart"]
     text: str = Field(default="", max_length=8_000)
     rows: list[tuple[str, str]] = Field(default_factory=list, max_length=100)
     src: str = Field(default="", max_length=500)
+    svg: str = Field(default="", max_length=50_000)
+
+    @field_validator("svg")
+    @classmethod
+    def _one_svg(cls, value: str) -> str:
+        if value and not (value.startswith("<svg ") and value.endswith("</svg>")):
+            raise ValueError("a chart is one SVG element")
+        if "<script" in value.lower() or "<foreignobject" in value.lower():
+            raise ValueError("a chart holds no script and no foreign content")
+        return value
 
     @field_validator("src")
     @classmethod
@@ -57,6 +73,50 @@ class Publication(BaseModel):
 
     title: str = Field(min_length=1, max_length=200)
     blocks: list[Block] = Field(default_factory=list, max_length=50)
+
+
+# Readable type from the seats: capital letters should subtend at least 16 minutes of arc
+# for reading (ANSI/HFES 100-2007; 20-22' preferred), and system-ui capitals are about
+# 0.7 em tall. On the demo wall (0.63 mm pixels, seats at 2 m) that is 22 px, the
+# largest type 32 px (24'); shrinking stops at the minimum, then the screen pages.
+MIN_CAP_ARCMIN = 16.0
+MAX_CAP_ARCMIN = 24.0
+CAP_HEIGHT_EM = 0.7
+
+
+class ScreenLayout(BaseModel):
+    """How public tiles lay a publication out: in one box of CSS pixels, the same on
+    every public display of the wall (then scaled to each), so they all cut the same
+    pages and show the same one at the same time."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    box: tuple[int, int]  # the smallest public framebuffer, px
+    min_font_px: int  # body type never smaller than what the seats can read
+    max_font_px: int
+    words_per_minute: int  # a page stays up as long as reading its words takes ...
+    page_min_ms: int  # ... and never shorter than this
+
+
+def screen_layout(wall: Wall, settings: Settings) -> ScreenLayout | None:
+    """The wall's public screen layout (None: the wall has no public display)."""
+    displays = wall.screen("public")
+    if not displays:
+        return None
+
+    def font_px(display_mm_per_px: float, arcmin: float) -> int:
+        cap_mm = wall.seat_distance_m * 1000 * math.tan(math.radians(arcmin / 60))
+        return math.ceil(cap_mm / CAP_HEIGHT_EM / display_mm_per_px)
+
+    # The coarsest pixels need the most of them; the box is what every display holds.
+    pitch = min(d.mm_per_px for d in displays)
+    return ScreenLayout(
+        box=(min(d.resolution[0] for d in displays), min(d.resolution[1] for d in displays)),
+        min_font_px=font_px(pitch, MIN_CAP_ARCMIN),
+        max_font_px=font_px(pitch, MAX_CAP_ARCMIN),
+        words_per_minute=settings.public_words_per_minute,
+        page_min_ms=round(settings.public_page_min_s * 1000),
+    )
 
 
 class PublishRefused(Exception):

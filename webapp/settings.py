@@ -82,6 +82,9 @@ class Settings(BaseSettings):
     login_max_delay_s: float = Field(default=300.0, ge=1)
     login_parallel_checks: int = Field(default=2, ge=1, le=64)
     publish_rate_per_minute: int = Field(default=3, ge=1)
+    # How long a page of a long publication stays on the public screen (webapp.publishing).
+    public_words_per_minute: int = Field(default=150, ge=10, le=100_000)
+    public_page_min_s: float = Field(default=10.0, ge=0.5, le=3_600)
     balloon_seconds: int = Field(default=30, ge=1, le=3_600)
     volume_dir: Path | None = None
     volume_budget_voxels: int = Field(default=1 << 24, ge=4_096)

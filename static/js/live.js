@@ -9,8 +9,8 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
  *   server time now (ms), for what changes by the clock (balloons closing)
  * @param {boolean} reports whether this page reports ready/applied (tiles only)
  * @param {function} prepare (changes, state) -> Promise: load what the changed state needs
- * @param {function} overlay state -> show(): ready page content beside the scene now,
- *   show it with the frame
+ * @param {function} overlay (state, clock) -> show(): ready page content beside the
+ *   scene now, show it with the frame
  * @param {function} shown (state, redraw, clock) after a frame is shown: redraw() draws
  *   the state again in place if it is still the one shown (a refinement arrived, a
  *   balloon closed) and says whether it was
@@ -27,7 +27,7 @@ export function showLive(path, drawer, {
     reports,
     render(state, version) {
       const show = frames.prepare(drawer(state, clock));
-      const showOverlay = overlay(state);
+      const showOverlay = overlay(state, clock);
       return () => {
         show();
         showOverlay();

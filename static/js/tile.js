@@ -14,8 +14,9 @@ const layouts = new CodeLayouts(wall.id, body.dataset.tile);
 const volumes = new VolumeImages(wall.id, body.dataset.tile, body.dataset.token);
 const maps = new CensusViews(wall.id, body.dataset.tile);
 const display = wall.displays.find((d) => d.id === body.dataset.tile);
-const publicScreen = display?.roles.includes("public")
-  ? new PublicScreen(document.getElementById("public")) : null;
+const publicScreen = body.dataset.publicScreen
+  ? new PublicScreen(document.getElementById("public"), JSON.parse(body.dataset.publicScreen))
+  : null;
 
 // The server's matrix maps scene mm to the display's native pixels; fit those to the canvas.
 // Volume images and map views are already in native pixels; the rest is in scene mm.
@@ -77,7 +78,7 @@ showLive(
       volumes.load(state),
       maps.load(state),
     ]),
-    overlay: (state) => (publicScreen ? publicScreen.prepare(state.public) : () => {}),
+    overlay: (state, clock) => (publicScreen ? publicScreen.prepare(state.public, clock) : () => {}),
     shown: (state, redraw, clock) => {
       mark(state, clock);
       volumes.refine(state, () => redraw() && mark(state, clock));

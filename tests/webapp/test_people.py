@@ -264,3 +264,20 @@ def test_revoke_demotes_every_phone_of_an_authority(db: Database, settings: Sett
 )
 def test_display_names_are_plain_and_short(typed: str, kept: str) -> None:
     assert plain_name(typed) == kept
+
+
+def test_the_public_screen_names_someone_nameless_with_the_right_article(
+    db: Database, settings: Settings
+) -> None:
+    student = newcomer(db, settings)
+    teacher = instructor(db, settings)
+    admin = grant(db, newcomer(db, settings), "admin", "login:ada", settings, HERE)
+    assert [p.public_name for p in (student, teacher, admin)] == [
+        "a student",
+        "an instructor",
+        "an administrator",
+    ]
+    named = update_profile(
+        db, teacher, settings, user_group="k5", info_class=1, display_name="Ines"
+    )
+    assert named.public_name == "Ines (instructor)"

@@ -11,6 +11,7 @@ from jinja2 import Environment
 from pydantic import ValidationError
 from sqlalchemy import select
 
+from wall_client.layout import load_walls
 from webapp.app import create_app
 from webapp.db import Database
 from webapp.models import PublicationRecord
@@ -22,12 +23,13 @@ from webapp.publishing import (
     clear,
     decide,
     render_item,
+    screen_layout,
     set_policy,
     submit,
     waiting,
 )
 from webapp.services import Services
-from webapp.settings import Settings
+from webapp.settings import CONTENT_DIR, Settings
 from webapp.visitors import Visitor
 from webapp.wall_state import PublicItem, PublicPolicy, read_state
 
@@ -161,6 +163,45 @@ def test_blocks_are_only_the_known_kinds_and_fields() -> None:
         Block.model_validate({"kind": "text", "html": "<b>x</b>"})
     with pytest.raises(ValidationError):
         Block(kind="text", text="x" * 8_001)
+
+
+def test_a_chart_is_one_svg_without_script() -> None:
+    svg = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect/></svg>'
+    assert Block(kind="chart", svg=svg).svg == svg
+    for bad in (
+        "<b>x</b>",
+        svg + "<script>alert(1)</script>",
+        svg.replace("<rect/>", "<script>alert(1)</script>"),
+        svg.replace("<rect/>", "<foreignObject><p>x</p></foreignObject>"),
+    ):
+        with pytest.raises(ValidationError):
+            Block(kind="chart", svg=bad)
+
+
+def test_a_chart_is_shown_as_drawn(app: FastAPI) -> None:
+    svg = '<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 10 10"><rect/></svg>'
+    publication = Publication(title="t", blocks=[Block(kind="chart", svg=svg)])
+    html = render_item(templates_of(app), publication, "a student", 0)
+    assert f'<figure class="chart">{svg}</figure>' in html
+
+
+@pytest.mark.parametrize(
+    "wall_id,box,smallest,largest",
+    [
+        # 0.63 mm pixels, seats at 2 m: 16' capitals are 9.3 mm, 13.3 mm type, 22 px
+        ("demo", (1920, 1080), 22, 32),
+        # 30-inch panels of 0.25 mm pixels seen from 2.5 m: three times the pixels
+        ("hiperwall", (2560, 1600), 67, 100),
+    ],
+)
+def test_the_public_screen_type_is_readable_from_the_seats(
+    wall_id: str, box: tuple[int, int], smallest: int, largest: int
+) -> None:
+    wall = load_walls([CONTENT_DIR / "walls"])[wall_id]
+    layout = screen_layout(wall, Settings())
+    assert layout is not None
+    assert (layout.box, layout.min_font_px, layout.max_font_px) == (box, smallest, largest)
+    assert (layout.words_per_minute, layout.page_min_ms) == (150, 10_000)
 
 
 def test_publication_limits() -> None:

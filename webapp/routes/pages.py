@@ -7,6 +7,7 @@ from fastapi.responses import HTMLResponse
 
 from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
 from webapp.protocol import ViewportInfo
+from webapp.publishing import screen_layout
 from webapp.schemas import WallInfo
 from webapp.security import csrf_token
 
@@ -45,6 +46,8 @@ def tile_page(
     request: Request, wall: WallDep, tile: TileDep, services: ServicesDep
 ) -> HTMLResponse:
     viewport = ViewportInfo.of(wall.viewport(tile.id))
+    public = tile in wall.screen("public")
+    layout = screen_layout(wall, services.settings) if public else None
     return render(
         request,
         "tile.html",
@@ -53,6 +56,7 @@ def tile_page(
         token=services.tile_token(wall.id),
         viewport_json=viewport.model_dump_json(),
         wall_json=WallInfo.of(wall).model_dump_json(),
+        public_screen_json=layout.model_dump_json() if layout else "",
     )
 
 

@@ -19,7 +19,7 @@ from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
 from webapp.apps import Scan
-from webapp.apps.census_map.charts import ChartStats
+from webapp.apps.census_map.charts import ChartStats, charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
 from webapp.apps.census_map.store import DataSets, current_id, seed
@@ -202,7 +202,7 @@ class CensusApp:
         return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
-        """The tract page as its publisher sees it: the values of their class."""
+        """The tract page as its publisher sees it: the values and charts of their class."""
         geoid = scan.subject or scan.tag.params.get("geoid")
         if not geoid:
             return None
@@ -210,11 +210,13 @@ class CensusApp:
         if dataset is None or tract is None:
             return None
         person = await scan.person()
+        charts = charts_for(dataset, tract, person.info_class, self.chart_stats)
         return Publication(
             title=dataset.tract_title(tract),
             blocks=[
-                Block(kind="facts", rows=dataset.facts(tract, person.info_class)),
                 Block(kind="text", text=dataset.title),
+                Block(kind="facts", rows=dataset.facts(tract, person.info_class)),
+                *(Block(kind="chart", svg=svg) for svg in charts),
             ],
         )
 

@@ -249,6 +249,8 @@ def test_publishing_a_tract_page(client: TestClient) -> None:
     item = state_of(client).public
     assert item is not None and item.title == "Tract 220.01, Placer"
     assert "$225,900" in item.html and "Population under 16" not in item.html
+    # the charts the student's class sees on the phone go with it
+    assert item.html.count("<svg ") == page.count("<svg ")
 
 
 def test_the_index_lists_every_tract_by_group(client: TestClient) -> None:
