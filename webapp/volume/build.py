@@ -176,27 +176,10 @@ def build_store(
     """
     if out.exists() and not (out / META_FILE).exists() and any(out.iterdir()):
         raise VolumeBuildError(f"{out} exists and is not a volume store; not overwriting it")
-    longest = max(source.shape)
-    if depth is not None:
-        if not 0 <= depth <= 12:
-            raise VolumeBuildError("the octree depth must be between 0 and 12")
-        brick = max(8, 1 << math.ceil(math.log2(max(1, math.ceil(longest / (1 << depth))))))
-    elif brick < 4 or brick & (brick - 1):
-        raise VolumeBuildError("the brick side must be a power of two, at least 4")
+    brick = _brick_side(source.shape, brick, depth)
     levels = int(math.log2(brick))
     grid = tuple(-(-n // brick) for n in source.shape)
-    tree_depth = math.ceil(math.log2(max(grid))) if max(grid) > 1 else 0
-
-    stats = _scan(source, brick)
-    scale, offset = 1.0, 0.0
-    if not stats.integral:
-        scale = (stats.high - stats.low) / float(np.iinfo(QUANTISED).max) or 1.0
-        offset = stats.low
-    low = round((stats.low - offset) / scale)
-    high = round((stats.high - offset) / scale)
-    coefficient_type = _coefficient_type(low, high)
-    threshold = low + 1 if empty_below is None else math.ceil((empty_below - offset) / scale)
-
+    plan = _Plan.of(_scan(source, brick), brick, levels, empty_below)
     fallback_level = next(
         (
             level
@@ -205,53 +188,10 @@ def build_store(
         ),
         levels,
     )
-    fallback_side = brick >> fallback_level
-    fallback = np.full(tuple(g * fallback_side for g in grid), low, dtype=np.int32)
-
     out.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
     try:
-        rows: list[tuple[int, int, int, int, int, int]] = []
-        written = 0
-        empty = 0
-        with open(staging / COEFFICIENTS_FILE, "wb") as coefficients:
-            across = [a for a in range(3) if a != source.axis]
-            for slab_index, (_, slab) in enumerate(source.slabs(brick)):
-                for p in range(grid[across[0]]):
-                    for q in range(grid[across[1]]):
-                        position = [0, 0, 0]
-                        position[source.axis], position[across[0]], position[across[1]] = (
-                            slab_index,
-                            p,
-                            q,
-                        )
-                        i, j, k = position
-                        block = _brick_of(slab, position, source.axis, brick, low, scale, offset)
-                        block_low, block_high = int(block.min()), int(block.max())
-                        if block_high < threshold:
-                            empty += 1
-                            continue
-                        if block_low == block_high:
-                            rows.append((i, j, k, UNIFORM, block_low, block_high))
-                            coarse = np.full((fallback_side,) * 3, block_low, dtype=np.int32)
-                        else:
-                            stream = forward(block, levels, coefficient_type)
-                            coefficients.write(stream.tobytes())
-                            rows.append((i, j, k, written, block_low, block_high))
-                            written += stream.size
-                            coarse = inverse(
-                                stream[: prefix_length(brick, fallback_level)],
-                                brick,
-                                levels,
-                                fallback_level,
-                            )
-                        fallback[
-                            i * fallback_side : (i + 1) * fallback_side,
-                            j * fallback_side : (j + 1) * fallback_side,
-                            k * fallback_side : (k + 1) * fallback_side,
-                        ] = coarse
-                if progress is not None:
-                    progress(slab_index + 1, grid[source.axis])
+        rows, empty, fallback = _write_bricks(source, staging, plan, grid, fallback_level, progress)
         meta = VolumeMeta(
             name=name,
             source=source.path.name,
@@ -260,12 +200,12 @@ def build_store(
             brick=brick,
             levels=levels,
             grid=(grid[0], grid[1], grid[2]),
-            depth=tree_depth,
-            dtype=np.dtype(coefficient_type).name,
-            value_range=(float(low), float(high)),
-            background=low,
-            scale=scale,
-            offset=offset,
+            depth=math.ceil(math.log2(max(grid))) if max(grid) > 1 else 0,
+            dtype=np.dtype(plan.coefficient_type).name,
+            value_range=(float(plan.low), float(plan.high)),
+            background=plan.low,
+            scale=plan.scale,
+            offset=plan.offset,
             fallback_level=fallback_level,
             stored_bricks=len(rows),
             empty_bricks=empty,
@@ -280,6 +220,102 @@ def build_store(
         shutil.rmtree(staging, ignore_errors=True)
         raise
     return meta
+
+
+def _brick_side(shape: tuple[int, int, int], brick: int, depth: int | None) -> int:
+    """The brick side: from a fixed octree ``depth`` when given, else ``brick`` checked."""
+    if depth is not None:
+        if not 0 <= depth <= 12:
+            raise VolumeBuildError("the octree depth must be between 0 and 12")
+        longest = max(shape)
+        return max(8, 1 << math.ceil(math.log2(max(1, math.ceil(longest / (1 << depth))))))
+    if brick < 4 or brick & (brick - 1):
+        raise VolumeBuildError("the brick side must be a power of two, at least 4")
+    return brick
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """How values are stored: whole numbers as they are, other floats quantised to
+    16 bits (``value = stored * scale + offset``), in the narrowest coefficient type."""
+
+    brick: int
+    levels: int
+    scale: float
+    offset: float
+    low: int
+    high: int
+    threshold: int  # bricks whose largest value is below this are empty
+    coefficient_type: Any
+
+    @classmethod
+    def of(cls, stats: _Stats, brick: int, levels: int, empty_below: float | None) -> _Plan:
+        scale, offset = 1.0, 0.0
+        if not stats.integral:
+            scale = (stats.high - stats.low) / float(np.iinfo(QUANTISED).max) or 1.0
+            offset = stats.low
+        low = round((stats.low - offset) / scale)
+        high = round((stats.high - offset) / scale)
+        threshold = low + 1 if empty_below is None else math.ceil((empty_below - offset) / scale)
+        return cls(brick, levels, scale, offset, low, high, threshold, _coefficient_type(low, high))
+
+
+def _write_bricks(
+    source: Source,
+    staging: Path,
+    plan: _Plan,
+    grid: tuple[int, ...],
+    fallback_level: int,
+    progress: Callable[[int, int], None] | None,
+) -> tuple[list[tuple[int, int, int, int, int, int]], int, npt.NDArray[np.int32]]:
+    """Write every stored brick's coefficient stream, slab by slab; returns the brick
+    table's rows, the count of empty bricks and the coarse fallback volume."""
+    brick = plan.brick
+    fallback_side = brick >> fallback_level
+    fallback = np.full(tuple(g * fallback_side for g in grid), plan.low, dtype=np.int32)
+    rows: list[tuple[int, int, int, int, int, int]] = []
+    written = empty = 0
+    across = [a for a in range(3) if a != source.axis]
+    with open(staging / COEFFICIENTS_FILE, "wb") as coefficients:
+        for slab_index, (_, slab) in enumerate(source.slabs(brick)):
+            for p in range(grid[across[0]]):
+                for q in range(grid[across[1]]):
+                    position = [0, 0, 0]
+                    position[source.axis], position[across[0]], position[across[1]] = (
+                        slab_index,
+                        p,
+                        q,
+                    )
+                    i, j, k = position
+                    block = _brick_of(
+                        slab, position, source.axis, brick, plan.low, plan.scale, plan.offset
+                    )
+                    block_low, block_high = int(block.min()), int(block.max())
+                    if block_high < plan.threshold:
+                        empty += 1
+                        continue
+                    if block_low == block_high:
+                        rows.append((i, j, k, UNIFORM, block_low, block_high))
+                        coarse = np.full((fallback_side,) * 3, block_low, dtype=np.int32)
+                    else:
+                        stream = forward(block, plan.levels, plan.coefficient_type)
+                        coefficients.write(stream.tobytes())
+                        rows.append((i, j, k, written, block_low, block_high))
+                        written += stream.size
+                        coarse = inverse(
+                            stream[: prefix_length(brick, fallback_level)],
+                            brick,
+                            plan.levels,
+                            fallback_level,
+                        )
+                    fallback[
+                        i * fallback_side : (i + 1) * fallback_side,
+                        j * fallback_side : (j + 1) * fallback_side,
+                        k * fallback_side : (k + 1) * fallback_side,
+                    ] = coarse
+            if progress is not None:
+                progress(slab_index + 1, grid[source.axis])
+    return rows, empty, fallback
 
 
 def _scan(source: Source, depth: int) -> _Stats:

@@ -18,7 +18,7 @@ import tomllib
 import zipfile
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
 
@@ -141,37 +141,19 @@ def import_files(
     unmatched_rows = tuple(sorted(records.keys() - shape_keys))
     joined = [f for f in features if f.key in records]
     attributes = _numeric_columns(columns, [records[f.key] for f in joined])
-    rows: list[store.TractRow] = []
-    outlines: list[Any] = []
-    repaired: list[tuple[str, str]] = []
-    skipped: list[tuple[str, str]] = []
-    for feature in joined:
-        outline, problem = _outline(feature.geometry)
-        if outline is None:
-            skipped.append((feature.key, problem or "no outline"))
-            continue
-        if problem:
-            repaired.append((feature.key, problem))
-        record = records[feature.key]
-        values = {column: _number(record.get(column)) for column in attributes}
-        rows.append(store.TractRow(feature.key, _geojson(outline), values))
-        outlines.append(outline)
-
+    tracts = _tracts(joined, records, attributes)
+    rows = tracts.rows
+    repaired, skipped = tracts.repaired, tracts.skipped
     problems = problem_lines(unmatched_shapes, unmatched_rows, repaired, skipped)
     if strict and problems:
         raise CensusImportError("\n".join(["strict import refused, nothing imported:", *problems]))
     if not rows:
         raise CensusImportError(_nothing_left(key, features, records, skipped))
-    _require_longitude_latitude(shapes.name, outlines)
+    _require_longitude_latitude(shapes.name, tracts.outlines)
     if not attributes:
         raise CensusImportError(f"no numeric columns to show besides {key!r}")
     chosen = chosen or default_settings(shapes.stem, attributes)
-    unknown = [a.key for a in chosen.attributes if a.key not in attributes]
-    if unknown:
-        raise CensusImportError(
-            f"{settings_file or 'the settings'} names attributes the data lack: {listed(unknown)}"
-            f" (numeric columns: {listed(attributes)})"
-        )
+    _require_known_attributes(chosen, attributes, settings_file)
     source = " + ".join(p.name for p in (shapes, table) if p is not None)
     dataset_id = store.save(db, name, chosen, rows, source=source)
     return ImportReport(
@@ -185,6 +167,45 @@ def import_files(
         skipped=tuple(skipped),
         ignored_columns=tuple(c for c in columns if c not in attributes),
     )
+
+
+@dataclass
+class _Tracts:
+    """The joined features as tract rows, with what was repaired or skipped and why."""
+
+    rows: list[store.TractRow] = field(default_factory=list)
+    outlines: list[Any] = field(default_factory=list)
+    repaired: list[tuple[str, str]] = field(default_factory=list)
+    skipped: list[tuple[str, str]] = field(default_factory=list)
+
+
+def _tracts(
+    joined: list[_Feature], records: Mapping[str, Mapping[str, Any]], attributes: list[str]
+) -> _Tracts:
+    tracts = _Tracts()
+    for feature in joined:
+        outline, problem = _outline(feature.geometry)
+        if outline is None:
+            tracts.skipped.append((feature.key, problem or "no outline"))
+            continue
+        if problem:
+            tracts.repaired.append((feature.key, problem))
+        record = records[feature.key]
+        values = {column: _number(record.get(column)) for column in attributes}
+        tracts.rows.append(store.TractRow(feature.key, _geojson(outline), values))
+        tracts.outlines.append(outline)
+    return tracts
+
+
+def _require_known_attributes(
+    chosen: DataSetSettings, attributes: list[str], settings_file: Path | None
+) -> None:
+    unknown = [a.key for a in chosen.attributes if a.key not in attributes]
+    if unknown:
+        raise CensusImportError(
+            f"{settings_file or 'the settings'} names attributes the data lack: {listed(unknown)}"
+            f" (numeric columns: {listed(attributes)})"
+        )
 
 
 # -- settings ------------------------------------------------------------------------
