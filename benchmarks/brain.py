@@ -20,6 +20,7 @@ from tag_service.sizing import min_module_mm
 from wall_client.layout import load_wall
 from webapp.apps.brain_atlas import PIN_CLEARANCE_OF_CODE
 from webapp.apps.brain_atlas.content import load_content
+from webapp.apps.brain_atlas.matching import answer_key
 from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.views import load_views
 from webapp.settings import CONTENT_DIR
@@ -106,7 +107,7 @@ def run() -> dict[str, Any]:
                 }
         result["walls"][name] = per_preset
     began = time.perf_counter()
-    key = content.answer_key("full")
+    key = answer_key(content, "full")
     built = time.perf_counter()
     answers = [
         (region.id, text)

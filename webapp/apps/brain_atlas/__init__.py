@@ -29,7 +29,7 @@ from webapp.apps.brain_atlas.content import (
     load_content,
 )
 from webapp.apps.brain_atlas.literature import PubMed
-from webapp.apps.brain_atlas.matching import AnswerKey
+from webapp.apps.brain_atlas.matching import AnswerKey, answer_key
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.quiz import Round, get_round, new_order, open_round
 from webapp.apps.brain_atlas.views import ViewPreset, load_views
@@ -140,7 +140,7 @@ class BrainApp:
         content = self.content
         with self._lock:
             if tag_set not in self._keys:
-                self._keys[tag_set] = content.answer_key(tag_set)
+                self._keys[tag_set] = answer_key(content, tag_set)
             return self._keys[tag_set]
 
     def regions(self, tag_set: TagSetName) -> list[Region]:

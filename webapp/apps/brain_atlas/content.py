@@ -12,15 +12,12 @@ from __future__ import annotations
 
 import csv
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, TypeVar
+from typing import Literal, TypeVar
 
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from webapp.settings import CONTENT_DIR
-
-if TYPE_CHECKING:
-    from webapp.apps.brain_atlas.matching import AnswerKey
 
 ATLAS_DIR = CONTENT_DIR / "brain_atlas"
 REGION_ID = r"^[a-z0-9]+(-[a-z0-9]+)*$"
@@ -148,18 +145,6 @@ class AtlasContent(BaseModel):
                 if name is not None and name not in names:
                     names.append(name)
         return parts
-
-    def answer_key(self, tag_set: TagSetName) -> AnswerKey:
-        """The answer key of one tag set's quiz: its regions, the atlas regions it
-        leaves out as competitors, and the atlas regions each region is made of as its
-        parts. Names need only be unique within a set, so there is one key per set."""
-        from webapp.apps.brain_atlas.matching import AnswerKey  # it imports this module
-
-        return AnswerKey(
-            self.in_set(tag_set),
-            competitors=self.competitors(tag_set),
-            parts=self.parts(tag_set),
-        )
 
 
 def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:

@@ -26,7 +26,7 @@ import unicodedata
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
-from webapp.apps.brain_atlas.content import Hemisphere, Region
+from webapp.apps.brain_atlas.content import AtlasContent, Hemisphere, Region, TagSetName
 
 MAX_ANSWER_LENGTH = 200
 """Longer answers are rejected outright: nobody types a region's name that long, and it
@@ -333,8 +333,7 @@ class AnswerKey:
     a name of its region, and keeps the *other* regions' typos off itself ("paracentral"
     is no typo of the K-5 movement strip's "precentral").
 
-    :meth:`AtlasContent.answer_key
-    <webapp.apps.brain_atlas.content.AtlasContent.answer_key>` builds a set's key with
+    :func:`answer_key` builds a set's key with
     both from the atlas names.
     """
 
@@ -544,3 +543,14 @@ class AnswerKey:
             if distances.to_abbreviation(abbreviation) <= limit:
                 return True
         return False
+
+
+def answer_key(content: AtlasContent, tag_set: TagSetName) -> AnswerKey:
+    """The answer key of one tag set's quiz: its regions, the atlas regions it leaves
+    out as competitors, and the atlas regions each region is made of as its parts.
+    Names need only be unique within a set, so there is one key per set."""
+    return AnswerKey(
+        content.in_set(tag_set),
+        competitors=content.competitors(tag_set),
+        parts=content.parts(tag_set),
+    )

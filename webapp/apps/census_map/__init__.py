@@ -21,8 +21,9 @@ from wall_client.layout import Wall
 from webapp.apps import Scan
 from webapp.apps.census_map.charts import ChartStats, charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
-from webapp.apps.census_map.store import DataSets, current_id, seed
+from webapp.apps.census_map.store import DataSets, current_id
 from webapp.caching import SizedCache
 from webapp.changes import change_wall
 from webapp.publishing import Block, Publication

@@ -516,3 +516,10 @@ def _nothing_left(
         f"no shape matched a table row by {key}, nothing imported (shapes: "
         f"{listed([f.key for f in features[:3]], 3)}; table: {sample_rows})"
     )
+
+
+def seed(db: Database, path: Path = store.SHIPPED) -> int | None:
+    """Import the shipped data set when the database holds none (the demo's default)."""
+    if store.count(db):
+        return None
+    return import_files(db, shapes=path, key=store.SHIPPED_KEY).dataset_id

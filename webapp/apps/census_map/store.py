@@ -11,7 +11,6 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
-from pathlib import Path
 from typing import Any
 
 from shapely.geometry import shape
@@ -176,12 +175,3 @@ class DataSets:
     def current(self, db: Database) -> DataSet | None:
         dataset_id = current_id(db)
         return self.get(db, dataset_id) if dataset_id is not None else None
-
-
-def seed(db: Database, path: Path = SHIPPED) -> int | None:
-    """Import the shipped data set when the database holds none (the demo's default)."""
-    from webapp.apps.census_map.importer import import_files
-
-    if count(db):
-        return None
-    return import_files(db, shapes=path, key=SHIPPED_KEY).dataset_id

@@ -10,6 +10,7 @@ import yaml
 from click.testing import CliRunner
 
 from webapp.apps.brain_atlas.content import ATLAS_DIR, check, load_content
+from webapp.apps.brain_atlas.matching import answer_key
 from webapp.cli import main
 
 TEXT = "A text long enough to be a real paragraph about this part of the brain."
@@ -121,7 +122,7 @@ def test_one_answer_key_per_set() -> None:
     """Names are unique within a set only: "hippocampus" is the quiz's hippocampus and
     the K-5 memory seahorse, each in its own set's key."""
     content = load_content()
-    full, k5 = content.answer_key("full"), content.answer_key("k5")
+    full, k5 = answer_key(content, "full"), answer_key(content, "k5")
     assert full.best("hippocampus") == "hippocampus"
     assert k5.best("hippocampus") == "memory-seahorse"
     assert full.best("memory seahorse") is None
@@ -226,11 +227,11 @@ def test_a_name_of_an_atlas_region_the_set_leaves_out(small: Path) -> None:
 def test_the_small_folders_answer_keys(small: Path) -> None:
     content = load_content(small)
     assert len(content.competitors("full")) == 41  # every atlas region but one
-    key = content.answer_key("full")
+    key = answer_key(content, "full")
     assert key.judge("precentral-gyrus", "precentral")
     assert key.competitor("postcentral gyrus") == "Postcentral gyrus"
     assert not key.judge("precentral-gyrus", "paracentral")
-    k5 = content.answer_key("k5")
+    k5 = answer_key(content, "k5")
     assert k5.best("primary motor cortex") is None  # the full set's precentral gyrus
     assert k5.competitor("precentral") == "Precentral gyrus"
 

@@ -19,6 +19,7 @@ from webapp.apps.brain_atlas.matching import (
     HEAD_NOUNS,
     AnswerKey,
     allowed_distance,
+    answer_key,
     edit_distance,
 )
 
@@ -560,7 +561,7 @@ def shipped(tag_set: TagSetName) -> World:
         SHIPPED.in_set(tag_set),
         SHIPPED.competitors(tag_set),
         SHIPPED.parts(tag_set),
-        SHIPPED.answer_key(tag_set),
+        answer_key(SHIPPED, tag_set),
     )
 
 
