@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 import pytest
 
+from wall_client.config import config_keys
 from webapp import protocol
 from webapp.cli import main
 from webapp.settings import PROJECT_ROOT, Settings
@@ -89,3 +90,16 @@ def test_readme_links_to_every_reference_doc() -> None:
     readme = (PROJECT_ROOT / "README.md").read_text()
     for doc in sorted(Path(DOCS).glob("*.md")):
         assert f"docs/{doc.name}" in readme, f"README does not link docs/{doc.name}"
+
+
+@pytest.mark.parametrize("key", config_keys())
+def test_every_wall_config_key_is_documented(key: str) -> None:
+    """Keys come from the pydantic models: a key added there fails here until documented."""
+    assert f"`{key}`" in (DOCS / "wall-config.md").read_text(), f"{key} is not documented"
+
+
+def test_documented_wall_config_keys_are_accepted() -> None:
+    """The other direction: the docs' key tables list nothing the models refuse."""
+    text = (DOCS / "wall-config.md").read_text()
+    rows = re.findall(r"^\| `([a-z_.]+)` \|", text, flags=re.MULTILINE)
+    assert rows and set(rows) == set(config_keys())
