@@ -238,40 +238,35 @@ def test_load_walls_mixes_files_and_folders_and_reports_every_file(tmp_path: Pat
 # --- the models ----------------------------------------------------------------------
 
 
-TABLES = {
-    "": {**grid_config()},
-    "wall.": {**grid_config(), "wall": {}},
-    "screens.": {**grid_config(), "screens": {}},
-    "grid.": grid_config(),
-    "grid.bezel_mm.": grid_config(bezel_mm={"left": 1, "right": 1, "top": 1, "bottom": 1}),
-    "display[0].": explicit_config(panel("a", 0, 0)),
-}
+def tables() -> dict[str, dict[str, Any]]:
+    """A valid config holding each kind of table, by the path prefix of its keys."""
+    sides = {"left": 1, "right": 1, "top": 1, "bottom": 1}
+    return {
+        "": grid_config(),
+        "wall.": {**grid_config(), "wall": {}},
+        "screens.": {**grid_config(), "screens": {}},
+        "grid.": grid_config(),
+        "grid.bezel_mm.": grid_config(bezel_mm=sides),
+        "display[0].": explicit_config(panel("a", 0, 0)),
+    }
 
 
-def table_at(config: dict[str, Any], prefix: str) -> dict[str, Any]:
-    table: Any = config
-    for part in re.findall(r"\w+|\[\d+\]", prefix):
-        table = table[int(part[1:-1])] if part.startswith("[") else table[part]
-    assert isinstance(table, dict)
-    return table
-
-
-@pytest.mark.parametrize("prefix", list(TABLES))
+@pytest.mark.parametrize("prefix", list(tables()))
 def test_every_table_refuses_unknown_keys_naming_the_path_and_the_keys_it_takes(
     prefix: str,
 ) -> None:
-    config = TABLES[prefix]
-    table_at(config, prefix)["colour"] = "red"
+    config = tables()[prefix]
+    table: Any = config
+    for part in re.findall(r"\w+|\[\d+\]", prefix):
+        table = table[int(part[1:-1])] if part.startswith("[") else table[part]
+    table["colour"] = "red"
     (error,) = errors_of(config)
     assert error.startswith(f"walls/x.toml: {prefix}colour: unknown ")
     expected = re.search(r"\(expected one of: (.*)\)$", error)
     assert expected, error
-    documented = {key.rsplit(".", 1)[-1] for key in config_keys() if key.count(".") == 0}
-    if prefix:
-        base = re.sub(r"\[\d+\]", "", prefix)
-        documented = {k[len(base) :] for k in config_keys() if k.startswith(base)}
-        documented = {k for k in documented if "." not in k}
-    assert set(expected.group(1).split(", ")) == documented
+    base = re.sub(r"\[\d+\]", "", prefix)
+    below = {key.removeprefix(base) for key in config_keys() if key.startswith(base)}
+    assert set(expected.group(1).split(", ")) == {key for key in below if "." not in key}
 
 
 def test_unknown_display_keys_list_what_a_display_takes() -> None:
