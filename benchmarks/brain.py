@@ -17,7 +17,7 @@ from typing import Any
 from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_payload
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm
-from wall_client.layout import load_wall
+from wall_client.config import load_wall
 from webapp.apps.brain_atlas import PIN_CLEARANCE_OF_CODE
 from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.matching import answer_key

@@ -23,7 +23,8 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
-from wall_client.layout import Wall, load_walls
+from wall_client.config import load_walls
+from wall_client.layout import Wall
 from webapp.apps.census_map import APP, CENSUS_SET, CensusApp
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes

@@ -14,7 +14,7 @@ from typing import Any
 
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm, symbol_modules
-from wall_client.layout import load_wall
+from wall_client.config import load_wall
 from webapp.settings import CONTENT_DIR
 
 TAGS = 1_000

@@ -24,7 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from wall_client.layout import Wall, load_wall, parse_wall
+from wall_client.config import load_wall, parse_wall
+from wall_client.layout import Wall
 from webapp.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer
 from webapp.volume.store import VolumeStore

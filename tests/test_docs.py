@@ -11,6 +11,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import routes_of
+from wall_client.config import config_keys
 from webapp import protocol
 from webapp.cli import main
 from webapp.settings import PROJECT_ROOT, Settings
@@ -101,3 +102,16 @@ def test_every_route_is_listed_in_the_url_reference(client: TestClient) -> None:
         if method != "HEAD" and f"`{method} {path}`" not in text
     ]
     assert not missing, f"routes missing from docs/urls.md: {missing}"
+
+
+@pytest.mark.parametrize("key", config_keys())
+def test_every_wall_config_key_is_documented(key: str) -> None:
+    """Keys come from the pydantic models: a key added there fails here until documented."""
+    assert f"`{key}`" in (DOCS / "wall-config.md").read_text(), f"{key} is not documented"
+
+
+def test_documented_wall_config_keys_are_accepted() -> None:
+    """The other direction: the docs' key tables list nothing the models refuse."""
+    text = (DOCS / "wall-config.md").read_text()
+    rows = re.findall(r"^\| `([a-z_.]+)` \|", text, flags=re.MULTILINE)
+    assert rows and set(rows) == set(config_keys())

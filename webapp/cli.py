@@ -13,8 +13,9 @@ from pydantic import ValidationError
 from pydantic_settings import SettingsError
 from sqlalchemy.exc import SQLAlchemyError
 
+from wall_client.config import WallConfigError, load_wall, load_walls
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
-from wall_client.layout import CodePurpose, Wall, WallConfigError, load_wall, load_walls
+from wall_client.layout import CodePurpose, Wall
 from webapp.db import Database, database_problem
 from webapp.settings import Settings, lan_address
 from webapp.tokens import Tokens, load_tokens

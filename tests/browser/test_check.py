@@ -11,7 +11,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from wall_client.layout import load_wall
+from wall_client.config import load_wall
 from webapp.check import check_wall, fetch_layout
 from webapp.security import operator_token, tile_token
 from webapp.settings import CONTENT_DIR

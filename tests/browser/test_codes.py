@@ -10,7 +10,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, version_of
-from wall_client.layout import load_wall
+from wall_client.config import load_wall
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo
 from webapp.security import operator_token

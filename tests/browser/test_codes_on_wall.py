@@ -29,7 +29,8 @@ from playwright.sync_api import Browser, Page, expect
 from tag_service.sizing import min_module_mm
 from tag_service.verify import Decoded, decode_image, phone_frame, random_shots
 from tests.browser.conftest import open_tiles, version_of
-from wall_client.layout import Wall, apply_affine, load_wall
+from wall_client.config import load_wall
+from wall_client.layout import Wall, apply_affine
 from webapp.apps.brain_atlas import PIN_CLEARANCE_OF_CODE
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo, PlacedCode

@@ -19,7 +19,8 @@ from tag_service.placement import (
     place,
 )
 from tag_service.sizing import min_module_mm, symbol_modules
-from wall_client.layout import ROLES, Rect, Wall, load_wall
+from wall_client.config import load_wall
+from wall_client.layout import ROLES, Rect, Wall
 
 WALLS = Path(__file__).resolve().parents[2] / "content" / "walls"
 V2 = symbol_modules(25)  # 33 modules across with the quiet zone

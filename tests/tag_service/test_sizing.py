@@ -11,7 +11,7 @@ from tag_service.sizing import (
     min_module_mm,
     symbol_modules,
 )
-from wall_client.layout import load_wall
+from wall_client.config import load_wall
 from webapp.settings import CONTENT_DIR
 
 

@@ -1,88 +1,37 @@
-"""Wall geometry: config parsing, validation, viewports and their matrices."""
+"""Wall geometry: displays from configs, stages, viewports and their matrices.
+
+How configs are validated and their messages: test_config.py.
+"""
 
 from __future__ import annotations
 
-import copy
 import itertools
 import math
 import re
-from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from tests.wall_client.walls import WALLS_DIR, explicit_config, grid_config, panel
+from wall_client.config import load_wall, load_walls, parse_wall
 from wall_client.layout import (
-    BEZEL_SIDES,
-    DISPLAY_KEYS,
-    GRID_KEYS,
     IDENTITY,
-    ROLES,
-    SCREEN_KEYS,
-    TOP_KEYS,
-    WALL_KEYS,
     Affine,
     Rect,
     Wall,
-    WallConfigError,
     apply_affine,
     compose_affine,
     invert_affine,
-    load_wall,
-    load_walls,
-    parse_wall,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
-WALLS_DIR = ROOT / "content" / "walls"
-DOC = ROOT / "docs" / "wall-config.md"
+BEZEL_SIDES = ("left", "right", "top", "bottom")
 TOL = 1e-6
 
 
 def close(p: tuple[float, float], q: tuple[float, float], tol: float = TOL) -> bool:
     return math.isclose(p[0], q[0], abs_tol=tol) and math.isclose(p[1], q[1], abs_tol=tol)
-
-
-def grid_config(**grid: Any) -> dict[str, Any]:
-    base: dict[str, Any] = {
-        "columns": 3,
-        "rows": 2,
-        "resolution": [1920, 1080],
-        "active_mm": [1209.6, 680.4],
-        "bezel_mm": 3.5,
-    }
-    base.update(grid)
-    return {"id": "test", "grid": base}
-
-
-def explicit_config(*displays: dict[str, Any], **top: Any) -> dict[str, Any]:
-    return {"id": "test", "display": list(displays), **top}
-
-
-def panel(display_id: str, x: float, y: float, **extra: Any) -> dict[str, Any]:
-    """A 16:9 panel 160 x 90 mm at (x, y)."""
-    return {
-        "id": display_id,
-        "x_mm": x,
-        "y_mm": y,
-        "width_mm": 160,
-        "height_mm": 90,
-        "resolution": [1920, 1080],
-        **extra,
-    }
-
-
-def write(tmp_path: Path, text: str, name: str = "wall.toml") -> Path:
-    path = tmp_path / name
-    path.write_text(text)
-    return path
-
-
-def errors_of(data: dict[str, Any]) -> list[str]:
-    with pytest.raises(WallConfigError) as caught:
-        parse_wall(data, "walls/x.toml")
-    return caught.value.errors
 
 
 # --- grids ---------------------------------------------------------------------------
@@ -120,15 +69,6 @@ def test_each_code_purpose_has_its_design_distance() -> None:
     assert (default.seat_distance_m, default.walk_up_distance_m) == (2.0, 0.8)
 
 
-def test_the_old_distance_key_says_what_it_became() -> None:
-    errors = errors_of({**grid_config(), "scan_distance_m": 2})
-    assert errors == [
-        "walls/x.toml: scan_distance_m: renamed: use seat_distance_m"
-        " (walk-up codes have walk_up_distance_m)"
-    ]
-    assert errors_of({**grid_config(), "walk_up_distance_m": 0})[0].endswith("must be positive")
-
-
 def test_the_stage_is_the_largest_block_clear_of_the_designated_screens() -> None:
     """The demo's public and menu screens take the top middle and right, registration
     the lower left: a picture framed on the whole wall lies half under them."""
@@ -151,12 +91,6 @@ def test_a_wall_without_screens_frames_on_all_of_it_and_the_stage_can_be_chosen(
     chosen = parse_wall({**grid_config(), "screens": {"stage": ["r1c1", "r1c2"]}})
     assert chosen.stage_ids == ("r1c1", "r1c2")
     assert chosen.stage.width == pytest.approx(chosen.display("r1c2").rect.right - 3.5)
-    assert errors_of({**grid_config(), "screens": {"stage": ["r9c9"]}}) == [
-        "walls/x.toml: screens.stage: unknown display 'r9c9'"
-    ]
-    assert errors_of({**grid_config(), "screens": {"stage": []}})[0].endswith(
-        "give at least one display (leave it out for the default)"
-    )
 
 
 def test_bezel_per_side() -> None:
@@ -537,232 +471,3 @@ def test_irregular_wall_has_a_portrait_panel() -> None:
     assert wall.display(wall.screens["public"][0]).rotation == 0
     pitches = {round(d.mm_per_px, 3) for d in wall.displays}
     assert pitches == {0.63, 0.49}
-
-
-# --- validation ----------------------------------------------------------------------
-
-
-def test_overlapping_displays() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0), panel("b", 100, 50)))
-    assert any(
-        e.startswith("walls/x.toml: display[1]: display 'b' overlaps display 'a'") for e in errors
-    )
-    parse_wall(explicit_config(panel("a", 0, 0), panel("b", 160, 0)))  # touching is fine
-
-
-def test_non_positive_sizes() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0), panel("b", 200, 0, width_mm=0)))
-    assert "walls/x.toml: display[1].width_mm: must be positive" in errors
-    errors = errors_of(grid_config(columns=0, active_mm=[-1, 90]))
-    assert "walls/x.toml: grid.columns: must be positive" in errors
-    assert "walls/x.toml: grid.active_mm[0]: must be positive" in errors
-    errors = errors_of(grid_config(bezel_mm=-1))
-    assert "walls/x.toml: grid.bezel_mm: must not be negative" in errors
-
-
-def test_unknown_role() -> None:
-    errors = errors_of({**grid_config(), "screens": {"lobby": "r1c1"}})
-    assert any(e.startswith("walls/x.toml: screens.lobby: unknown role") for e in errors)
-
-
-def test_duplicate_display_ids() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0), panel("a", 200, 0)))
-    assert "walls/x.toml: display[1].id: duplicate display id 'a' (also display[0])" in errors
-
-
-def test_screen_naming_an_unknown_display() -> None:
-    errors = errors_of({**grid_config(), "screens": {"public": "r9c9", "menu": ["r1c1", 3]}})
-    assert "walls/x.toml: screens.public: unknown display 'r9c9'" in errors
-    assert "walls/x.toml: screens.menu: must be a display id or a list of display ids" in errors
-
-
-def test_display_outside_the_wall() -> None:
-    errors = errors_of(
-        explicit_config(panel("a", 0, 0), panel("b", 200, 0), wall={"width_mm": 300})
-    )
-    assert any(e.startswith("walls/x.toml: display[1]: display outside the wall") for e in errors)
-    errors = errors_of(explicit_config(panel("a", -5, 0)))
-    assert any(e.startswith("walls/x.toml: display[0]: display outside the wall") for e in errors)
-    errors = errors_of({**grid_config(), "wall": {"width_mm": 3000}})
-    assert any(
-        e.startswith("walls/x.toml: wall.width_mm: display outside the wall: r1c3") for e in errors
-    )
-
-
-def test_bad_rotation() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0, rotation=45)))
-    assert "walls/x.toml: display[0].rotation: must be one of 0, 90, 180, 270 (got 45)" in errors
-    errors = errors_of(grid_config(rotation="90"))
-    assert any(e.startswith("walls/x.toml: grid.rotation: must be one of") for e in errors)
-
-
-def test_both_or_neither_form() -> None:
-    both = {**grid_config(), "display": [panel("a", 0, 0)]}
-    assert any(e.startswith("walls/x.toml: grid: ") and "not both" in e for e in errors_of(both))
-    assert any(e.startswith("walls/x.toml: grid: missing") for e in errors_of({"id": "x"}))
-
-
-def test_unknown_keys_anywhere() -> None:
-    config = grid_config(
-        colums=3, bezel_mm={"left": 1, "right": 1, "top": 1, "bottom": 1, "middle": 2}
-    )
-    config.update(colour="red", wall={"depth_mm": 3})
-    errors = errors_of(config)
-    for field in ("colour", "grid.colums", "grid.bezel_mm.middle", "wall.depth_mm"):
-        assert any(e.startswith(f"walls/x.toml: {field}: unknown key") for e in errors), field
-    errors = errors_of(explicit_config(panel("a", 0, 0, rotate=90)))
-    assert any(e.startswith("walls/x.toml: display[0].rotate: unknown key") for e in errors)
-
-
-def test_aspect_mismatch() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0, height_mm=120)))
-    assert any(
-        e.startswith("walls/x.toml: display[0].resolution: ") and "pixels would not be square" in e
-        for e in errors
-    )
-    # Turned 90 degrees but sizes not swapped.
-    errors = errors_of(explicit_config(panel("a", 0, 0, rotation=90)))
-    assert any("display[0].resolution" in e and "not be square" in e for e in errors)
-    errors = errors_of(grid_config(active_mm=[1000, 1000]))
-    assert any(e.startswith("walls/x.toml: grid.active_mm: ") for e in errors)
-    parse_wall(explicit_config(panel("a", 0, 0, height_mm=92)))  # within 3%
-
-
-def test_bad_wall_id_and_missing_fields_are_all_reported() -> None:
-    config = explicit_config({"id": "a b", "x_mm": 0, "resolution": [1920.5, 1080]})
-    config["id"] = "Bad Id"
-    errors = errors_of(config)
-    assert any(e.startswith("walls/x.toml: id: 'Bad Id' must use only") for e in errors)
-    for field in (
-        "display[0].id",
-        "display[0].y_mm",
-        "display[0].width_mm",
-        "display[0].height_mm",
-        "display[0].resolution",
-    ):
-        assert any(e.startswith(f"walls/x.toml: {field}: ") for e in errors), field
-
-
-def test_duplicate_node_index() -> None:
-    errors = errors_of(explicit_config(panel("a", 0, 0, index=0), panel("b", 200, 0, index=0)))
-    assert any(e.startswith("walls/x.toml: display[1].index: index 0 on node") for e in errors)
-
-
-def test_parse_without_source_says_string() -> None:
-    with pytest.raises(WallConfigError) as caught:
-        parse_wall({"id": "x", "grid": {}})
-    assert all(e.startswith("<string>: ") for e in caught.value.errors)
-    assert str(caught.value) == "\n".join(caught.value.errors)
-    assert isinstance(caught.value, ValueError)
-
-
-def test_toml_syntax_error(tmp_path: Path) -> None:
-    path = write(tmp_path, "this is = = not toml")
-    with pytest.raises(WallConfigError) as caught:
-        load_wall(path)
-    assert caught.value.errors[0].startswith(f"{path}: TOML syntax error")
-
-
-def test_missing_file(tmp_path: Path) -> None:
-    with pytest.raises(WallConfigError, match=re.escape(f"{tmp_path / 'absent.toml'}: ")):
-        load_wall(tmp_path / "absent.toml")
-    with pytest.raises(WallConfigError, match=r"absent\.toml"):
-        load_walls([tmp_path / "absent.toml"])
-
-
-def test_load_wall_reports_file_and_field(tmp_path: Path) -> None:
-    path = write(
-        tmp_path,
-        'id = "x"\n[[display]]\nid = "a"\nx_mm = 0\ny_mm = 0\nwidth_mm = -1\n'
-        "height_mm = 90\nresolution = [1920, 1080]\n",
-    )
-    with pytest.raises(WallConfigError) as caught:
-        load_wall(path)
-    assert f"{path}: display[0].width_mm: must be positive" in caught.value.errors
-
-
-DEMO_TEXT = """
-id = "{wall_id}"
-[grid]
-columns = 2
-rows = 1
-resolution = [1920, 1080]
-active_mm = [160, 90]
-bezel_mm = 0
-"""
-
-
-def test_duplicate_wall_ids_across_files(tmp_path: Path) -> None:
-    first = write(tmp_path, DEMO_TEXT.format(wall_id="same"), "a.toml")
-    second = write(tmp_path, DEMO_TEXT.format(wall_id="same"), "b.toml")
-    with pytest.raises(WallConfigError) as caught:
-        load_walls([tmp_path])
-    (message,) = caught.value.errors
-    assert message.startswith(f"{second}: id: duplicate wall id 'same'")
-    assert str(first) in message
-
-
-def test_load_walls_mixes_files_and_folders_and_reports_every_file(tmp_path: Path) -> None:
-    folder = tmp_path / "walls"
-    folder.mkdir()
-    write(folder, DEMO_TEXT.format(wall_id="one"), "1.toml")
-    write(folder, "not a wall", "notes.txt")
-    single = write(tmp_path, DEMO_TEXT.format(wall_id="two"), "two.toml")
-    assert list(load_walls([folder, single])) == ["one", "two"]
-    bad = write(folder, "id = 3", "2.toml")
-    broken = write(tmp_path, "= =", "broken.toml")
-    with pytest.raises(WallConfigError) as caught:
-        load_walls([folder, broken])
-    assert any(e.startswith(f"{bad}: id: ") for e in caught.value.errors)
-    assert any(e.startswith(f"{broken}: TOML syntax error") for e in caught.value.errors)
-
-
-# --- documentation -------------------------------------------------------------------
-
-
-def accepted_keys() -> list[str]:
-    return [
-        *TOP_KEYS,
-        *(f"wall.{k}" for k in WALL_KEYS),
-        *(f"screens.{k}" for k in SCREEN_KEYS),
-        *(f"grid.{k}" for k in GRID_KEYS),
-        *(f"grid.bezel_mm.{k}" for k in BEZEL_SIDES),
-        *(f"display.{k}" for k in DISPLAY_KEYS),
-    ]
-
-
-@pytest.mark.parametrize("key", accepted_keys())
-def test_every_accepted_key_is_documented(key: str) -> None:
-    assert f"`{key}`" in DOC.read_text()
-
-
-def test_documented_keys_are_accepted() -> None:
-    """The other direction: the docs' key tables list nothing the parser refuses."""
-    rows = re.findall(r"^\| `([a-z_.]+)` \|", DOC.read_text(), flags=re.MULTILINE)
-    assert rows and set(rows) == set(accepted_keys())
-
-
-def test_accepted_keys_really_are_accepted() -> None:
-    config = copy.deepcopy(grid_config())
-    config["grid"].update(
-        bezel_mm=dict.fromkeys(BEZEL_SIDES, 1),
-        gap_mm=0,
-        displays_per_node=2,
-        node_prefix="n",
-        rotation=0,
-    )
-    config.update(
-        name="n",
-        bezel_mode="offset",
-        seat_distance_m=1,
-        walk_up_distance_m=0.5,
-        wall={"width_mm": 4000, "height_mm": 2000},
-        screens={**dict.fromkeys(ROLES, "r1c1"), "stage": ["r2c1"]},
-    )
-    assert set(config) | set(config["grid"]) | set(config["wall"]) <= (
-        set(TOP_KEYS) | set(GRID_KEYS) | set(WALL_KEYS)
-    )
-    parse_wall(config)
-    parse_wall(
-        explicit_config(panel("a", 0, 0, rotation=0, node="n", index=0, desktop_origin=[0, 0]))
-    )

@@ -9,7 +9,8 @@ from pydantic import ValidationError
 
 from tag_service.codes import ALPHABET
 from tests.conftest import tag_spec
-from wall_client.layout import Wall, load_wall
+from wall_client.config import load_wall
+from wall_client.layout import Wall
 from webapp.db import Database
 from webapp.models import TagLayoutRecord
 from webapp.schemas import TagUpdate

@@ -21,7 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from wall_client.layout import Wall, parse_wall
+from wall_client.config import parse_wall
+from wall_client.layout import Wall
 from webapp.volume.build import build_store, open_source
 from webapp.volume.layer import Mode, VolumeLayer, lookup_table
 from webapp.volume.render import (

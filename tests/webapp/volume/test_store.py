@@ -9,7 +9,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from wall_client.layout import Wall, parse_wall
+from wall_client.config import parse_wall
+from wall_client.layout import Wall
 from webapp.volume.build import build_store, open_source
 from webapp.volume.layer import VolumeLayer
 from webapp.volume.render import (

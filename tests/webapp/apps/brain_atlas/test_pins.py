@@ -19,7 +19,8 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from wall_client.layout import apply_affine, load_wall, parse_wall
+from wall_client.config import load_wall, parse_wall
+from wall_client.layout import apply_affine
 from webapp.apps.brain_atlas import pins as pins_module
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import (

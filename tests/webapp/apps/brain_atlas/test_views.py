@@ -9,7 +9,8 @@ from typing import Any
 import pytest
 import yaml
 
-from wall_client.layout import Wall, load_walls
+from wall_client.config import load_walls
+from wall_client.layout import Wall
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
 from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache
 from webapp.apps.brain_atlas.views import (

@@ -11,7 +11,8 @@ import shapely
 from shapely.geometry import Polygon
 
 from tests.webapp.apps.census_map.conftest import grid_dataset
-from wall_client.layout import Wall, load_walls
+from wall_client.config import load_walls
+from wall_client.layout import Wall
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.mapview import (
     MARGIN,
