@@ -12,7 +12,7 @@ from fastapi.concurrency import run_in_threadpool
 
 from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
-from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.mapview import label_mm, projection
 from webapp.schemas import PlacedCode
 from webapp.tags import get_layout
@@ -31,6 +31,22 @@ BALLOON_FONT_OF_LABEL = 1.2
 def group_shown(state: WallState, group_id: str) -> bool:
     """Groups are shown unless their layer was switched off."""
     return state.layers.get(group_id, True)
+
+
+def hidden_group(state: WallState, dataset: DataSet, tract: Tract) -> Group | None:
+    """The tract's group when the wall hides it (its tract is not drawn), else None."""
+    group_id = dataset.group_of.get(tract.geoid)
+    if group_id is None or group_shown(state, group_id):
+        return None
+    return next(g for g in dataset.groups if g.id == group_id)
+
+
+class GroupHidden(Exception):
+    """A balloon for a tract the wall does not show would point at empty map."""
+
+    def __init__(self, group: Group) -> None:
+        super().__init__(f"the group {group.name} is hidden on the wall")
+        self.group = group
 
 
 async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
@@ -58,9 +74,12 @@ async def open_balloon(
 ) -> Balloon:
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
-    are open)."""
+    are open). Raises :class:`GroupHidden` when the wall hides the tract's group."""
     async with services.hub.placing(wall.id):
         _, state = await run_in_threadpool(read_state, services.db, wall.id)
+        hidden = hidden_group(state, dataset, tract)
+        if hidden is not None:
+            raise GroupHidden(hidden)
         layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
         geometry = await run_in_threadpool(app.geometry, dataset)
         project = projection(geometry, wall, state.view)

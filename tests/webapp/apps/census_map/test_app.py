@@ -184,6 +184,42 @@ def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient
     assert any("Total population" in line for line in first.lines)
 
 
+def test_a_tract_whose_group_is_hidden_gets_no_balloon_and_the_phone_says_why(
+    client: TestClient,
+) -> None:
+    """Its tract is not drawn: a balloon would point at empty map. The tract page offers
+    to show the group instead, and leads back to the tract once it is shown."""
+    show_census(client)
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    tract = dataset.tracts[0]
+    group = dataset.group_of[tract.geoid]
+    hide = client.post(f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf_of(client)})
+    assert "Hidden on the wall now" in hide.text
+
+    page = client.get(f"/apps/census/demo/tracts/{tract.geoid}").text
+    assert 'id="show-on-wall"' not in page, "no button for a balloon the wall cannot show"
+    assert "is hidden on the wall now, so a balloon would point at empty map" in page
+    assert f'action="/apps/census/demo/groups/{group}/toggle"' in page
+    refused = open_balloon(client, tract.geoid)  # a form sent before the group was hidden
+    assert refused.status_code == 409
+    assert "No balloon opened: its group, tracts" in refused.text
+    assert f'name="tract" value="{tract.geoid}"' in refused.text
+    assert state_of(client).balloons == []
+
+    shown = client.post(
+        f"/apps/census/demo/groups/{group}/toggle",
+        data={"csrf": csrf_of(client), "tract": tract.geoid},
+    )
+    assert "Shown on the wall now" in shown.text
+    assert f'href="/apps/census/demo/tracts/{tract.geoid}">{dataset.tract_title(tract)}' in (
+        shown.text
+    )
+    assert 'id="show-on-wall"' in client.get(f"/apps/census/demo/tracts/{tract.geoid}").text
+    assert open_balloon(client, tract.geoid).status_code == 200
+    assert [b.id for b in state_of(client).balloons] == [f"tract-{tract.geoid}"]
+
+
 def test_reopening_a_balloon_replaces_it_and_at_most_eight_stay_open(client: TestClient) -> None:
     show_census(client)
     dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
