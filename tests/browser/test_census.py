@@ -7,16 +7,19 @@ import io
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import numpy as np
 import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
-from tag_service.verify import decode_image
+from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
+from wall_client.layout import Rect, Wall, apply_affine, load_wall
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo
 from webapp.security import operator_token
+from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
@@ -180,3 +183,72 @@ def test_the_instructor_zooms_from_the_dashboard_and_codes_follow(
     dashboard.close()
     for page in tiles.values():
         page.context.close()
+
+
+def intact_codes(page: Page, layout: LayoutInfo, wall: Wall, tile: str) -> dict[str, str]:
+    """Each code on ``tile`` whose pixels differ from its symbol, with how (none: every
+    code intact, quiet zone included)."""
+    picture = screenshot(page)
+    to_pixels = wall.viewport(tile).to_pixels
+    damaged = {}
+    for code in (c for c in layout.placed if c.display == tile):
+        damage = symbol_damage(
+            picture, module_boxes(to_pixels, code.rect, code.modules), code.matrix
+        )
+        if not damage.intact:
+            damaged[code.label] = f"{damage.damaged} modules, quiet zone {damage.dirty_quiet}"
+    return damaged
+
+
+def test_balloons_leave_every_code_on_the_wall_intact(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    """Zoomed in, tracts carry their own codes on their label points; their balloons
+    point at the tract beside the code, and box, pointer and dot leave every code's
+    modules, quiet zone and caption as they were (the tiles' pixels, module by module)."""
+    server = serve(tmp_path, database_url, TAGWALL_BALLOON_SECONDS="600")
+    try:
+        server.change("demo", {"app": "census"})
+        server.change("demo", {"view": {"center": [0.5, 0.5], "zoom": 3}})
+        _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+        tags = httpx.get(f"{server.url}/api/walls/demo/tags", headers=server.operator()).json()
+        on_wall = {c.code for c in layout.placed}
+        geoids = sorted(
+            t["params"]["geoid"] for t in tags if t["action"] == "tract" and t["code"] in on_wall
+        )
+        assert len(geoids) >= 4
+        phone = browser.new_context(**PHONE).new_page()
+        for geoid in geoids[:4]:
+            phone.goto(f"{server.url}/apps/census/demo/tracts/{geoid}")
+            phone.locator("#show-on-wall").click()
+            expect(phone.locator("#outcome")).to_contain_text("on the wall for 600 seconds")
+        phone.context.close()
+        version = server.version("demo")
+        balloons = server.status("demo")["state"]["balloons"]
+        assert len(balloons) == 4
+        tiles = dict(zip(DEMO, open_tiles(browser, server, "demo", DEMO, native=True), strict=True))
+        wait_until(
+            lambda: all(
+                version_of(t) == version and len(shown(t, "balloons").split()) == 4
+                for t in tiles.values()
+            ),
+            what="every tile to show the four balloons",
+        )
+        wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+        damaged = {tile: intact_codes(page, layout, wall, tile) for tile, page in tiles.items()}
+        assert damaged == {tile: {} for tile in DEMO}
+        for balloon in balloons:  # and the balloons are there: their boxes are light
+            x, y, w, h = balloon["rect"]
+            viewport = next(
+                v
+                for d in wall.displays
+                if (v := wall.viewport(d.id)).scene_rect.contains(Rect(x, y, w, h))
+            )
+            left, top = (round(v) + 4 for v in apply_affine(viewport.to_pixels, x, y))
+            right, bottom = (round(v) - 4 for v in apply_affine(viewport.to_pixels, x + w, y + h))
+            inside = screenshot(tiles[viewport.display_id])[top:bottom, left:right]
+            assert (inside.min(axis=2) > 200).mean() > 0.7, balloon["id"]
+        for page in tiles.values():
+            page.context.close()
+    finally:
+        server.stop()

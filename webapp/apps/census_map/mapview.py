@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 from shapely import MultiPolygon, Polygon
-from shapely.ops import polylabel
+from shapely.ops import nearest_points, polylabel
 
 from wall_client.layout import Affine, Rect, Wall, apply_affine, compose_affine
 from webapp.apps.census_map.dataset import DataSet
@@ -35,6 +35,7 @@ CLUSTER_CELL = 1.5  # a cluster gathers the small tracts of a cell this many foo
 MAX_CLUSTER_TRACTS = 40  # beyond this a cluster is split in two, and again
 LABEL_WIDTH_OF_HEIGHT = 0.7  # a bold digit's width in the label's height (generous)
 SIMPLIFY_PX = 0.25  # simplification tolerance: outlines stay well within half a pixel
+POINTER_TARGETS = 6  # the parts of a tract a balloon's pointer is tried at
 Floats = npt.NDArray[np.float64]
 Shapes = npt.NDArray[np.object_]
 
@@ -205,6 +206,45 @@ def code_anchors(
     return anchors
 
 
+def pointer_targets(
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    geoid: str,
+    blocked: Sequence[Rect],
+    margin_mm: float,
+) -> list[tuple[float, float]]:
+    """Where a balloon may point to show a tract (scene mm), best first: in each part
+    of the tract that lies on a display showing the map (``margin_mm`` inside its
+    edges) and outside ``blocked`` (codes with their captions, grown by what a pointer's
+    dot needs), the point nearest the tract's label point, nearest first (at most
+    :data:`POINTER_TARGETS`). A tract
+    carrying its own code has it standing on its label point, so the first meets the
+    tract at the code's edge, the others on its far sides. A tract wholly under codes
+    or off the map's displays gets the nearest free point beside it (its label point
+    when nothing is free)."""
+    project = projection(geometry, wall, view)
+    index = geometry.geoids.index(geoid)
+    label = shapely.Point(project.point(*geometry.label_points[index]))
+    shown = shapely.union_all(
+        [
+            shapely.box(r.x, r.y, r.right, r.bottom).buffer(-margin_mm, join_style="mitre")
+            for r in _free_rects(wall)
+        ]
+    )
+    covered = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in blocked])
+    free = shapely.difference(shown, covered)
+    scale, dx, dy = project.scale, project.dx, project.dy
+    tract = shapely.transform(geometry.shapes[index], lambda c: c * scale + (dx, dy))
+    for region in (shapely.intersection(tract, free), free):
+        parts = [part for part in _polygons(region) if part.area > 0]
+        if parts:
+            points = [nearest_points(part, label)[0] for part in parts]
+            points.sort(key=label.distance)
+            return [(float(p.x), float(p.y)) for p in points[:POINTER_TARGETS]]
+    return [(float(label.x), float(label.y))]
+
+
 def _free_rects(wall: Wall) -> list[Rect]:
     """The scene rectangles of the displays that show the map (not designated ones)."""
     return [wall.viewport(d.id).scene_rect for d in wall.displays if d.id not in wall.designated()]
@@ -282,7 +322,7 @@ def tract_codes(
     project = projection(geometry, wall, view)
     own = code_anchors(geometry, wall, view, code_side_mm, footprint_mm)
     width, height = (CLUSTER_CELL * side for side in footprint_mm)
-    near = [_grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
+    near = [grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
     cells: dict[tuple[int, int], list[int]] = {}
     points = geometry.label_points
     minx, miny, _, _ = geometry.extent
@@ -322,7 +362,8 @@ def _median_cut(members: list[int], points: Floats) -> list[list[int]]:
     return _median_cut(order[:half], points) + _median_cut(order[half:], points)
 
 
-def _grown(rect: Rect, margin: float) -> Rect:
+def grown(rect: Rect, margin: float) -> Rect:
+    """``rect`` with ``margin`` added on every side."""
     return Rect(rect.x - margin, rect.y - margin, rect.width + 2 * margin, rect.height + 2 * margin)
 
 

@@ -14,7 +14,7 @@ from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map import APP, CensusApp, pages, switch_dataset
-from webapp.apps.census_map.actions import GroupHidden, group_shown, open_balloon
+from webapp.apps.census_map.actions import GroupHidden, NoRoom, group_shown, open_balloon
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
@@ -188,15 +188,17 @@ async def show_on_wall(
     address: ClientAddressDep,
     geoid: str,
 ) -> Response:
-    """ "Show on the wall": the tract's balloon opens beside it on every tile (409, with
-    the way to show it, when the wall hides the tract's group: the balloon would point
-    at empty map)."""
+    """ "Show on the wall": the tract's balloon opens beside it on every tile. 409, with
+    the reason and what to do, when the wall hides the tract's group (the balloon would
+    point at empty map) or has no room for it clear of every code."""
     app = census_app(services)
     _, dataset = await pages.shown_dataset(app, services, wall)
     tract = pages.tract_of(dataset, geoid)
     limit_action(services, "balloon", person.visitor, address, wall.id)
+    title = dataset.tract_title(tract)
+    seconds = services.settings.balloon_seconds
     try:
-        balloon = await open_balloon(app, services, wall, dataset, tract)
+        await open_balloon(app, services, wall, dataset, tract)
     except GroupHidden as hidden:
         return render(
             request,
@@ -205,19 +207,30 @@ async def show_on_wall(
             wall=wall,
             dataset=dataset,
             tract=tract,
-            title=dataset.tract_title(tract),
-            seconds=services.settings.balloon_seconds,
+            title=title,
+            seconds=seconds,
             hidden=hidden.group,
             refused=True,
+        )
+    except NoRoom:
+        return render(
+            request,
+            "census/balloon.html",
+            status.HTTP_409_CONFLICT,
+            wall=wall,
+            tract=tract,
+            title=title,
+            placed=False,
+            seconds=seconds,
         )
     return render(
         request,
         "census/balloon.html",
         wall=wall,
         tract=tract,
-        title=balloon.title,
-        placed=balloon.rect is not None,
-        seconds=services.settings.balloon_seconds,
+        title=title,
+        placed=True,
+        seconds=seconds,
     )
 
 
