@@ -4,6 +4,7 @@ its code off the menu tile, and a balloon opened from a phone that closes by its
 from __future__ import annotations
 
 import io
+import itertools
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from playwright.sync_api import Browser, Page, expect
 from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
 from wall_client.layout import Rect, Wall, apply_affine, load_wall
+from webapp.apps.census_map.mapview import COLOURS, contrast_ratio
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo
 from webapp.security import operator_token
@@ -252,3 +254,48 @@ def test_balloons_leave_every_code_on_the_wall_intact(
             page.context.close()
     finally:
         server.stop()
+
+
+def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
+    browser: Browser, census: ServerProcess
+) -> None:
+    """On a tile as people see it: the pixels on tract outlines against the fill a few
+    pixels to either side, at the middle of every outline edge long enough to measure,
+    reach WCAG's 3:1 for non-text contrast (the median; most edges well above)."""
+    [tile] = open_tiles(browser, census, "demo", ["r2c2"], native=True)
+    version = census.version("demo")
+    wait_until(lambda: version_of(tile) == version and shown(tile, "census"), what="the map")
+    picture = screenshot(tile).astype(float)
+    state = census.status("demo")["state"]
+    view = httpx.get(
+        f"{census.url}/api/walls/demo/tiles/r2c2/census",
+        params={
+            "dataset": state["dataset"],
+            "layout": state["tag_layout"],
+            "cx": state["view"]["center"][0],
+            "cy": state["view"]["center"][1],
+            "zoom": state["view"]["zoom"],
+        },
+    ).json()
+    fill = np.array([int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5)])
+    height, width = picture.shape[:2]
+    ratios = []
+    for tract in view["tracts"]:
+        for ring in tract["rings"]:
+            points = np.reshape(ring, (-1, 2)).astype(float)
+            for a, b in itertools.pairwise(points):
+                length = float(np.hypot(*(b - a)))
+                if length < 12:
+                    continue
+                middle, normal = (a + b) / 2, np.array([a[1] - b[1], b[0] - a[0]]) / length
+                x, y = np.rint(middle).astype(int)
+                sides = [np.rint(middle + s * 6 * normal).astype(int) for s in (-1, 1)]
+                if not all(0 <= px < width and 0 <= py < height for px, py in [(x, y), *sides]):
+                    continue
+                for sx, sy in sides:
+                    beside = picture[sy, sx]
+                    if np.abs(beside - fill).max() < 12:  # a tract's fill, not a code or label
+                        ratios.append(contrast_ratio(picture[y, x], beside))
+    assert len(ratios) > 200
+    assert float(np.median(ratios)) >= 3.0, np.percentile(ratios, [10, 50, 90])
+    tile.context.close()

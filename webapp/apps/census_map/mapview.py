@@ -31,6 +31,17 @@ MARGIN = 0.03  # of the wall left around the data at zoom 1
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before
 FINEST_OF_EXTENT = 2.0**-16  # the finest level's tolerance, as a share of the data's size
 LABEL_MM_PER_M = 6.0  # tract-number height (mm) per metre of scanning distance
+OUTLINE_MM_PER_M = 0.75  # tract-outline width (mm) per metre of viewing distance: 2.6 arcmin
+MIN_OUTLINE_PX = 1.5
+# The map's colours, sent to tiles with their share of the map. The outline must stand
+# out from the fills it separates (WCAG 2 non-text contrast: at least 3:1 against the
+# tract fill and the background beyond the map); tests/webapp/apps/census_map checks it.
+COLOURS = {
+    "background": "#0d1b2a",
+    "fill": "#523e2b",
+    "outline": "#c9a46c",
+    "label": "#f5e6d0",
+}
 CLUSTER_CELL = 1.5  # a cluster gathers the small tracts of a cell this many footprints wide
 MAX_CLUSTER_TRACTS = 40  # beyond this a cluster is split in two, and again
 LABEL_WIDTH_OF_HEIGHT = 0.7  # a bold digit's width in the label's height (generous)
@@ -38,6 +49,26 @@ SIMPLIFY_PX = 0.25  # simplification tolerance: outlines stay well within half a
 POINTER_TARGETS = 6  # the parts of a tract a balloon's pointer is tried at
 Floats = npt.NDArray[np.float64]
 Shapes = npt.NDArray[np.object_]
+
+
+def contrast_ratio(a: str | Sequence[float], b: str | Sequence[float]) -> float:
+    """WCAG 2's contrast ratio of two sRGB colours (``#rrggbb`` or 0-255 triples):
+    from 1 (the same) to 21 (black on white); non-text parts need 3."""
+
+    def luminance(colour: str | Sequence[float]) -> float:
+        rgb = (
+            [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
+            if isinstance(colour, str)
+            else list(colour)
+        )
+        linear = [
+            c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+            for c in (v / 255 for v in rgb)
+        ]
+        return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
+
+    dark, light = sorted((luminance(a), luminance(b)))
+    return (light + 0.05) / (dark + 0.05)
 
 
 def _plane(lat0: float) -> Any:
@@ -378,7 +409,8 @@ def tile_view(
 ) -> dict[str, Any]:
     """One tile's share of the map, in that display's native pixels: the tracts it
     shows (outlines clipped to it, simplified under half a pixel), their labels,
-    groups and codes (``codes``: GEOID -> code of the tracts that carry one).
+    groups and codes (``codes``: GEOID -> code of the tracts that carry one), and how
+    to draw them (:data:`COLOURS`; outlines as wide as read from the seats).
 
     A tract's label is offered (``label_at``) only where it stays clear of
     ``occupied`` (scene mm: the codes on this display with their captions), so a map
@@ -388,6 +420,7 @@ def tile_view(
     to_pixels = viewport.to_pixels
     px_per_mm = min(math.hypot(to_pixels[0], to_pixels[1]), math.hypot(to_pixels[2], to_pixels[3]))
     label_px = label_mm(wall) * px_per_mm
+    outline_px = max(MIN_OUTLINE_PX, OUTLINE_MM_PER_M * wall.seat_distance_m * px_per_mm)
     rect = viewport.scene_rect
     reach = 8 * label_mm(wall)  # labels of tracts just off the tile still reach into it
     u0, v0 = project.to_plane(rect.x - reach, rect.y - reach)
@@ -431,6 +464,8 @@ def tile_view(
         "dataset": dataset.id,
         "title": dataset.title,
         "label_px": round(label_px, 1),
+        "outline_px": round(outline_px, 1),
+        "colours": COLOURS,
         "tracts": tracts,
     }
 
