@@ -299,3 +299,33 @@ def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
     assert len(ratios) > 200
     assert float(np.median(ratios)) >= 3.0, np.percentile(ratios, [10, 50, 90])
     tile.context.close()
+
+
+def test_menu_labels_leave_the_toggle_codes_intact_on_kl_3x3(
+    browser: Browser, census: ServerProcess
+) -> None:
+    """The KL wall's menu screens hold the group toggles two rows deep; each toggle's
+    label ("0072-0080 · shown") stands in its caption strip and never over the code
+    below or beside it, in every census view and with groups hidden."""
+    census.change("kl-3x3", {"app": "census"})
+    wall = load_wall(CONTENT_DIR / "walls" / "kl-3x3.toml")
+    menus = [d.id for d in wall.screen("menu")]
+    tiles = dict(zip(menus, open_tiles(browser, census, "kl-3x3", menus), strict=True))
+    for page, display in zip(tiles.values(), menus, strict=True):
+        width, height = wall.display(display).resolution
+        page.set_viewport_size({"width": width, "height": height})
+    views = [
+        {},
+        {"view": {"center": [0.4, 0.6], "zoom": 2}},
+        {"layers": {"tracts-0072-0080": False, "tracts-0001-0038": False}},
+    ]
+    for patch in views:
+        version = census.change("kl-3x3", patch) if patch else census.version("kl-3x3")
+        wait_until(lambda v=version: all(version_of(t) == v for t in tiles.values()), what="tiles")
+        _, layout = fetch_layout(census.url, "kl-3x3", operator_token(census.secret))
+        toggles = [c for c in layout.placed if c.display in menus]
+        assert len(toggles) == 10
+        damaged = {tile: intact_codes(page, layout, wall, tile) for tile, page in tiles.items()}
+        assert damaged == {tile: {} for tile in menus}, patch
+    for page in tiles.values():
+        page.context.close()
