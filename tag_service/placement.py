@@ -164,11 +164,18 @@ class _Canvas:
         )
 
     def nearest(
-        self, anchor: Point, width: int, height: int, centre_y: float | None = None
+        self,
+        anchor: Point,
+        width: int,
+        height: int,
+        centre_y: float | None = None,
+        sight: Floats | None = None,
     ) -> tuple[float, int, int] | None:
         """The free spot for a ``width`` x ``height`` px box whose point ``centre_y`` px
         below its top edge, horizontally centred (default: the box's centre), is
-        nearest ``anchor``: the top-left corner and that distance in mm."""
+        nearest ``anchor``: the top-left corner and that distance in mm. With ``sight``
+        (scene mm rectangles, rows x0, y0, x1, y1), the line from the box's nearest
+        point to ``anchor`` must cross none of them."""
         if width > self.pw or height > self.ph:
             return None
         cy = height / 2 if centre_y is None else centre_y
@@ -187,6 +194,13 @@ class _Canvas:
                 & (grid_y[:, None] + height > boxes[:, 1])
             ).any(axis=1)
             grid_x, grid_y = grid_x[~overlap], grid_y[~overlap]
+        if sight is not None and len(grid_x):
+            x0, y0 = self.rect.x + grid_x * self.sx, self.rect.y + grid_y * self.sy
+            x1, y1 = x0 + width * self.sx, y0 + height * self.sy
+            edge = np.column_stack((np.clip(ax, x0, x1), np.clip(ay, y0, y1)))
+            target = np.broadcast_to(np.array(anchor, dtype=np.float64), edge.shape)
+            seen = ~_crosses(edge, target, sight)
+            grid_x, grid_y = grid_x[seen], grid_y[seen]
         if not len(grid_x):
             return None
         distance = np.hypot(
@@ -279,12 +293,26 @@ def place(
 
 
 def place_box(
-    wall: Wall, size_mm: tuple[float, float], anchor: Point, obstacles: Sequence[Rect]
+    wall: Wall,
+    size_mm: tuple[float, float],
+    anchor: Point,
+    obstacles: Sequence[Rect],
+    clear_mm: float = 0.0,
+    sight: Sequence[Rect] | None = None,
 ) -> Rect | None:
     """Where a box of ``size_mm`` (a description balloon) stands nearest ``anchor``:
     wholly on one display that is not a designated screen, clear of ``obstacles``
-    (codes, other boxes). None when no display has room for it."""
+    (codes with their captions, other boxes) and of the square of side ``2 * clear_mm``
+    around ``anchor``. With ``sight``, its pointer (the straight line from the box's
+    nearest point to ``anchor``) also crosses none of those rectangles: the nearest
+    such spot among those flush with obstacles and display edges. None when no display
+    has room for it."""
     designated = {d.id for role in ROLES for d in wall.screen(role)}
+    seen = (
+        None
+        if sight is None
+        else np.array([(r.x, r.y, r.right, r.bottom) for r in sight], dtype=np.float64)
+    )
     best: tuple[float, Rect] | None = None
     for display in wall.displays:
         if display.id in designated:
@@ -292,9 +320,13 @@ def place_box(
         canvas = _Canvas(wall, display)
         for area in obstacles:
             canvas.reserve(area)
+        if clear_mm > 0:
+            canvas.reserve(_clear_square(anchor, clear_mm))
         width = math.ceil(size_mm[0] / canvas.sx)
         height = math.ceil(size_mm[1] / canvas.sy)
-        spot = canvas.nearest(anchor, width, height)
+        spot = canvas.nearest(
+            anchor, width, height, sight=None if seen is None else seen.reshape(-1, 4)
+        )
         if spot is not None and (best is None or spot[0] < best[0]):
             distance, x, y = spot
             box = Rect(
@@ -305,6 +337,28 @@ def place_box(
             )
             best = (distance, box)
     return best[1] if best else None
+
+
+def _crosses(starts: Floats, ends: Floats, rects: Floats) -> npt.NDArray[np.bool_]:
+    """Which segments ``starts[i] -> ends[i]`` (n, 2) pass through the inside of any of
+    ``rects`` (m, 4: x0, y0, x1, y1); running along an edge or touching a corner does
+    not count (the slab method, all segments against all rectangles at once)."""
+    if not len(rects) or not len(starts):
+        return np.zeros(len(starts), dtype=bool)
+    origin = starts[:, None, :]  # (n, 1, 2)
+    delta = (ends - starts)[:, None, :]
+    low, high = rects[None, :, :2], rects[None, :, 2:]  # (1, m, 2)
+    tiny = 1e-9
+    flat = np.abs(delta) < tiny
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t1 = (low - origin) / np.where(flat, 1.0, delta)
+        t2 = (high - origin) / np.where(flat, 1.0, delta)
+    inside = (origin > low + tiny) & (origin < high - tiny)  # a flat axis must lie within
+    enter = np.where(flat, np.where(inside, -np.inf, np.inf), np.minimum(t1, t2)).max(axis=2)
+    leave = np.where(flat, np.where(inside, np.inf, -np.inf), np.maximum(t1, t2)).min(axis=2)
+    crossing = (enter < leave - tiny) & (leave > tiny) & (enter < 1 - tiny)
+    result: npt.NDArray[np.bool_] = crossing.any(axis=1)
+    return result
 
 
 def _place_anchored(

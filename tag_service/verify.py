@@ -4,7 +4,9 @@
 untrusted bytes (an uploaded photo) into a picture or a clear ``NotAnImage``, and
 ``as_seen_from`` degrades a rendered code the way a phone camera at a given distance
 sees it, so tests can check that a code sized by ``tag_service.sizing`` really reads
-from the design distance.
+from the design distance. ``symbol_damage`` compares a screenshot's pixels with the
+symbol a code should show there, module by module: a code can still decode with
+something drawn over it, and be the first to fail from a few steps back.
 """
 
 from __future__ import annotations
@@ -20,7 +22,9 @@ from pyzbar.pyzbar import ZBarSymbol  # type: ignore[import-untyped]
 from pyzbar.pyzbar import decode as zbar_decode
 
 from tag_service.sizing import Camera
+from wall_client.layout import Affine
 
+Ints = npt.NDArray[np.int64]
 MAX_PIXELS = 40_000_000  # phones deliver 12 MP by default, 24 or 48 MP in some modes
 # Formats phones upload (Safari converts HEIC to JPEG for accept="image/*"; JPEG covers
 # multi-picture MPO files); others, such as EPS (which runs Ghostscript), are never opened.
@@ -29,6 +33,7 @@ SECOND_PASS_SIDE = 1200  # zbar sometimes misses a code in a huge, soft photo
 DEFAULT_CAMERA = Camera()
 MAX_TILT_DEG = 30.0  # people stand off to the side, or hold the phone below the code
 SURROUND_GREY = 20  # a display's dark surround, beyond the picture given
+OFF_BY = 64  # grey levels a pixel may stray from its module's black or white (a faint fringe)
 
 
 class NotAnImage(ValueError):
@@ -282,3 +287,92 @@ def _frame_to_screen(
     to_px = np.array([[1 / mm_per_px, 0, cx], [0, 1 / mm_per_px, cy], [0, 0, 1]])
     result: npt.NDArray[np.float64] = to_px @ to_mm
     return result
+
+
+# --- pixels against the symbol ------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SymbolDamage:
+    """How a code on a screen differs from its symbol, in modules."""
+
+    damaged: int  # modules of the symbol with a pixel of the wrong colour
+    dirty_quiet: int  # modules of the quiet zone with a pixel that is not white
+    modules: int  # modules of the symbol (quiet zone excluded)
+
+    @property
+    def intact(self) -> bool:
+        return not self.damaged and not self.dirty_quiet
+
+
+def module_boxes(to_pixels: Affine, rect: tuple[float, float, float, float], modules: int) -> Ints:
+    """Each module's whole-pixel box ``(left, top, width, height)`` of a code standing on
+    ``rect`` (scene mm, ``modules`` across with its quiet zone) under ``to_pixels``, as
+    ``(row, column, 4)``: the twin of ``pixelBox`` in ``static/js/codes.js``, which the
+    tiles draw every module with (JavaScript's ``Math.round`` rounds halves up)."""
+    x, y, side, _ = rect
+    size = side / modules
+    a, b, c, d, e, f = to_pixels
+    steps = np.arange(modules + 1, dtype=np.float64) * size
+    # corners of every module: column edges along x, row edges along y
+    xs, ys = x + steps[None, :-1], y + steps[:-1, None]
+    x0, y0 = a * xs + c * ys + e, b * xs + d * ys + f
+    x1, y1 = a * (xs + size) + c * (ys + size) + e, b * (xs + size) + d * (ys + size) + f
+    left = np.floor(np.minimum(x0, x1) + 0.5)
+    top = np.floor(np.minimum(y0, y1) + 0.5)
+    right = np.floor(np.maximum(x0, x1) + 0.5)
+    bottom = np.floor(np.maximum(y0, y1) + 0.5)
+    boxes: Ints = np.stack((left, top, right - left, bottom - top), axis=-1).astype(np.int64)
+    return boxes
+
+
+def symbol_damage(picture: npt.NDArray[np.uint8], boxes: Ints, matrix: list[str]) -> SymbolDamage:
+    """Compare ``picture`` (rows x columns, grey or RGB) with ``matrix`` (rows of ``1``
+    dark, quiet zone excluded) at ``boxes`` (:func:`module_boxes`, quiet zone included).
+
+    A dark module must be black in every pixel and a light one white, each channel
+    within :data:`OFF_BY` grey levels: a line, a letter or a box edge across a module
+    counts, a faint anti-aliased fringe does not. A module partly off the picture
+    counts as wrong (it cannot be seen whole).
+    """
+    grey = picture if picture.ndim == 3 else picture[..., None]
+    height, width = grey.shape[:2]
+    across = boxes.shape[0]
+    quiet = (across - len(matrix)) // 2
+    dark = np.zeros((across, across), dtype=bool)
+    dark[quiet : quiet + len(matrix), quiet : quiet + len(matrix)] = [
+        [bit == "1" for bit in row] for row in matrix
+    ]
+    left, top, w, h = (boxes[..., i] for i in range(4))
+    right, bottom = left + w, top + h
+    seen = (left >= 0) & (top >= 0) & (right <= width) & (bottom <= height) & (w > 0) & (h > 0)
+    # only the code's part of the picture is looked at
+    x0, y0 = int(np.clip(left.min(), 0, width)), int(np.clip(top.min(), 0, height))
+    x1, y1 = int(np.clip(right.max(), x0, width)), int(np.clip(bottom.max(), y0, height))
+    part = grey[y0:y1, x0:x1]
+    edges = (
+        np.clip(left - x0, 0, x1 - x0),
+        np.clip(top - y0, 0, y1 - y0),
+        np.clip(right - x0, 0, x1 - x0),
+        np.clip(bottom - y0, 0, y1 - y0),
+    )
+    too_light = _box_counts(part.max(axis=2) > OFF_BY, *edges)
+    too_dark = _box_counts(part.min(axis=2) < 255 - OFF_BY, *edges)
+    wrong = ~seen | (np.where(dark, too_light, too_dark) > 0)
+    in_symbol = np.zeros_like(wrong)
+    in_symbol[quiet : across - quiet, quiet : across - quiet] = True
+    return SymbolDamage(
+        damaged=int((wrong & in_symbol).sum()),
+        dirty_quiet=int((wrong & ~in_symbol).sum()),
+        modules=len(matrix) ** 2,
+    )
+
+
+def _box_counts(
+    mask: npt.NDArray[np.bool_], left: Ints, top: Ints, right: Ints, bottom: Ints
+) -> Ints:
+    """How many pixels of ``mask`` are set in each box (a summed-area table)."""
+    table = np.zeros((mask.shape[0] + 1, mask.shape[1] + 1), dtype=np.int64)
+    table[1:, 1:] = mask.cumsum(axis=0).cumsum(axis=1)
+    counts: Ints = table[bottom, right] - table[top, right] - table[bottom, left] + table[top, left]
+    return counts

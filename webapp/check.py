@@ -2,7 +2,10 @@
 
 What counts is what the tiles actually show: each tile page is opened in headless
 Chromium at its display's native resolution, screenshotted, and every QR code in
-the picture is decoded and matched against the codes the server placed there.
+the picture is decoded and matched against the codes the server placed there. A
+code that decodes may still have something drawn over it (it fails first from a
+few steps back), so every placed code's pixels are also compared with its symbol,
+module by module, quiet zone included.
 """
 
 from __future__ import annotations
@@ -11,10 +14,11 @@ import io
 from dataclasses import dataclass, field
 
 import httpx
+import numpy as np
 from PIL import Image
 from playwright.sync_api import Page, sync_playwright
 
-from tag_service.verify import decode_image
+from tag_service.verify import decode_image, module_boxes, symbol_damage
 from wall_client.layout import Wall
 from webapp.schemas import LayoutInfo, PlacedCode, WallStatus
 
@@ -28,13 +32,20 @@ class CheckReport:
     decoded: int = 0
     failures: list[str] = field(default_factory=list)
     smallest: PlacedCode | None = None  # the code with the fewest pixels per module
+    intact: int = 0  # codes whose pixels match their symbol, quiet zone included
+    damaged_modules: int = 0  # over all codes
+    dirty_quiet_zones: int = 0  # codes with something in their quiet zone
 
     @property
     def ok(self) -> bool:
         return not self.failures and self.decoded == self.expected
 
     def lines(self) -> list[str]:
-        lines = [f"decoded {self.decoded}/{self.expected} codes"]
+        lines = [
+            f"decoded {self.decoded}/{self.expected} codes",
+            f"intact {self.intact}/{self.expected} codes: {self.damaged_modules} damaged"
+            f" modules, {self.dirty_quiet_zones} dirty quiet zones",
+        ]
         lines += [f"  FAIL {failure}" for failure in self.failures]
         if self.smallest is not None:
             lines.append(
@@ -84,21 +95,20 @@ def check_wall(
                 )
                 page = context.new_page()
                 expected = [code for code in layout.placed if code.display == display.id]
-                _check_tile(page, tile_urls[display.id], version, expected, display.id, report)
+                image = _tile_picture(page, tile_urls[display.id], version, display.id, report)
+                if image is not None:
+                    _check_decodes(image, expected, display.id, report)
+                    _check_pixels(image, wall, expected, display.id, report)
                 context.close()
         finally:
             browser.close()
     return report
 
 
-def _check_tile(
-    page: Page,
-    url: str,
-    version: int,
-    expected: list[PlacedCode],
-    display_id: str,
-    report: CheckReport,
-) -> None:
+def _tile_picture(
+    page: Page, url: str, version: int, display_id: str, report: CheckReport
+) -> Image.Image | None:
+    """The tile's screenshot once it shows ``version`` (None, and a failure, if never)."""
     page.goto(url)
     try:
         page.wait_for_function(
@@ -106,8 +116,13 @@ def _check_tile(
         )
     except Exception:  # Playwright's TimeoutError: the tile never showed the state
         report.failures.append(f"tile {display_id} did not show wall version {version}")
-        return
-    image = Image.open(io.BytesIO(page.screenshot(type="png")))
+        return None
+    return Image.open(io.BytesIO(page.screenshot(type="png"))).convert("RGB")
+
+
+def _check_decodes(
+    image: Image.Image, expected: list[PlacedCode], display_id: str, report: CheckReport
+) -> None:
     by_payload = {code.payload: code for code in expected}
     found = set()
     for decoded in decode_image(image):
@@ -122,3 +137,27 @@ def _check_tile(
     for code in expected:
         if code.code not in found:
             report.failures.append(f"tile {display_id}: {code.code} ({code.label}) did not decode")
+
+
+def _check_pixels(
+    image: Image.Image, wall: Wall, expected: list[PlacedCode], display_id: str, report: CheckReport
+) -> None:
+    """Each code's pixels against its symbol, where the tile draws its modules."""
+    pixels = np.asarray(image)
+    to_pixels = wall.viewport(display_id).to_pixels
+    for code in expected:
+        boxes = module_boxes(to_pixels, code.rect, code.modules)
+        damage = symbol_damage(pixels, boxes, code.matrix)
+        report.damaged_modules += damage.damaged
+        report.dirty_quiet_zones += damage.dirty_quiet > 0
+        if damage.intact:
+            report.intact += 1
+            continue
+        problems = []
+        if damage.damaged:
+            problems.append(f"{damage.damaged} of {damage.modules} modules damaged")
+        if damage.dirty_quiet:
+            problems.append(f"quiet zone dirty ({damage.dirty_quiet} modules)")
+        report.failures.append(
+            f"tile {display_id}: {code.code} ({code.label}) {', '.join(problems)}"
+        )

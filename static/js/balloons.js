@@ -1,6 +1,8 @@
 // Description balloons: a box the server placed clear of codes, with a pointer to what
 // it describes. Drawn in scene mm (the caller's transform); each closes at its time on
-// the wall's shared clock, so every tile drops it at the same instant.
+// the wall's shared clock, so every tile drops it at the same instant. The server keeps
+// box, pointer and dot clear of every code and caption by CLEAR_PX in
+// webapp/apps/census_map/actions.py: keep the sizes below within it.
 
 const PAD = 0.5;          // of the font size
 const LINE_HEIGHT = 1.35; // of the font size
@@ -15,25 +17,36 @@ export function nextClosing(state, serverNow) {
   return times.length ? Math.min(...times) : null;
 }
 
-export function drawBalloons(ctx, state, serverNow, pxPerMm) {
+// Pointers and dots go under the codes (drawn before them): where codes crowd the map
+// and no straight line from the box to the tract misses them all, the line passes
+// under a code rather than over it.
+export function drawPointers(ctx, state, serverNow, pxPerMm) {
+  ctx.strokeStyle = "#1b1b1b";
+  ctx.fillStyle = "#1b1b1b";
+  ctx.lineWidth = 2 / pxPerMm;
   for (const balloon of openBalloons(state, serverNow)) {
+    if (!balloon.rect) continue;  // never placed: drawn anywhere, it could cover a code
     const [ax, ay] = balloon.anchor;
-    const [x, y, w, h] = balloon.rect ?? [ax + 20, ay - 60, 300, 120];
-    const font = h / (LINE_HEIGHT * (1 + balloon.lines.length) + 2 * PAD);
-    ctx.strokeStyle = "#1b1b1b";
-    ctx.fillStyle = "#fffdf5";
-    ctx.lineWidth = 2 / pxPerMm;
-    const edgeX = Math.min(Math.max(ax, x), x + w);
-    const edgeY = Math.min(Math.max(ay, y), y + h);
+    const [x, y, w, h] = balloon.rect;
     ctx.beginPath();
-    ctx.moveTo(edgeX, edgeY);
+    ctx.moveTo(Math.min(Math.max(ax, x), x + w), Math.min(Math.max(ay, y), y + h));
     ctx.lineTo(ax, ay);
     ctx.stroke();
     ctx.beginPath();
     ctx.arc(ax, ay, 4 / pxPerMm, 0, 2 * Math.PI);
-    ctx.fillStyle = "#1b1b1b";
     ctx.fill();
+  }
+}
+
+// The boxes go over everything else (the server keeps them clear of codes).
+export function drawBalloons(ctx, state, serverNow, pxPerMm) {
+  for (const balloon of openBalloons(state, serverNow)) {
+    if (!balloon.rect) continue;
+    const [x, y, w, h] = balloon.rect;
+    const font = h / (LINE_HEIGHT * (1 + balloon.lines.length) + 2 * PAD);
+    ctx.strokeStyle = "#1b1b1b";
     ctx.fillStyle = "#fffdf5";
+    ctx.lineWidth = 2 / pxPerMm;
     ctx.fillRect(x, y, w, h);
     ctx.strokeRect(x, y, w, h);
     ctx.fillStyle = "#1b1b1b";

@@ -3,9 +3,6 @@
 // tile draws it, hiding the groups whose layer is off, so a toggle is instant.
 
 const KEEP = 4;
-const FILL = "rgba(139, 90, 43, 0.55)";
-const EDGE = "#5a3310";
-const LABEL = "#f5e6d0";
 
 export function groupShown(state, groupId) {
   return state.layers?.[groupId] ?? true;
@@ -56,13 +53,16 @@ export class CensusViews {
 }
 
 /** The tracts, in the tile's native pixels (the caller scales them to the canvas). */
+// Colours and the outline's width come with the view (webapp/apps/census_map/mapview.py
+// keeps the outline in contrast with the fills it separates, as wide as read from the seats).
 export function drawCensus(ctx, view, state, width, height) {
-  ctx.fillStyle = "#0d1b2a";
+  const colours = view.colours;
+  ctx.fillStyle = colours.background;
   ctx.fillRect(0, 0, width, height);
   const shown = view.tracts.filter((tract) => groupShown(state, tract.group));
-  ctx.fillStyle = FILL;
-  ctx.strokeStyle = EDGE;
-  ctx.lineWidth = 1.5;
+  ctx.fillStyle = colours.fill;
+  ctx.strokeStyle = colours.outline;
+  ctx.lineWidth = view.outline_px;
   ctx.lineJoin = "round";
   for (const tract of shown) {
     ctx.beginPath();
@@ -74,17 +74,17 @@ export function drawCensus(ctx, view, state, width, height) {
     ctx.fill("evenodd");
     ctx.stroke();
   }
-  drawLabels(ctx, shown, view.label_px);
+  drawLabels(ctx, shown, view.label_px, colours.label);
 }
 
 // Tract numbers where they fit inside their tract and stay clear of every code and
 // caption (the server says which: label_clear); a tract with its own code is named by
 // the code's caption.
-function drawLabels(ctx, tracts, size) {
+function drawLabels(ctx, tracts, size, colour) {
   ctx.font = `bold ${Math.round(size)}px sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
-  ctx.fillStyle = LABEL;
+  ctx.fillStyle = colour;
   for (const tract of tracts) {
     if (tract.code || !tract.label_clear) continue;  // codes' captions name their tracts
     const width = ctx.measureText(tract.label).width;

@@ -76,13 +76,17 @@ function drawPins(ctx, codes, pxPerMm) {
 }
 
 // A caption in its box (device pixels) on a dark backing, so nothing drawn before shows
-// through; the text turned by `angle` (upright as the panel hangs), as large as fits.
+// through; the text turned by `angle` (upright as the panel hangs), as large as fits,
+// and clipped to the box: a label never reaches the code beside or under it.
 export function drawCaption(ctx, text, [left, top, boxW, boxH], angle = 0) {
   const turned = Math.abs(Math.sin(angle)) > 0.5;
   ctx.save();
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   ctx.fillStyle = CAPTION_BACKING;
   ctx.fillRect(left, top, boxW, boxH);
+  ctx.beginPath();
+  ctx.rect(left, top, boxW, boxH);
+  ctx.clip();
   const [width, height] = turned ? [boxH, boxW] : [boxW, boxH];
   ctx.setTransform(Math.cos(angle), Math.sin(angle), -Math.sin(angle), Math.cos(angle),
     left + boxW / 2, top + boxH / 2);

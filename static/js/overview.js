@@ -1,5 +1,5 @@
 // The whole wall in one window, at scale, bezels drawn: what each tile shows, live.
-import {drawBalloons} from "./balloons.js";
+import {drawBalloons, drawPointers} from "./balloons.js";
 import {CensusViews, drawCensus} from "./census.js";
 import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
@@ -49,6 +49,7 @@ function drawer(state, clock) {
       }
       const matrix = [a * scale, b * scale, c * scale, d * scale, e * scale, f * scale];
       const hidden = map ? maps.get(display.id).hiddenCodes(state) : null;
+      drawPointers(ctx, state, clock(), scale * Math.hypot(a, b));
       drawCodes(ctx, layouts.get(state.tag_layout), matrix, hidden);
       drawBalloons(ctx, state, clock(), scale * Math.hypot(a, b));
       ctx.restore();

@@ -1,5 +1,5 @@
 // A kiosk tile: draws its viewport of the wall scene from the state the server sends.
-import {drawBalloons, nextClosing} from "./balloons.js";
+import {drawBalloons, drawPointers, nextClosing} from "./balloons.js";
 import {CensusViews, drawCaption, drawCensus, withToggleStates} from "./census.js";
 import {CodeLayouts, drawCodes} from "./codes.js";
 import {showLive} from "./live.js";
@@ -35,8 +35,10 @@ function drawer(state, clock) {
     if (map && display?.roles.includes("menu")) drawCaption(ctx, map, ...viewport.pixels);
     ctx.setTransform(...matrix);
     if (!volume && !map) drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
+    const pxPerMm = Math.hypot(matrix[0], matrix[1]);
+    drawPointers(ctx, state, clock(), pxPerMm);
     drawCodes(ctx, layout, matrix, map ? maps.hiddenCodes(state) : null);
-    drawBalloons(ctx, state, clock(), Math.hypot(matrix[0], matrix[1]));
+    drawBalloons(ctx, state, clock(), pxPerMm);
   };
 }
 

@@ -4,19 +4,24 @@ its code off the menu tile, and a balloon opened from a phone that closes by its
 from __future__ import annotations
 
 import io
+import itertools
 from collections.abc import Iterator
 from pathlib import Path
 
+import httpx
 import numpy as np
 import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
-from tag_service.verify import decode_image
+from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
+from wall_client.layout import Rect, Wall, apply_affine, load_wall
+from webapp.apps.census_map.mapview import COLOURS, contrast_ratio
 from webapp.check import fetch_layout
 from webapp.schemas import LayoutInfo
 from webapp.security import operator_token
+from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
@@ -178,5 +183,149 @@ def test_the_instructor_zooms_from_the_dashboard_and_codes_follow(
     _, after = fetch_layout(census.url, "demo", operator_token(census.secret))
     assert len(tract_codes(after)) > len(tract_codes(before)), "more tracts carry codes"
     dashboard.close()
+    for page in tiles.values():
+        page.context.close()
+
+
+def intact_codes(page: Page, layout: LayoutInfo, wall: Wall, tile: str) -> dict[str, str]:
+    """Each code on ``tile`` whose pixels differ from its symbol, with how (none: every
+    code intact, quiet zone included)."""
+    picture = screenshot(page)
+    to_pixels = wall.viewport(tile).to_pixels
+    damaged = {}
+    for code in (c for c in layout.placed if c.display == tile):
+        damage = symbol_damage(
+            picture, module_boxes(to_pixels, code.rect, code.modules), code.matrix
+        )
+        if not damage.intact:
+            damaged[code.label] = f"{damage.damaged} modules, quiet zone {damage.dirty_quiet}"
+    return damaged
+
+
+def test_balloons_leave_every_code_on_the_wall_intact(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    """Zoomed in, tracts carry their own codes on their label points; their balloons
+    point at the tract beside the code, and box, pointer and dot leave every code's
+    modules, quiet zone and caption as they were (the tiles' pixels, module by module)."""
+    server = serve(tmp_path, database_url, TAGWALL_BALLOON_SECONDS="600")
+    try:
+        server.change("demo", {"app": "census"})
+        server.change("demo", {"view": {"center": [0.5, 0.5], "zoom": 3}})
+        _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+        tags = httpx.get(f"{server.url}/api/walls/demo/tags", headers=server.operator()).json()
+        on_wall = {c.code for c in layout.placed}
+        geoids = sorted(
+            t["params"]["geoid"] for t in tags if t["action"] == "tract" and t["code"] in on_wall
+        )
+        assert len(geoids) >= 4
+        phone = browser.new_context(**PHONE).new_page()
+        for geoid in geoids[:4]:
+            phone.goto(f"{server.url}/apps/census/demo/tracts/{geoid}")
+            phone.locator("#show-on-wall").click()
+            expect(phone.locator("#outcome")).to_contain_text("on the wall for 600 seconds")
+        phone.context.close()
+        version = server.version("demo")
+        balloons = server.status("demo")["state"]["balloons"]
+        assert len(balloons) == 4
+        tiles = dict(zip(DEMO, open_tiles(browser, server, "demo", DEMO, native=True), strict=True))
+        wait_until(
+            lambda: all(
+                version_of(t) == version and len(shown(t, "balloons").split()) == 4
+                for t in tiles.values()
+            ),
+            what="every tile to show the four balloons",
+        )
+        wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+        damaged = {tile: intact_codes(page, layout, wall, tile) for tile, page in tiles.items()}
+        assert damaged == {tile: {} for tile in DEMO}
+        for balloon in balloons:  # and the balloons are there: their boxes are light
+            x, y, w, h = balloon["rect"]
+            viewport = next(
+                v
+                for d in wall.displays
+                if (v := wall.viewport(d.id)).scene_rect.contains(Rect(x, y, w, h))
+            )
+            left, top = (round(v) + 4 for v in apply_affine(viewport.to_pixels, x, y))
+            right, bottom = (round(v) - 4 for v in apply_affine(viewport.to_pixels, x + w, y + h))
+            inside = screenshot(tiles[viewport.display_id])[top:bottom, left:right]
+            assert (inside.min(axis=2) > 200).mean() > 0.7, balloon["id"]
+        for page in tiles.values():
+            page.context.close()
+    finally:
+        server.stop()
+
+
+def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
+    browser: Browser, census: ServerProcess
+) -> None:
+    """On a tile as people see it: the pixels on tract outlines against the fill a few
+    pixels to either side, at the middle of every outline edge long enough to measure,
+    reach WCAG's 3:1 for non-text contrast (the median; most edges well above)."""
+    [tile] = open_tiles(browser, census, "demo", ["r2c2"], native=True)
+    version = census.version("demo")
+    wait_until(lambda: version_of(tile) == version and shown(tile, "census"), what="the map")
+    picture = screenshot(tile).astype(float)
+    state = census.status("demo")["state"]
+    view = httpx.get(
+        f"{census.url}/api/walls/demo/tiles/r2c2/census",
+        params={
+            "dataset": state["dataset"],
+            "layout": state["tag_layout"],
+            "cx": state["view"]["center"][0],
+            "cy": state["view"]["center"][1],
+            "zoom": state["view"]["zoom"],
+        },
+    ).json()
+    fill = np.array([int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5)])
+    height, width = picture.shape[:2]
+    ratios = []
+    for tract in view["tracts"]:
+        for ring in tract["rings"]:
+            points = np.reshape(ring, (-1, 2)).astype(float)
+            for a, b in itertools.pairwise(points):
+                length = float(np.hypot(*(b - a)))
+                if length < 12:
+                    continue
+                middle, normal = (a + b) / 2, np.array([a[1] - b[1], b[0] - a[0]]) / length
+                x, y = np.rint(middle).astype(int)
+                sides = [np.rint(middle + s * 6 * normal).astype(int) for s in (-1, 1)]
+                if not all(0 <= px < width and 0 <= py < height for px, py in [(x, y), *sides]):
+                    continue
+                for sx, sy in sides:
+                    beside = picture[sy, sx]
+                    if np.abs(beside - fill).max() < 12:  # a tract's fill, not a code or label
+                        ratios.append(contrast_ratio(picture[y, x], beside))
+    assert len(ratios) > 200
+    assert float(np.median(ratios)) >= 3.0, np.percentile(ratios, [10, 50, 90])
+    tile.context.close()
+
+
+def test_menu_labels_leave_the_toggle_codes_intact_on_kl_3x3(
+    browser: Browser, census: ServerProcess
+) -> None:
+    """The KL wall's menu screens hold the group toggles two rows deep; each toggle's
+    label ("0072-0080 · shown") stands in its caption strip and never over the code
+    below or beside it, in every census view and with groups hidden."""
+    census.change("kl-3x3", {"app": "census"})
+    wall = load_wall(CONTENT_DIR / "walls" / "kl-3x3.toml")
+    menus = [d.id for d in wall.screen("menu")]
+    tiles = dict(zip(menus, open_tiles(browser, census, "kl-3x3", menus), strict=True))
+    for page, display in zip(tiles.values(), menus, strict=True):
+        width, height = wall.display(display).resolution
+        page.set_viewport_size({"width": width, "height": height})
+    views = [
+        {},
+        {"view": {"center": [0.4, 0.6], "zoom": 2}},
+        {"layers": {"tracts-0072-0080": False, "tracts-0001-0038": False}},
+    ]
+    for patch in views:
+        version = census.change("kl-3x3", patch) if patch else census.version("kl-3x3")
+        wait_until(lambda v=version: all(version_of(t) == v for t in tiles.values()), what="tiles")
+        _, layout = fetch_layout(census.url, "kl-3x3", operator_token(census.secret))
+        toggles = [c for c in layout.placed if c.display in menus]
+        assert len(toggles) == 10
+        damaged = {tile: intact_codes(page, layout, wall, tile) for tile, page in tiles.items()}
+        assert damaged == {tile: {} for tile in menus}, patch
     for page in tiles.values():
         page.context.close()

@@ -37,7 +37,40 @@ def test_check_decodes_every_code_the_demo_tiles_show(server: ServerProcess) -> 
     assert count >= 6
     assert result.returncode == 0, result.stdout + result.stderr
     assert result.stdout.splitlines()[0] == f"decoded {count}/{count} codes"
+    assert result.stdout.splitlines()[1] == (
+        f"intact {count}/{count} codes: 0 damaged modules, 0 dirty quiet zones"
+    )
     assert "smallest pixels per module: " in result.stdout
+
+
+def test_check_compares_every_module_with_the_symbol(server: ServerProcess) -> None:
+    """A code that differs from its symbol in three modules still decodes: the check
+    reports exactly those three, and fails."""
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    version, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    code = layout.placed[0]
+    rows = [list(row) for row in code.matrix]
+    for i in (9, 10, 11):  # in the middle: data modules, not a finder pattern
+        rows[i][i] = "0" if rows[i][i] == "1" else "1"
+    expected = code.model_copy(update={"matrix": ["".join(row) for row in rows]})
+    tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
+    token = tile_token(server.secret, "demo")
+    urls = {d.id: server.url + tile_path(token, "demo", d.id) for d in wall.displays}
+    chromium = shutil.which("chromium")
+    assert chromium is not None
+
+    report = check_wall(wall, urls, version, tampered, chromium)
+
+    count = len(layout.placed)
+    assert report.decoded == count, "it still decodes"
+    assert not report.ok
+    lines = report.lines()
+    assert lines[1] == f"intact {count - 1}/{count} codes: 3 damaged modules, 0 dirty quiet zones"
+    modules = len(code.matrix) ** 2
+    failure = (
+        f"  FAIL tile {code.display}: {code.code} ({code.label}) 3 of {modules} modules damaged"
+    )
+    assert failure in lines
 
 
 def test_check_reports_a_tile_that_shows_the_wrong_code(server: ServerProcess) -> None:

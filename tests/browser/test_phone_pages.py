@@ -234,6 +234,17 @@ def census_pages(tour: Tour, student: Page, instructor: Page) -> str:
         student.locator("details").first.get_by_role("button").tap()
     expect(student.locator("#outcome")).to_contain_text("on the wall now")
     tour.look("toggled", student)
+    # the tract's group is hidden now: no balloon into empty map, the way to show it
+    tour.visit("tract-group-hidden", student, url + tract)
+    expect(student.locator("#hidden-group")).to_contain_text("is hidden on the wall now")
+    expect(student.locator("#show-on-wall")).to_have_count(0)
+    with student.expect_navigation():
+        student.locator("#show-group").tap()
+    expect(student.locator("#outcome")).to_have_text("Shown on the wall now.")
+    tour.look("toggled-back-to-tract", student)
+    with student.expect_navigation():
+        student.locator("#back-to-tract").tap()
+    expect(student.locator("#show-on-wall")).to_be_visible()
     return toggle
 
 

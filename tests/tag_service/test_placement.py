@@ -6,6 +6,7 @@ import itertools
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -15,8 +16,10 @@ from tag_service.placement import (
     Layout,
     Placement,
     PlacementRequest,
+    _crosses,
     caption_height,
     place,
+    place_box,
 )
 from tag_service.sizing import min_module_mm, symbol_modules
 from wall_client.config import load_wall
@@ -444,3 +447,67 @@ def test_codes_marking_neighbouring_points_are_spread_apart(demo: Wall) -> None:
     assert_valid(demo, requests, [], layout)
     for code in layout.placed:
         assert math.dist(code.rect.center, by_key(requests)[code.key].anchor or (0, 0)) < 400
+
+
+# --- boxes (balloons) ---------------------------------------------------------------
+
+ANCHOR = (1800.0, 1000.0)  # on r2c2 of the demo wall, a display free for boxes
+BARS = [Rect(1700, 1015, 200, 10), Rect(1700, 975, 200, 10)]  # codes above and below it
+
+
+def pointer_crosses(box: Rect, anchor: tuple[float, float], rects: list[Rect]) -> bool:
+    """Whether the line from the box's nearest point to ``anchor`` enters any rect (by
+    sampling it densely: independent of the slab method placement uses)."""
+    ax, ay = anchor
+    ex, ey = min(max(ax, box.x), box.right), min(max(ay, box.y), box.bottom)
+    for t in np.linspace(0.0, 1.0, 2001):
+        x, y = ex + t * (ax - ex), ey + t * (ay - ey)
+        if any(r.x < x < r.right and r.y < y < r.bottom for r in rects):
+            return True
+    return False
+
+
+def test_a_box_stands_nearest_its_anchor_clear_of_obstacles_and_the_square(demo: Wall) -> None:
+    box = place_box(demo, (200, 100), ANCHOR, BARS, clear_mm=10)
+    assert box is not None
+    assert not any(box.intersects(bar) for bar in BARS)
+    assert not box.intersects(Rect(1790, 990, 20, 20))
+    assert math.dist(box.center, ANCHOR) == pytest.approx(75, abs=1)
+    assert pointer_crosses(box, ANCHOR, BARS), "the nearest spot points across a bar"
+
+
+def test_with_sight_its_pointer_crosses_none_of_them(demo: Wall) -> None:
+    box = place_box(demo, (200, 100), ANCHOR, BARS, clear_mm=10, sight=BARS)
+    assert box is not None
+    assert not any(box.intersects(bar) for bar in BARS)
+    assert not pointer_crosses(box, ANCHOR, BARS)
+    assert math.dist(box.center, ANCHOR) == pytest.approx(200, abs=1), "out between the bars"
+
+
+@pytest.mark.parametrize(
+    ("start", "end", "crosses"),
+    [
+        ((0, 5), (20, 5), True),  # straight through
+        ((5, 5), (5, 5), True),  # a point inside
+        ((0, 10), (10, 0), True),  # corner to corner, across the inside
+        ((-5, 0), (20, 0), False),  # along the top edge
+        ((5, -5), (5, 0), False),  # ends on the edge
+        ((0, 20), (20, 0), False),  # touches the corner (10, 10) only
+        ((11, -5), (11, 20), False),  # beside it
+    ],
+)
+def test_which_pointers_cross_a_rectangle(
+    start: tuple[float, float], end: tuple[float, float], crosses: bool
+) -> None:
+    """Only the inside of the rectangle (0, 0)-(10, 10) blocks: touching is fine
+    (obstacles are grown by what a line needs)."""
+    rect = np.array([[0.0, 0.0, 10.0, 10.0]])
+    found = _crosses(np.array([start], dtype=float), np.array([end], dtype=float), rect)
+    assert bool(found[0]) == crosses
+
+
+def test_no_line_clear_of_the_sight_obstacles_means_no_box(demo: Wall) -> None:
+    ring = [Rect(1770, 960, 60, 5), Rect(1770, 1035, 60, 5), Rect(1765, 960, 5, 80),
+            Rect(1830, 960, 5, 80)]  # fmt: skip
+    assert place_box(demo, (200, 100), ANCHOR, ring, clear_mm=10, sight=ring) is None
+    assert place_box(demo, (200, 100), ANCHOR, ring, clear_mm=10) is not None

@@ -6,13 +6,16 @@ import math
 import struct
 import zlib
 
+import numpy as np
 import pytest
 import zxingcpp
-from PIL import Image
+from PIL import Image, ImageDraw
 
 from tag_service.codes import (
     Contact,
     make_symbol,
+    matrix_rows,
+    modules_across,
     render_png,
     tel_payload,
     text_payload,
@@ -26,9 +29,11 @@ from tag_service.verify import (
     Shot,
     TooManyPixels,
     decode_image,
+    module_boxes,
     open_image,
     phone_frame,
     random_shots,
+    symbol_damage,
 )
 
 BASE_URL = "http://192.168.1.20:8000"
@@ -250,3 +255,105 @@ def test_an_exif_rotated_phone_photo_is_turned_upright_and_decodes() -> None:
     (decoded,) = decode_image(image)
     assert decoded.payload == PAYLOADS["url"]
     assert decoded.rect[0] < code.width  # on the left again, where the photographer saw it
+
+
+# --- pixels against the symbol ------------------------------------------------------
+
+PX_PER_MODULE = 4
+AT = (10, 20)  # where the code's top-left pixel lies on the screen
+TO_PIXELS = (float(PX_PER_MODULE), 0.0, 0.0, float(PX_PER_MODULE), *map(float, AT))
+BACKGROUND = "#10161f"  # as the tiles' caption backing: anything dark
+
+
+def screen_with_code(payload: str) -> tuple[Image.Image, list[str], int]:
+    """A dark screen with the code at ``AT``, one scene mm per module: the picture,
+    the symbol's rows and its modules across (quiet zone included)."""
+    symbol = make_symbol(payload)
+    code = picture(payload, PX_PER_MODULE).convert("RGB")
+    screen = Image.new("RGB", (code.width + 40, code.height + 60), BACKGROUND)
+    screen.paste(code, AT)
+    return screen, matrix_rows(symbol), modules_across(symbol)
+
+
+def damage_of(screen: Image.Image, matrix: list[str], modules: int, to_pixels=TO_PIXELS):
+    boxes = module_boxes(to_pixels, (0.0, 0.0, float(modules), float(modules)), modules)
+    return symbol_damage(np.asarray(screen), boxes, matrix)
+
+
+def test_a_clean_code_has_no_damaged_module() -> None:
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    damage = damage_of(screen, matrix, modules)
+    assert (damage.damaged, damage.dirty_quiet, damage.modules) == (0, 0, len(matrix) ** 2)
+    assert damage.intact
+
+
+def test_a_line_across_the_symbol_damages_every_module_it_crosses() -> None:
+    """A red pin line (as the tiles draw pins) through one row of modules."""
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    quiet = (modules - len(matrix)) // 2
+    row = 10
+    y = AT[1] + (quiet + row) * PX_PER_MODULE + 1
+    ImageDraw.Draw(screen).line(
+        [
+            (0, y),
+            (screen.width, y),
+        ],
+        fill="#e63946",
+        width=2,
+    )
+    damage = damage_of(screen, matrix, modules)
+    assert damage.damaged == len(matrix)
+    assert damage.dirty_quiet == 2 * quiet, "it crosses the quiet zone on both sides"
+    assert decode_image(screen), "it still decodes: what a decoder alone would call fine"
+
+
+def test_a_dark_line_damages_only_the_light_modules_it_crosses() -> None:
+    """A balloon's pointer (near black) over dark modules changes nothing a camera sees."""
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    quiet = (modules - len(matrix)) // 2
+    column = 12
+    x = AT[0] + (quiet + column) * PX_PER_MODULE + 1
+    top, bottom = AT[1] + quiet * PX_PER_MODULE, AT[1] + (modules - quiet) * PX_PER_MODULE - 1
+    ImageDraw.Draw(screen).line([(x, top), (x, bottom)], fill="#1b1b1b", width=2)
+    damage = damage_of(screen, matrix, modules)
+    assert damage.damaged == sum(row[column] == "0" for row in matrix)
+    assert damage.dirty_quiet == 0
+
+
+def test_a_mark_in_the_quiet_zone_makes_it_dirty() -> None:
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    x, y = AT[0] + PX_PER_MODULE, AT[1] + 2 * PX_PER_MODULE  # the second quiet module
+    ImageDraw.Draw(screen).rectangle([x, y, x + 1, y + 1], fill="#f5e6d0")
+    ImageDraw.Draw(screen).rectangle([x + 1, y + 1, x + 2, y + 2], fill="#5a3310")
+    damage = damage_of(screen, matrix, modules)
+    assert (damage.damaged, damage.dirty_quiet) == (0, 1)
+    assert not damage.intact
+
+
+def test_a_faint_fringe_is_not_damage() -> None:
+    """Anti-aliasing leaves light greys near an edge; they change no module's colour."""
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    pixels = np.asarray(screen).copy()
+    code = pixels[AT[1] : AT[1] + modules * PX_PER_MODULE, AT[0] : AT[0] + modules * PX_PER_MODULE]
+    code[code == 255] = 230
+    code[code == 0] = 30
+    damage = damage_of(Image.fromarray(pixels), matrix, modules)
+    assert damage.intact
+
+
+def test_module_boxes_follow_a_turned_display() -> None:
+    """A portrait panel: scene x runs down the screen, scene y right to left."""
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    turned = screen.transpose(Image.Transpose.ROTATE_270)  # a quarter turn clockwise
+    a, b, c, d, e, f = TO_PIXELS
+    # pixel (u, v) of the turned picture shows (x, y) = (v, height - u) of the upright one
+    to_turned = (-b, a, -d, c, screen.height - f, e)
+    assert damage_of(turned, matrix, modules, to_turned).intact
+    assert not damage_of(turned, matrix, modules).intact, "the upright boxes miss it"
+
+
+def test_a_code_partly_off_the_picture_is_damaged() -> None:
+    screen, matrix, modules = screen_with_code(PAYLOADS["url"])
+    cut = screen.crop((0, 0, AT[0] + modules * PX_PER_MODULE - PX_PER_MODULE, screen.height))
+    damage = damage_of(cut, matrix, modules)
+    assert damage.dirty_quiet == modules and damage.damaged == 0

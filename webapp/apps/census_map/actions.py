@@ -12,8 +12,8 @@ from fastapi.concurrency import run_in_threadpool
 
 from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
-from webapp.apps.census_map.dataset import DataSet, Tract
-from webapp.apps.census_map.mapview import label_mm, projection
+from webapp.apps.census_map.dataset import DataSet, Group, Tract
+from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
 from webapp.changes import Update, change_wall, plan_change
 from webapp.schemas import PlacedCode
 from webapp.tags import get_layout
@@ -27,11 +27,32 @@ MAX_BALLOONS = 8
 LINE_HEIGHT = 1.35  # of the font size
 CHAR_WIDTH = 0.56  # of the font size, a generous average for sans-serif text
 BALLOON_FONT_OF_LABEL = 1.2
+CLEAR_PX = 6  # balloons.js: a dot of radius 4 px, lines 2 px wide, anti-aliased edges
 
 
 def group_shown(state: WallState, group_id: str) -> bool:
     """Groups are shown unless their layer was switched off."""
     return state.layers.get(group_id, True)
+
+
+def hidden_group(state: WallState, dataset: DataSet, tract: Tract) -> Group | None:
+    """The tract's group when the wall hides it (its tract is not drawn), else None."""
+    group_id = dataset.group_of.get(tract.geoid)
+    if group_id is None or group_shown(state, group_id):
+        return None
+    return next(g for g in dataset.groups if g.id == group_id)
+
+
+class NoRoom(Exception):
+    """No spot on the wall for the balloon clear of every code, caption and balloon."""
+
+
+class GroupHidden(Exception):
+    """A balloon for a tract the wall does not show would point at empty map."""
+
+    def __init__(self, group: Group) -> None:
+        super().__init__(f"the group {group.name} is hidden on the wall")
+        self.group = group
 
 
 async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
@@ -59,41 +80,75 @@ async def open_balloon(
 ) -> Balloon:
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
-    are open)."""
+    are open). Raises :class:`GroupHidden` when the wall hides the tract's group and
+    :class:`NoRoom` when the wall has no room for it.
+
+    Nothing of a balloon touches a code's symbol, quiet zone or caption: its dot marks
+    the tract where no code stands (at the edge of the tract's own code, which stands
+    on the tract's label point), its box stands clear of codes, preferably where the
+    pointer from it to the dot crosses no code either (where codes crowd the map, the
+    pointer passes under them: tiles draw pointers before codes)."""
     opened: Balloon | None = None
 
     async def place(state: WallState) -> Update:
         nonlocal opened
+        hidden = hidden_group(state, dataset, tract)
+        if hidden is not None:
+            raise GroupHidden(hidden)
         layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
         geometry = await run_in_threadpool(app.geometry, dataset)
-        project = projection(geometry, wall, state.view)
-        anchor = project.point(*geometry.label_points[geometry.geoids.index(tract.geoid)])
         now = now_ms()
-        others = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
+        open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
+        others = open_[-(MAX_BALLOONS - 1) :]  # the oldest goes when too many are open
+        margin = CLEAR_PX * max(d.mm_per_px for d in wall.displays)
+        codes = [
+            grown(Rect(*PlacedCode.model_validate(placed).footprint), margin)
+            for placed in (layout.placed if layout else [])
+        ]
+        obstacles = codes + [grown(Rect(*b.rect), margin) for b in others if b.rect]
+        targets = await run_in_threadpool(
+            pointer_targets, geometry, wall, state.view, tract.geoid, obstacles, margin
+        )
         title = dataset.tract_title(tract)
         lines = [f"{label}: {value}" for label, value in dataset.headline(tract)]
         font = label_mm(wall) * BALLOON_FONT_OF_LABEL
-        keep_clear = 2 * label_mm(wall)  # the tract's own label and centre stay visible
-        obstacles = [
-            Rect(*PlacedCode.model_validate(placed).footprint)
-            for placed in (layout.placed if layout else [])
-        ]
-        obstacles += [Rect(*b.rect) for b in others if b.rect]
-        obstacles.append(
-            Rect(anchor[0] - keep_clear, anchor[1] - keep_clear, 2 * keep_clear, 2 * keep_clear)
+        keep_clear = 2 * label_mm(wall)  # the dot and the tract around it stay visible
+        size = balloon_size(title, lines, font)
+        anchor, box = await run_in_threadpool(
+            _place_balloon, wall, size, targets, obstacles, keep_clear, codes
         )
-        box = place_box(wall, balloon_size(title, lines, font), anchor, obstacles)
         opened = Balloon(
             id=f"tract-{tract.geoid}",
             anchor=anchor,
-            rect=box.xywh if box else None,
+            rect=box.xywh,
             title=title,
             lines=lines,
             closes_at=now + services.settings.balloon_seconds * 1000,
         )
-        kept = [*others[-(MAX_BALLOONS - 1) :], opened]
+        kept = [*others, opened]
         return lambda current: current.model_copy(update={"balloons": kept})
 
     await plan_change(services, wall, place)
     assert opened is not None
     return opened
+
+
+def _place_balloon(
+    wall: Wall,
+    size: tuple[float, float],
+    targets: list[tuple[float, float]],
+    obstacles: list[Rect],
+    keep_clear: float,
+    codes: list[Rect],
+) -> tuple[tuple[float, float], Rect]:
+    """The first target (best first) with a box whose pointer crosses no code; where
+    codes crowd the map so that none has one, the first target with the nearest box
+    (its pointer passes under codes: tiles draw pointers before codes)."""
+    for target in targets:
+        box = place_box(wall, size, target, obstacles, keep_clear, sight=codes)
+        if box is not None:
+            return target, box
+    box = place_box(wall, size, targets[0], obstacles, keep_clear)
+    if box is None:
+        raise NoRoom
+    return targets[0], box

@@ -21,7 +21,7 @@ import numpy as np
 import numpy.typing as npt
 import shapely
 from shapely import MultiPolygon, Polygon
-from shapely.ops import polylabel
+from shapely.ops import nearest_points, polylabel
 
 from wall_client.layout import Affine, Rect, Wall, apply_affine, compose_affine
 from webapp.apps.census_map.dataset import DataSet
@@ -31,12 +31,44 @@ MARGIN = 0.03  # of the wall left around the data at zoom 1
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before
 FINEST_OF_EXTENT = 2.0**-16  # the finest level's tolerance, as a share of the data's size
 LABEL_MM_PER_M = 6.0  # tract-number height (mm) per metre of scanning distance
+OUTLINE_MM_PER_M = 0.75  # tract-outline width (mm) per metre of viewing distance: 2.6 arcmin
+MIN_OUTLINE_PX = 1.5
+# The map's colours, sent to tiles with their share of the map. The outline must stand
+# out from the fills it separates (WCAG 2 non-text contrast: at least 3:1 against the
+# tract fill and the background beyond the map); tests/webapp/apps/census_map checks it.
+COLOURS = {
+    "background": "#0d1b2a",
+    "fill": "#523e2b",
+    "outline": "#c9a46c",
+    "label": "#f5e6d0",
+}
 CLUSTER_CELL = 1.5  # a cluster gathers the small tracts of a cell this many footprints wide
 MAX_CLUSTER_TRACTS = 40  # beyond this a cluster is split in two, and again
 LABEL_WIDTH_OF_HEIGHT = 0.7  # a bold digit's width in the label's height (generous)
 SIMPLIFY_PX = 0.25  # simplification tolerance: outlines stay well within half a pixel
+POINTER_TARGETS = 6  # the parts of a tract a balloon's pointer is tried at
 Floats = npt.NDArray[np.float64]
 Shapes = npt.NDArray[np.object_]
+
+
+def contrast_ratio(a: str | Sequence[float], b: str | Sequence[float]) -> float:
+    """WCAG 2's contrast ratio of two sRGB colours (``#rrggbb`` or 0-255 triples):
+    from 1 (the same) to 21 (black on white); non-text parts need 3."""
+
+    def luminance(colour: str | Sequence[float]) -> float:
+        rgb = (
+            [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
+            if isinstance(colour, str)
+            else list(colour)
+        )
+        linear = [
+            c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+            for c in (v / 255 for v in rgb)
+        ]
+        return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
+
+    dark, light = sorted((luminance(a), luminance(b)))
+    return (light + 0.05) / (dark + 0.05)
 
 
 def _plane(lat0: float) -> Any:
@@ -205,6 +237,45 @@ def code_anchors(
     return anchors
 
 
+def pointer_targets(
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    geoid: str,
+    blocked: Sequence[Rect],
+    margin_mm: float,
+) -> list[tuple[float, float]]:
+    """Where a balloon may point to show a tract (scene mm), best first: in each part
+    of the tract that lies on a display showing the map (``margin_mm`` inside its
+    edges) and outside ``blocked`` (codes with their captions, grown by what a pointer's
+    dot needs), the point nearest the tract's label point, nearest first (at most
+    :data:`POINTER_TARGETS`). A tract
+    carrying its own code has it standing on its label point, so the first meets the
+    tract at the code's edge, the others on its far sides. A tract wholly under codes
+    or off the map's displays gets the nearest free point beside it (its label point
+    when nothing is free)."""
+    project = projection(geometry, wall, view)
+    index = geometry.geoids.index(geoid)
+    label = shapely.Point(project.point(*geometry.label_points[index]))
+    shown = shapely.union_all(
+        [
+            shapely.box(r.x, r.y, r.right, r.bottom).buffer(-margin_mm, join_style="mitre")
+            for r in _free_rects(wall)
+        ]
+    )
+    covered = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in blocked])
+    free = shapely.difference(shown, covered)
+    scale, dx, dy = project.scale, project.dx, project.dy
+    tract = shapely.transform(geometry.shapes[index], lambda c: c * scale + (dx, dy))
+    for region in (shapely.intersection(tract, free), free):
+        parts = [part for part in _polygons(region) if part.area > 0]
+        if parts:
+            points = [nearest_points(part, label)[0] for part in parts]
+            points.sort(key=label.distance)
+            return [(float(p.x), float(p.y)) for p in points[:POINTER_TARGETS]]
+    return [(float(label.x), float(label.y))]
+
+
 def _free_rects(wall: Wall) -> list[Rect]:
     """The scene rectangles of the displays that show the map (not designated ones)."""
     return [wall.viewport(d.id).scene_rect for d in wall.displays if d.id not in wall.designated()]
@@ -282,7 +353,7 @@ def tract_codes(
     project = projection(geometry, wall, view)
     own = code_anchors(geometry, wall, view, code_side_mm, footprint_mm)
     width, height = (CLUSTER_CELL * side for side in footprint_mm)
-    near = [_grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
+    near = [grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
     cells: dict[tuple[int, int], list[int]] = {}
     points = geometry.label_points
     minx, miny, _, _ = geometry.extent
@@ -322,7 +393,8 @@ def _median_cut(members: list[int], points: Floats) -> list[list[int]]:
     return _median_cut(order[:half], points) + _median_cut(order[half:], points)
 
 
-def _grown(rect: Rect, margin: float) -> Rect:
+def grown(rect: Rect, margin: float) -> Rect:
+    """``rect`` with ``margin`` added on every side."""
     return Rect(rect.x - margin, rect.y - margin, rect.width + 2 * margin, rect.height + 2 * margin)
 
 
@@ -337,7 +409,8 @@ def tile_view(
 ) -> dict[str, Any]:
     """One tile's share of the map, in that display's native pixels: the tracts it
     shows (outlines clipped to it, simplified under half a pixel), their labels,
-    groups and codes (``codes``: GEOID -> code of the tracts that carry one).
+    groups and codes (``codes``: GEOID -> code of the tracts that carry one), and how
+    to draw them (:data:`COLOURS`; outlines as wide as read from the seats).
 
     A tract's label is offered (``label_at``) only where it stays clear of
     ``occupied`` (scene mm: the codes on this display with their captions), so a map
@@ -347,6 +420,7 @@ def tile_view(
     to_pixels = viewport.to_pixels
     px_per_mm = min(math.hypot(to_pixels[0], to_pixels[1]), math.hypot(to_pixels[2], to_pixels[3]))
     label_px = label_mm(wall) * px_per_mm
+    outline_px = max(MIN_OUTLINE_PX, OUTLINE_MM_PER_M * wall.seat_distance_m * px_per_mm)
     rect = viewport.scene_rect
     reach = 8 * label_mm(wall)  # labels of tracts just off the tile still reach into it
     u0, v0 = project.to_plane(rect.x - reach, rect.y - reach)
@@ -390,6 +464,8 @@ def tile_view(
         "dataset": dataset.id,
         "title": dataset.title,
         "label_px": round(label_px, 1),
+        "outline_px": round(outline_px, 1),
+        "colours": COLOURS,
         "tracts": tracts,
     }
 

@@ -12,7 +12,7 @@ from sqlalchemy import select
 
 from wall_client.layout import Wall
 from webapp.apps import Scan
-from webapp.apps.census_map.actions import group_shown, toggle_group
+from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.deps import limit_action
@@ -63,7 +63,9 @@ def index_code(services: Services, wall: Wall) -> str | None:
 async def tract_choice(
     app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str
 ) -> Response:
-    _, dataset = await shown_dataset(app, services, wall)
+    """Show on the wall or here; while the wall hides the tract's group, the page says
+    so and offers to show the group instead of a balloon pointing at empty map."""
+    state, dataset = await shown_dataset(app, services, wall)
     tract = tract_of(dataset, geoid)
     return render(
         request,
@@ -73,6 +75,7 @@ async def tract_choice(
         tract=tract,
         title=dataset.tract_title(tract),
         seconds=services.settings.balloon_seconds,
+        hidden=hidden_group(state, dataset, tract),
     )
 
 
@@ -116,7 +119,7 @@ async def cluster(app: CensusApp, scan: Scan) -> Response:
     state, dataset = await shown_dataset(app, scan.services, scan.wall)
     geoids = [str(g) for g in scan.tag.params.get("geoids", [])]
     tracts = [t for g in geoids if (t := dataset.tract(g)) is not None]
-    hidden = {t.geoid for t in tracts if not group_shown(state, dataset.group_of.get(t.geoid, ""))}
+    hidden = {t.geoid for t in tracts if hidden_group(state, dataset, t) is not None}
     return render(
         scan.request,
         "census/cluster.html",
@@ -142,11 +145,21 @@ async def toggled(
     dataset: DataSet,
     group_id: str,
     actor: tuple[Visitor, str],
+    back: Tract | None = None,
 ) -> Response:
-    """Flip a group for ``actor`` (a visitor at an address), within the wall's limits."""
+    """Flip a group for ``actor`` (a visitor at an address), within the wall's limits;
+    the answer leads ``back`` to a tract page when the phone came from one."""
     group = next((g for g in dataset.groups if g.id == group_id), None)
     if group is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
     limit_action(services, "toggle", *actor, wall.id)
     shown = await toggle_group(services, wall, group.id)
-    return render(request, "census/toggled.html", wall=wall, group=group, shown=shown)
+    return render(
+        request,
+        "census/toggled.html",
+        wall=wall,
+        group=group,
+        shown=shown,
+        back=back,
+        back_title=dataset.tract_title(back) if back else None,
+    )

@@ -7,14 +7,14 @@ import json
 from dataclasses import dataclass
 from typing import Annotated, Literal, cast
 
-from fastapi import APIRouter, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map import APP, CensusApp, pages, switch_dataset
-from webapp.apps.census_map.actions import group_shown, open_balloon
+from webapp.apps.census_map.actions import GroupHidden, NoRoom, group_shown, open_balloon
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
@@ -188,20 +188,49 @@ async def show_on_wall(
     address: ClientAddressDep,
     geoid: str,
 ) -> Response:
-    """ "Show on the wall": the tract's balloon opens beside it on every tile."""
+    """ "Show on the wall": the tract's balloon opens beside it on every tile. 409, with
+    the reason and what to do, when the wall hides the tract's group (the balloon would
+    point at empty map) or has no room for it clear of every code."""
     app = census_app(services)
     _, dataset = await pages.shown_dataset(app, services, wall)
     tract = pages.tract_of(dataset, geoid)
     limit_action(services, "balloon", person.visitor, address, wall.id)
-    balloon = await open_balloon(app, services, wall, dataset, tract)
+    title = dataset.tract_title(tract)
+    seconds = services.settings.balloon_seconds
+    try:
+        await open_balloon(app, services, wall, dataset, tract)
+    except GroupHidden as hidden:
+        return render(
+            request,
+            "census/tract.html",
+            status.HTTP_409_CONFLICT,
+            wall=wall,
+            dataset=dataset,
+            tract=tract,
+            title=title,
+            seconds=seconds,
+            hidden=hidden.group,
+            refused=True,
+        )
+    except NoRoom:
+        return render(
+            request,
+            "census/balloon.html",
+            status.HTTP_409_CONFLICT,
+            wall=wall,
+            tract=tract,
+            title=title,
+            placed=False,
+            seconds=seconds,
+        )
     return render(
         request,
         "census/balloon.html",
         wall=wall,
         tract=tract,
-        title=balloon.title,
-        placed=balloon.rect is not None,
-        seconds=services.settings.balloon_seconds,
+        title=title,
+        placed=True,
+        seconds=seconds,
     )
 
 
@@ -217,10 +246,14 @@ async def toggle_group(
     person: PersonDep,
     address: ClientAddressDep,
     group_id: str,
+    tract: Annotated[str | None, Form(max_length=64)] = None,
 ) -> Response:
+    """Flip a group from a phone page; ``tract``: the tract page it came from, which
+    the answer leads back to."""
     _, dataset = await pages.shown_dataset(census_app(services), services, wall)
     actor = (person.visitor, address)
-    return await pages.toggled(request, services, wall, dataset, group_id, actor)
+    back = dataset.tract(tract) if tract else None
+    return await pages.toggled(request, services, wall, dataset, group_id, actor, back)
 
 
 # --- Google Earth --------------------------------------------------------------------

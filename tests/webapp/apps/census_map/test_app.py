@@ -7,11 +7,13 @@ import re
 from typing import Any
 
 import pytest
+import shapely
 from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
 from wall_client.layout import Rect
 from webapp.apps.census_map.store import list_datasets
+from webapp.schemas import PlacedCode
 from webapp.tags import get_layout, wall_tags
 from webapp.wall_state import WallState, read_state
 
@@ -159,8 +161,45 @@ def open_balloon(client: TestClient, geoid: str) -> Any:
     return client.post(f"/apps/census/demo/tracts/{geoid}/balloon", data={"csrf": csrf_of(client)})
 
 
+def assert_clear_of_every_code(
+    client: TestClient, state: WallState, *, pointers: bool = True
+) -> None:
+    """Every open balloon's box, pointer (the line from the box's nearest point to its
+    anchor, 2 px wide) and dot (4 px in radius; see balloons.js) stay clear of every
+    code with its quiet zone and caption, and the box of other boxes and bezels.
+    ``pointers=False`` where codes crowd the map so that no straight line reaches the
+    tract between them: tiles draw pointers under the codes (tests/browser/test_census.py
+    checks the pixels)."""
+    wall = services_of(client).walls["demo"]
+    px = max(d.mm_per_px for d in wall.displays)
+    footprints = [
+        shapely.box(x, y, x + w, y + h)
+        for x, y, w, h in (PlacedCode.model_validate(p).footprint for p in placed(client, state))
+    ]
+    boxes = []
+    for balloon in state.balloons:
+        assert balloon.rect is not None
+        x, y, w, h = balloon.rect
+        ax, ay = balloon.anchor
+        edge = (min(max(ax, x), x + w), min(max(ay, y), y + h))
+        parts = {
+            "box": shapely.box(x, y, x + w, y + h).buffer(px),  # its 2 px edge
+            "dot": shapely.Point(ax, ay).buffer(4 * px),
+        }
+        if pointers:
+            parts["pointer"] = shapely.LineString([edge, (ax, ay)]).buffer(px)
+        for name, part in parts.items():
+            hit = [f for f in footprints if f.intersects(part)]
+            assert not hit, f"{balloon.id}: its {name} is drawn over a code or its caption"
+        box = Rect(x, y, w, h)
+        assert len([d for d in wall.displays if d.rect.intersects(box)]) == 1, "never on a bezel"
+        boxes.append(box)
+    for a, b in itertools.combinations(boxes, 2):
+        assert not a.intersects(b)
+
+
 def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient) -> None:
-    state = show_census(client)
+    show_census(client)
     register_student(client)
     dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
     geoids = [dataset.tracts[i].geoid for i in (0, 150, 300)]
@@ -169,19 +208,78 @@ def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient
         assert response.status_code == 200 and "on the wall for 30 seconds" in response.text
     after = state_of(client)
     assert [b.id for b in after.balloons] == [f"tract-{g}" for g in geoids]
-    wall = services_of(client).walls["demo"]
-    codes = [Rect(*p["rect"]) for p in placed(client, state)]
-    boxes = [Rect(*b.rect) for b in after.balloons if b.rect]
-    assert len(boxes) == 3
-    for box in boxes:
-        assert not any(box.intersects(code) for code in codes)
-        displays = [d for d in wall.displays if d.rect.intersects(box)]
-        assert len(displays) == 1, "a balloon never spans a bezel"
-    for a, b in itertools.pairwise(boxes):
-        assert not a.intersects(b)
+    assert_clear_of_every_code(client, after, pointers=False)  # the whole map: codes crowd it
     first = after.balloons[0]
     assert first.closes_at is not None and first.title == dataset.tract_title(dataset.tracts[0])
     assert any("Total population" in line for line in first.lines)
+
+    # zoomed in, tracts carry their own codes on their label points: a balloon points at
+    # the tract beside its code, not into it, and its pointer runs clear of every code
+    change(client, {"view": {"center": [0.5, 0.5], "zoom": 3}, "balloons": []})
+    codes = census_codes(client)
+    own = sorted(n.removeprefix("census:tract:") for n in codes if n.startswith("census:tract:"))
+    assert len(own) >= 5
+    with TestClient(client.app) as phone:  # a phone of its own: within its action limit
+        for geoid in own[:5]:
+            change(client, {"balloons": []})
+            assert open_balloon(phone, geoid).status_code == 200
+            assert_clear_of_every_code(client, state_of(client))
+    # five at once crowd the map: boxes and dots stay clear, pointers may pass under codes
+    with TestClient(client.app) as phone:
+        for geoid in own[:5]:
+            assert open_balloon(phone, geoid).status_code == 200
+    together = state_of(client)
+    assert len(together.balloons) == 5
+    assert_clear_of_every_code(client, together, pointers=False)
+
+
+def test_no_room_for_a_balloon_clear_of_the_codes_is_said_not_papered_over(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A wall full of codes and balloons: the balloon is not drawn over a code anyway."""
+    show_census(client)
+    register_student(client)
+    monkeypatch.setattr("webapp.apps.census_map.actions.place_box", lambda *a, **kw: None)
+    response = open_balloon(client, "06061022001")
+    assert response.status_code == 409
+    assert "No room on the wall for its balloon now" in response.text
+    assert state_of(client).balloons == []
+
+
+def test_a_tract_whose_group_is_hidden_gets_no_balloon_and_the_phone_says_why(
+    client: TestClient,
+) -> None:
+    """Its tract is not drawn: a balloon would point at empty map. The tract page offers
+    to show the group instead, and leads back to the tract once it is shown."""
+    show_census(client)
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    tract = dataset.tracts[0]
+    group = dataset.group_of[tract.geoid]
+    hide = client.post(f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf_of(client)})
+    assert "Hidden on the wall now" in hide.text
+
+    page = client.get(f"/apps/census/demo/tracts/{tract.geoid}").text
+    assert 'id="show-on-wall"' not in page, "no button for a balloon the wall cannot show"
+    assert "is hidden on the wall now, so a balloon would point at empty map" in page
+    assert f'action="/apps/census/demo/groups/{group}/toggle"' in page
+    refused = open_balloon(client, tract.geoid)  # a form sent before the group was hidden
+    assert refused.status_code == 409
+    assert "No balloon opened: its group, tracts" in refused.text
+    assert f'name="tract" value="{tract.geoid}"' in refused.text
+    assert state_of(client).balloons == []
+
+    shown = client.post(
+        f"/apps/census/demo/groups/{group}/toggle",
+        data={"csrf": csrf_of(client), "tract": tract.geoid},
+    )
+    assert "Shown on the wall now" in shown.text
+    assert f'href="/apps/census/demo/tracts/{tract.geoid}">{dataset.tract_title(tract)}' in (
+        shown.text
+    )
+    assert 'id="show-on-wall"' in client.get(f"/apps/census/demo/tracts/{tract.geoid}").text
+    assert open_balloon(client, tract.geoid).status_code == 200
+    assert [b.id for b in state_of(client).balloons] == [f"tract-{tract.geoid}"]
 
 
 def test_reopening_a_balloon_replaces_it_and_at_most_eight_stay_open(client: TestClient) -> None:

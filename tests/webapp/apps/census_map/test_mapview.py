@@ -15,11 +15,13 @@ from wall_client.config import load_walls
 from wall_client.layout import Wall
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.mapview import (
+    COLOURS,
     MARGIN,
     MAX_CLUSTER_TRACTS,
     SIMPLIFY_PX,
     MapGeometry,
     code_anchors,
+    contrast_ratio,
     label_mm,
     projection,
     tile_view,
@@ -236,3 +238,39 @@ def test_the_tracts_of_a_code_without_a_spot_join_the_nearest_placed_cluster(
     reached = set(kept.own) | {g for c in kept.clusters for g in c.geoids}
     assert len(reached) == 403, "nobody is lost"
     assert {c.anchor for c in kept.clusters} <= {c.anchor for c in codes.clusters}
+
+
+def test_the_contrast_ratio_is_wcags() -> None:
+    assert contrast_ratio("#000000", "#ffffff") == pytest.approx(21)
+    assert contrast_ratio("#777777", "#ffffff") == pytest.approx(4.48, abs=0.01)
+    assert contrast_ratio((255, 0, 0), "#ff0000") == 1
+
+
+def test_tract_outlines_stand_out_from_the_fills_they_separate() -> None:
+    """WCAG non-text contrast (3:1) between an outline and what lies on either side of
+    it: a tract's fill, or the background beyond the map (and under hidden groups)."""
+    assert contrast_ratio(COLOURS["outline"], COLOURS["fill"]) >= 3
+    assert contrast_ratio(COLOURS["outline"], COLOURS["background"]) >= 3
+    assert contrast_ratio(COLOURS["label"], COLOURS["fill"]) >= 4.5, "labels are text"
+
+
+def test_outlines_are_as_wide_as_read_from_the_seats(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    """About 2.6 arcminutes at the seat distance: wider in pixels where pixels are small
+    or people sit far, never a hairline."""
+    geometry = MapGeometry.of(shipped)
+    widths = {}
+    for name in ("demo", "kl-3x3"):
+        wall = walls[name]
+        display = wall.displays[0]
+        view = tile_view(shipped, geometry, wall, display.id, View(), {})
+        mm = view["outline_px"] * display.rect.width / display.resolution[0]
+        arcmin = math.degrees(mm / 1000 / wall.seat_distance_m) * 60
+        assert arcmin == pytest.approx(2.6, abs=0.1)
+        assert view["colours"] == COLOURS
+        widths[name] = view["outline_px"]
+    assert min(widths.values()) >= 2
+    far = dataclasses.replace(walls["demo"], seat_distance_m=2 * walls["demo"].seat_distance_m)
+    view = tile_view(shipped, geometry, far, "r2c2", View(), {})
+    assert view["outline_px"] == pytest.approx(2 * widths["demo"], abs=0.1)
