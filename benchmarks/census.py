@@ -30,10 +30,11 @@ from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
 from webapp.apps.core import CoreApp
-from webapp.db import Database
-from webapp.migrate import upgrade
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.engine.wall_state import View, WallState
 from webapp.settings import CONTENT_DIR
-from webapp.tags import (
+from webapp.tags.registry import (
     anchored_code_side_mm,
     anchored_footprint_mm,
     declare,
@@ -41,7 +42,6 @@ from webapp.tags import (
     layout_for,
     wall_tags,
 )
-from webapp.wall_state import View, WallState
 
 WALLS = ("demo", "hiperwall")
 ZOOMS = (1.0, 3.0)

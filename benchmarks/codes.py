@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from tag_service.codes import make_symbol, new_code, render_svg, url_payload
-from webapp.db import Database
-from webapp.migrate import upgrade
-from webapp.tags import TagSpec, issue
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.tags.registry import TagSpec, issue
 
 RENDERS = 2_000
 ISSUES = 500

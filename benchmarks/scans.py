@@ -10,7 +10,7 @@ path costs against the framework's floor.
 
 The aim is a ratio of at least ``TARGET_RATIO``: the scan path should cost little more
 than the framework itself (the code cache and batched scan writes of
-:mod:`webapp.scanning` are what bring it there).
+:mod:`webapp.tags.scanning` are what bring it there).
 """
 
 from __future__ import annotations
@@ -28,8 +28,8 @@ from starlette.requests import Request
 from starlette.responses import PlainTextResponse
 
 from webapp.app import create_app
-from webapp.migrate import upgrade
-from webapp.tags import wall_tags
+from webapp.database.migrate import upgrade
+from webapp.tags.registry import wall_tags
 from webapp.testing import ServerProcess
 
 CONNECTIONS = 16
@@ -120,7 +120,7 @@ def run() -> dict[str, Any]:
         ]
         server.start()
         try:
-            from webapp.db import Database
+            from webapp.database.connection import Database
 
             db = Database(database_url)
             code = next(t.code for t in wall_tags(db, "demo") if t.name == "register-student")

@@ -23,10 +23,10 @@ from typing import Any
 import httpx
 from sqlalchemy import func, select
 
-from webapp.accounts import add_account
-from webapp.db import Database
-from webapp.migrate import upgrade
-from webapp.models import AuditRecord
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.database.models import AuditRecord
+from webapp.people.accounts import add_account
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 

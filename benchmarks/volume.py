@@ -26,11 +26,11 @@ import numpy as np
 
 from wall_client.config import load_wall, parse_wall
 from wall_client.layout import Wall
+from webapp.engine.wall_state import View
 from webapp.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer
 from webapp.volume.store import VolumeStore
 from webapp.volume.tiles import encode, tile_image, tile_plan
-from webapp.wall_state import View
 
 MNI = CONTENT_DIR / "brain_atlas" / "mni_icbm152_t1_tal_nlin_sym_09a.nii.gz"
 SYNTHETIC_SIDE = 1024

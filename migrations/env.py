@@ -2,8 +2,8 @@
 
 from alembic import context
 
-import webapp.models  # noqa: F401  (registers the tables)
-from webapp.db import Base, make_engine
+import webapp.database.models  # noqa: F401  (registers the tables)
+from webapp.database.connection import Base, make_engine
 from webapp.settings import Settings
 
 config = context.config

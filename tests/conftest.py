@@ -21,13 +21,13 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
-from webapp.accounts import add_account
 from webapp.app import create_app
-from webapp.db import Database
-from webapp.migrate import upgrade
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.people.accounts import add_account
 from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
-from webapp.tags import TagSpec, wall_tags
+from webapp.tags.registry import TagSpec, wall_tags
 from webapp.volume.build import build_store, open_source
 
 TEST_SECRET = "test-secret-key-not-for-production"

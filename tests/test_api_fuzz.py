@@ -19,8 +19,8 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import TEST_SECRET
-from webapp.migrate import upgrade
-from webapp.security import operator_token
+from webapp.database.migrate import upgrade
+from webapp.people.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 

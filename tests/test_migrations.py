@@ -4,8 +4,8 @@ from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
 
-from webapp.db import Base, make_engine
-from webapp.migrate import upgrade
+from webapp.database.connection import Base, make_engine
+from webapp.database.migrate import upgrade
 
 
 def test_upgrade_head_has_no_drift(database_url: str) -> None:

@@ -21,14 +21,17 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.config import load_walls
-from webapp.addresses import ClientAddressMiddleware
 from webapp.apps import builtin_apps
-from webapp.bus import MemoryBus
-from webapp.changes import open_wall
-from webapp.db import Database, database_problem, is_outage
+from webapp.database.connection import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
-from webapp.hub import WallHub
+from webapp.engine.bus import MemoryBus
+from webapp.engine.changes import open_wall
+from webapp.engine.hub import WallHub
 from webapp.markdown import markdown_html, markdown_inline
+from webapp.people.addresses import ClientAddressMiddleware
+from webapp.people.tokens import REFRESH_S as TOKEN_REFRESH_S
+from webapp.people.tokens import load_tokens
+from webapp.people.visitors import SessionCookieMiddleware
 from webapp.routes import (
     dashboard,
     health,
@@ -47,9 +50,6 @@ from webapp.schemas import ERROR_MEANINGS, Problem
 from webapp.security_headers import SecurityHeadersMiddleware
 from webapp.services import Services
 from webapp.settings import PROJECT_ROOT, Settings
-from webapp.tokens import REFRESH_S as TOKEN_REFRESH_S
-from webapp.tokens import load_tokens
-from webapp.visitors import SessionCookieMiddleware
 
 log = logging.getLogger(__name__)
 TEMPLATES_DIR = Path(__file__).parent / "templates"

@@ -16,9 +16,9 @@ from sqlalchemy.exc import SQLAlchemyError
 from wall_client.config import WallConfigError, load_wall, load_walls
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
-from webapp.db import Database, database_problem
+from webapp.database.connection import Database, database_problem
+from webapp.people.tokens import Tokens, load_tokens
 from webapp.settings import Settings, lan_address
-from webapp.tokens import Tokens, load_tokens
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
 
 if TYPE_CHECKING:
@@ -85,7 +85,7 @@ def pick_wall(walls: dict[str, Wall], wall_id: str | None, settings: Settings) -
 def open_database(settings: Settings, *, migrate: bool = True) -> Database:
     """The database, migrated first unless told not to; exit 2 with one line saying
     what is wrong when it cannot be reached or used."""
-    from webapp.migrate import upgrade
+    from webapp.database.migrate import upgrade
 
     url = settings.resolved_database_url
     try:
@@ -140,7 +140,7 @@ def serve(host: str | None, port: int | None) -> None:
         ws_max_size=settings.max_frame_bytes,
         log_level="info",
         log_config=uvicorn_log_config(),
-        # Client addresses come from webapp.addresses, from TAGWALL_TRUSTED_PROXIES only:
+        # Client addresses come from webapp.people.addresses, from TAGWALL_TRUSTED_PROXIES only:
         # uvicorn's own proxy headers would believe X-Forwarded-For from 127.0.0.1.
         proxy_headers=False,
     )
@@ -409,7 +409,7 @@ def db() -> None:
 @click.option("--revision", default="head", show_default=True)
 def db_upgrade(revision: str) -> None:
     """Apply migrations up to REVISION (serve does this by itself)."""
-    from webapp.migrate import upgrade
+    from webapp.database.migrate import upgrade
 
     settings = load_settings()
     try:
@@ -427,7 +427,7 @@ def user() -> None:
 def _account_action(action: Callable[[Database], str]) -> None:
     """Run ``action`` on the database; its message on success, exit 1 with the reason
     when the account request cannot be carried out."""
-    from webapp.accounts import AccountError
+    from webapp.people.accounts import AccountError
 
     database = open_database(load_settings())
     try:
@@ -451,7 +451,7 @@ def _account_action(action: Callable[[Database], str]) -> None:
 @click.password_option(help="The password (asked for when not given).")
 def user_add(name: str, role: str, password: str) -> None:
     """Add an account (the password is asked for twice, never echoed)."""
-    from webapp.accounts import add_account
+    from webapp.people.accounts import add_account
 
     _account_action(
         lambda db: f"added {add_account(db, name, role, password, actor='cli').username} ({role})"
@@ -461,7 +461,7 @@ def user_add(name: str, role: str, password: str) -> None:
 @user.command("list")
 def user_list() -> None:
     """List the accounts: username, role, created."""
-    from webapp.accounts import list_accounts
+    from webapp.people.accounts import list_accounts
 
     def listing(db: Database) -> str:
         rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
@@ -474,7 +474,7 @@ def user_list() -> None:
 @click.argument("name")
 def user_remove(name: str) -> None:
     """Remove an account; phones it signed in or paired become students."""
-    from webapp.accounts import remove_account
+    from webapp.people.accounts import remove_account
 
     def remove(db: Database) -> str:
         remove_account(db, name, actor="cli")
@@ -488,7 +488,7 @@ def user_remove(name: str) -> None:
 @click.password_option(help="The new password (asked for when not given).")
 def user_passwd(name: str, password: str) -> None:
     """Set a new password; phones signed in with the old one are signed out."""
-    from webapp.accounts import set_password
+    from webapp.people.accounts import set_password
 
     def change(db: Database) -> str:
         set_password(db, name, password, actor="cli")
@@ -508,8 +508,8 @@ def tokens() -> None:
 def tokens_rotate(which: str, wall_id: str | None) -> None:
     """Replace the operator token or the tile tokens; the old ones stop working within
     seconds, on every server process, and the new URLs are printed."""
-    from webapp.people import revoke
-    from webapp.tokens import OPERATOR, rotate, tile_purpose
+    from webapp.people.person import revoke
+    from webapp.people.tokens import OPERATOR, rotate, tile_purpose
 
     settings = load_settings()
     walls = load_configured_walls(settings)

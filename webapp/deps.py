@@ -15,12 +15,12 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-from webapp.addresses import address_of
-from webapp.people import Person, load_person
-from webapp.ratelimit import WallAction
-from webapp.security import csrf_token, token_matches
+from webapp.people.addresses import address_of
+from webapp.people.person import Person, load_person
+from webapp.people.ratelimit import WallAction
+from webapp.people.security import csrf_token, token_matches
+from webapp.people.visitors import Visitor, adopt, visitor_of
 from webapp.services import Services
-from webapp.visitors import Visitor, adopt, visitor_of
 
 
 async def get_services(request: Request) -> Services:

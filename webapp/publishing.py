@@ -20,12 +20,12 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from wall_client.layout import Wall
-from webapp.changes import change_wall
-from webapp.db import Database
-from webapp.models import PublicationRecord
-from webapp.people import Person
+from webapp.database.connection import Database
+from webapp.database.models import PublicationRecord
+from webapp.engine.changes import change_wall
+from webapp.engine.wall_state import PublicItem, PublicPolicy, WallState, now_ms
+from webapp.people.person import Person
 from webapp.settings import Settings
-from webapp.wall_state import PublicItem, PublicPolicy, WallState, now_ms
 
 if TYPE_CHECKING:
     from webapp.services import Services

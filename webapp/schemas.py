@@ -8,10 +8,10 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from wall_client.layout import Wall
-from webapp.hub import TileStatus
-from webapp.models import PublicationRecord
+from webapp.database.models import PublicationRecord
+from webapp.engine.hub import TileStatus
+from webapp.engine.wall_state import PublicItem, PublicPolicy, View
 from webapp.volume.layer import VolumeLayer
-from webapp.wall_state import PublicItem, PublicPolicy, View
 
 
 class Problem(BaseModel):

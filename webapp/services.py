@@ -8,15 +8,15 @@ from anyio import CapacityLimiter
 
 from wall_client.layout import Wall
 from webapp.apps import WallApp
-from webapp.db import Database
-from webapp.hub import WallHub
-from webapp.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
-from webapp.scanning import CodeDirectory, ScanFeed, ScanLog
+from webapp.database.connection import Database
+from webapp.engine.hub import WallHub
+from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
+from webapp.people.signin import SignInThrottle
+from webapp.people.tokens import Tokens
+from webapp.people.visitors import Visitor
 from webapp.settings import Settings
-from webapp.signin import SignInThrottle
-from webapp.tokens import Tokens
+from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.urls import tile_url
-from webapp.visitors import Visitor
 from webapp.volume.catalog import VolumeCatalog
 
 
@@ -34,7 +34,7 @@ class Services:
     login_throttle: SignInThrottle = field(init=False)
     password_checks: CapacityLimiter = field(init=False)
     volumes: VolumeCatalog = field(init=False)
-    tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.tokens)
+    tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)

@@ -12,13 +12,14 @@ from typing import Annotated, Literal
 from pydantic import Field, IPvAnyNetwork, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
-Role = Literal["student", "instructor", "admin"]
-ROLES: tuple[Role, ...] = ("student", "instructor", "admin")  # in rising order of privilege
-UserGroup = Literal["k5", "undergraduate", "medical", "research"]
-USER_GROUPS: tuple[UserGroup, ...] = ("k5", "undergraduate", "medical", "research")
-InfoClass = Annotated[int, Field(ge=1, le=5)]
-MAX_INFO_CLASS: dict[Role, int] = {"student": 3, "instructor": 5, "admin": 5}
-DEFAULT_INFO_CLASS: dict[Role, int] = {"student": 1, "instructor": 5, "admin": 5}
+from webapp.people.roles import (
+    DEFAULT_INFO_CLASS,
+    MAX_INFO_CLASS,
+    ROLES,
+    InfoClass,
+    Role,
+    UserGroup,
+)
 
 # Where phones must reach the server (the wall's purpose), so it listens on every
 # interface by default; TAGWALL_HOST=127.0.0.1 keeps it on this machine.

@@ -18,7 +18,7 @@ from typing import Any
 
 import httpx
 
-from webapp.security import operator_token, tile_token
+from webapp.people.security import operator_token, tile_token
 from webapp.urls import tile_path
 
 

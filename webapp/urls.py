@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from tag_service.codes import content_hash
+from webapp.people.tokens import Tokens
 from webapp.settings import Settings
-from webapp.tokens import Tokens
 
 
 def tile_path(token: str, wall_id: str, tile_id: str) -> str:

@@ -22,8 +22,8 @@ from tests.browser.conftest import open_tiles, serve, version_of
 from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.views import load_views
 from webapp.check import fetch_layout
+from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo
-from webapp.security import operator_token
 from webapp.testing import ServerProcess, wait_until
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]

@@ -19,8 +19,8 @@ from tests.browser.conftest import open_tiles, serve, version_of
 from wall_client.layout import Rect, Wall, apply_affine, load_wall
 from webapp.apps.census_map.mapview import COLOURS, contrast_ratio
 from webapp.check import fetch_layout
+from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo
-from webapp.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 

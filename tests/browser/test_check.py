@@ -13,7 +13,7 @@ from pathlib import Path
 
 from wall_client.config import load_wall
 from webapp.check import check_wall, fetch_layout
-from webapp.security import operator_token, tile_token
+from webapp.people.security import operator_token, tile_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 from webapp.urls import tile_path

@@ -12,8 +12,8 @@ from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, version_of
 from wall_client.config import load_wall
 from webapp.check import fetch_layout
+from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo
-from webapp.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 

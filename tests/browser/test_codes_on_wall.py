@@ -33,8 +33,8 @@ from wall_client.config import load_wall
 from wall_client.layout import Wall, apply_affine
 from webapp.apps.brain_atlas import PIN_CLEARANCE_OF_CODE
 from webapp.check import fetch_layout
+from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo, PlacedCode
-from webapp.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 

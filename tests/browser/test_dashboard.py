@@ -5,7 +5,7 @@ from __future__ import annotations
 from playwright.sync_api import Browser, expect
 
 from tests.browser.conftest import open_tiles, version_of
-from webapp.security import operator_token
+from webapp.people.security import operator_token
 from webapp.testing import ServerProcess, wait_until
 
 

@@ -21,9 +21,9 @@ from playwright.sync_api import Browser
 from sqlalchemy import select
 
 from tests.browser.conftest import open_tiles, serve, version_of
-from webapp.db import Database
-from webapp.models import PublicationRecord, WallEventRecord
-from webapp.tags import wall_tags
+from webapp.database.connection import Database
+from webapp.database.models import PublicationRecord, WallEventRecord
+from webapp.tags.registry import wall_tags
 from webapp.testing import ServerProcess, wait_until
 
 STUDENTS = 16

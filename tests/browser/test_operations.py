@@ -11,12 +11,12 @@ import httpx
 from websockets.sync.client import connect
 
 from tests.browser.conftest import serve
-from webapp.address_rules import add_rule
-from webapp.db import Database
-from webapp.migrate import upgrade
-from webapp.protocol import CLOSE_POLICY
-from webapp.security import operator_token, tile_token
-from webapp.tags import wall_tags
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.engine.protocol import CLOSE_POLICY
+from webapp.people.address_rules import add_rule
+from webapp.people.security import operator_token, tile_token
+from webapp.tags.registry import wall_tags
 from webapp.testing import ServerProcess, wait_until
 
 

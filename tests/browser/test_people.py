@@ -14,10 +14,10 @@ from playwright.sync_api import Browser, BrowserContext, Locator, Page, expect
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles
 from tests.conftest import TEST_PASSWORD
-from webapp.accounts import add_account
 from webapp.check import fetch_layout
-from webapp.db import Database
-from webapp.security import operator_token
+from webapp.database.connection import Database
+from webapp.people.accounts import add_account
+from webapp.people.security import operator_token
 from webapp.testing import ServerProcess
 
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}

@@ -24,7 +24,7 @@ from playwright.sync_api import Browser, BrowserContext, Page, expect
 from tests.browser.conftest import serve
 from tests.browser.phone_audit import PHONE_WIDTHS, SERIOUS, Fit, axe_violations, fits
 from webapp.check import fetch_layout
-from webapp.security import operator_token
+from webapp.people.security import operator_token
 from webapp.settings import Settings
 from webapp.testing import ServerProcess
 

@@ -27,7 +27,7 @@ from playwright.sync_api import Browser, BrowserContext, Page, expect
 
 from tests.browser.conftest import serve
 from webapp.check import fetch_layout
-from webapp.security import operator_token
+from webapp.people.security import operator_token
 from webapp.testing import ServerProcess, skewed_clock, wait_until
 
 WALL = "demo"

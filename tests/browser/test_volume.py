@@ -10,7 +10,7 @@ from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
 from tests.browser.conftest import open_tiles, version_of
-from webapp.security import operator_token
+from webapp.people.security import operator_token
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 from webapp.volume.build import build_store, open_source

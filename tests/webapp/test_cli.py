@@ -9,12 +9,12 @@ import pytest
 from click.testing import CliRunner
 
 from tests.conftest import TEST_SECRET, blob_volume
-from webapp.accounts import authenticate
 from webapp.cli import main
-from webapp.db import Database
+from webapp.database.connection import Database
+from webapp.engine.wall_state import read_state
+from webapp.people.accounts import authenticate
 from webapp.settings import CONTENT_DIR
 from webapp.volume.store import VolumeStore
-from webapp.wall_state import read_state
 
 
 @pytest.fixture

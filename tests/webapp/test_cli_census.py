@@ -14,8 +14,8 @@ from tests.conftest import TEST_SECRET
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
 from webapp.cli import main
-from webapp.db import Database
-from webapp.security import operator_token
+from webapp.database.connection import Database
+from webapp.people.security import operator_token
 
 
 def closed_port() -> int:

@@ -13,7 +13,7 @@ from sqlalchemy.engine import make_url
 
 from tests.conftest import POSTGRES_URL, operator_headers, register_student
 from webapp.app import create_app
-from webapp.migrate import upgrade
+from webapp.database.migrate import upgrade
 from webapp.settings import Settings
 
 

@@ -13,9 +13,11 @@ from sqlalchemy import select
 
 from wall_client.layout import load_walls
 from webapp.app import create_app
-from webapp.db import Database
-from webapp.models import PublicationRecord
-from webapp.people import Person, grant, load_person
+from webapp.database.connection import Database
+from webapp.database.models import PublicationRecord
+from webapp.engine.wall_state import PublicItem, PublicPolicy, read_state
+from webapp.people.person import Person, grant, load_person
+from webapp.people.visitors import Visitor
 from webapp.publishing import (
     Block,
     Publication,
@@ -30,8 +32,6 @@ from webapp.publishing import (
 )
 from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
-from webapp.visitors import Visitor
-from webapp.wall_state import PublicItem, PublicPolicy, read_state
 
 WALL = "demo"
 EVIL = '<script>alert(1)</script>"onload='

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from tests.conftest import TEST_SECRET
 from webapp import cli, settings
 from webapp.check import fetch_layout
-from webapp.security import operator_token
+from webapp.people.security import operator_token
 from webapp.settings import CONTENT_DIR, lan_address
 from webapp.testing import ServerProcess
 

@@ -16,12 +16,12 @@ from typing import TYPE_CHECKING, Protocol
 from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
-from webapp.models import TagRecord
-from webapp.people import Person
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person
+from webapp.people.visitors import Visitor
 from webapp.publishing import Publication
-from webapp.tags import TagSpec
-from webapp.visitors import Visitor
-from webapp.wall_state import WallState
+from webapp.tags.registry import TagSpec
 
 if TYPE_CHECKING:
     from webapp.services import Services
@@ -57,7 +57,7 @@ class WallApp(Protocol):
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """The named tags the app needs on ``wall`` in ``state`` (declared at every
-        start, and again whenever one of :data:`webapp.changes.PLACING_FIELDS` changes)."""
+        start, and again whenever one of :data:`webapp.engine.changes.PLACING_FIELDS` changes)."""
         ...
 
     async def on_scan(self, scan: Scan) -> Response:

@@ -12,12 +12,12 @@ from fastapi.responses import RedirectResponse
 from wall_client.layout import Wall
 from webapp.apps import Scan
 from webapp.deps import remember_person
-from webapp.people import Person, address_grant, assume, grant
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person, address_grant, assume, grant
+from webapp.people.roles import Role
 from webapp.publishing import Publication
 from webapp.routes.pages import render
-from webapp.settings import Role
-from webapp.tags import TagSpec
-from webapp.wall_state import WallState
+from webapp.tags.registry import TagSpec
 
 if TYPE_CHECKING:
     from webapp.services import Services

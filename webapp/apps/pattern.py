@@ -17,10 +17,10 @@ from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import ROLES, Display, Wall
 from webapp.apps import Scan
+from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing import Block, Publication
 from webapp.routes.pages import render
-from webapp.tags import TagSpec, get_layout
-from webapp.wall_state import WallState, read_state
+from webapp.tags.registry import TagSpec, get_layout
 
 if TYPE_CHECKING:
     from webapp.services import Services

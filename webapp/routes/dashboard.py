@@ -13,19 +13,19 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
-from webapp.accounts import AccountError, add_account, list_accounts, remove_account
-from webapp.address_rules import RuleError, add_rule, list_rules, remove_rule
-from webapp.addresses import address_of
-from webapp.audit import recent_entries
 from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep
-from webapp.people import GROUP_LABELS, load_person
-from webapp.protocol import CLOSE_POLICY, CLOSE_UNKNOWN, DashboardStatus, ScanSeen
+from webapp.engine.protocol import CLOSE_POLICY, CLOSE_UNKNOWN, DashboardStatus, ScanSeen
+from webapp.people.accounts import AccountError, add_account, list_accounts, remove_account
+from webapp.people.address_rules import RuleError, add_rule, list_rules, remove_rule
+from webapp.people.addresses import address_of
+from webapp.people.audit import recent_entries
+from webapp.people.person import GROUP_LABELS, load_person
+from webapp.people.visitors import visitor_of
 from webapp.publishing import waiting
 from webapp.routes.pages import render
 from webapp.routes.walls import status_of
 from webapp.schemas import PublicationInfo, WallInfo
 from webapp.services import Services
-from webapp.visitors import visitor_of
 
 router = APIRouter(include_in_schema=False)
 

@@ -6,10 +6,10 @@ from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 
 from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
-from webapp.protocol import ViewportInfo
+from webapp.engine.protocol import ViewportInfo
+from webapp.people.security import csrf_token
 from webapp.publishing import screen_layout
 from webapp.schemas import WallInfo
-from webapp.security import csrf_token
 
 router = APIRouter(include_in_schema=False)
 

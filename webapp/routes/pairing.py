@@ -12,8 +12,8 @@ from pydantic import BaseModel
 
 from tag_service.codes import make_symbol, render_svg, url_payload
 from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep, remember_person
-from webapp.pairing import PairingError, check_pairing, redeem, start_pairing
-from webapp.people import grant
+from webapp.people.pairing import PairingError, check_pairing, redeem, start_pairing
+from webapp.people.person import grant
 from webapp.routes.pages import render
 
 router = APIRouter()

@@ -9,8 +9,6 @@ from fastapi import APIRouter, Form, Query, Request, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
-from webapp.accounts import authenticate
-from webapp.audit import audit
 from webapp.deps import (
     ClientAddressDep,
     CsrfDep,
@@ -18,12 +16,14 @@ from webapp.deps import (
     ServicesDep,
     remember_person,
 )
-from webapp.people import GROUP_LABELS, grant, sign_out, update_profile
+from webapp.people.accounts import authenticate
+from webapp.people.audit import audit
+from webapp.people.person import GROUP_LABELS, grant, sign_out, update_profile
+from webapp.people.roles import USER_GROUPS
+from webapp.people.security import token_matches
+from webapp.people.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
 from webapp.routes.pages import render
-from webapp.security import token_matches
 from webapp.services import Services
-from webapp.settings import USER_GROUPS
-from webapp.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
 
 router = APIRouter(include_in_schema=False)
 

@@ -10,7 +10,7 @@ from fastapi.responses import HTMLResponse
 
 from tag_service.codes import normalize_code
 from webapp.apps import Scan
-from webapp.db import RowId
+from webapp.database.connection import RowId
 from webapp.deps import (
     ClientAddressDep,
     CsrfDep,
@@ -20,11 +20,11 @@ from webapp.deps import (
     StaffOnly,
     WallDep,
 )
+from webapp.engine.wall_state import PublicPolicy, read_state
 from webapp.publishing import PublishRefused, clear, decide, set_policy, submit, waiting
 from webapp.routes.pages import render
 from webapp.schemas import PublicationInfo, PublicScreenInfo, errors
-from webapp.tags import find, is_live
-from webapp.wall_state import PublicPolicy, read_state
+from webapp.tags.registry import find, is_live
 
 router = APIRouter()
 

@@ -12,9 +12,9 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
 from webapp.apps import Scan
 from webapp.deps import ClientAddressDep, ServicesDep
+from webapp.people.visitors import Visitor, visitor_of
 from webapp.routes.pages import render
-from webapp.tags import find, payload_of
-from webapp.visitors import Visitor, visitor_of
+from webapp.tags.registry import find, payload_of
 
 router = APIRouter(include_in_schema=False)
 

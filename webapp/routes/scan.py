@@ -26,10 +26,10 @@ from starlette.types import Message
 from tag_service.codes import normalize_code
 from tag_service.verify import Decoded, NotAnImage, TooManyPixels, decode_image, open_image
 from webapp.deps import ServicesDep
+from webapp.engine.wall_state import read_state
 from webapp.routes.pages import render
 from webapp.services import Services
-from webapp.tags import find, get_layout
-from webapp.wall_state import read_state
+from webapp.tags.registry import find, get_layout
 
 router = APIRouter(include_in_schema=False)
 

@@ -9,13 +9,14 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
-from webapp.changes import change_wall, unchanged
-from webapp.db import RowId
+from webapp.database.connection import RowId
+from webapp.database.models import TagRecord
 from webapp.deps import ServicesDep, StaffOnly, WallDep
-from webapp.models import TagRecord
+from webapp.engine.changes import change_wall, unchanged
+from webapp.engine.wall_state import read_state
 from webapp.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate, errors
 from webapp.services import Services
-from webapp.tags import (
+from webapp.tags.registry import (
     TagSpec,
     anchor_of,
     find,
@@ -27,7 +28,6 @@ from webapp.tags import (
     wall_tags,
 )
 from webapp.urls import code_image_path
-from webapp.wall_state import read_state
 
 router = APIRouter(prefix="/api", tags=["tags"])
 

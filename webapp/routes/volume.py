@@ -9,6 +9,7 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import ValidationError
 
 from webapp.deps import DetailedRenderAccess, ServicesDep, StaffOnly, TileDep, WallDep
+from webapp.engine.wall_state import read_state
 from webapp.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene, errors
 from webapp.services import Services
 from webapp.volume.store import VolumeStore, VolumeStoreError
@@ -21,7 +22,6 @@ from webapp.volume.tiles import (
     tile_image,
     tile_plan,
 )
-from webapp.wall_state import read_state
 
 router = APIRouter(tags=["volumes"])
 

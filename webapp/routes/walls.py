@@ -6,12 +6,12 @@ from fastapi import APIRouter, HTTPException, status
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
-from webapp.changes import change_wall
 from webapp.deps import ServicesDep, StaffOnly, WallDep
-from webapp.hub import TileStatus
+from webapp.engine.changes import change_wall
+from webapp.engine.hub import TileStatus
+from webapp.engine.wall_state import StatePatch, read_state
 from webapp.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
 from webapp.services import Services
-from webapp.wall_state import StatePatch, read_state
 
 router = APIRouter(prefix="/api/walls", tags=["walls"])
 

@@ -19,10 +19,9 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from wall_client.layout import Wall
-from webapp.addresses import address_of
-from webapp.bus import SubscriberTooSlow, Subscription
-from webapp.db import is_outage
-from webapp.protocol import (
+from webapp.database.connection import is_outage
+from webapp.engine.bus import SubscriberTooSlow, Subscription
+from webapp.engine.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
     CLOSE_TOO_BIG,
@@ -37,9 +36,10 @@ from webapp.protocol import (
     Snapshot,
     ViewportInfo,
 )
-from webapp.security import token_matches
+from webapp.engine.wall_state import events_since, now_ms, read_state
+from webapp.people.addresses import address_of
+from webapp.people.security import token_matches
 from webapp.services import Services
-from webapp.wall_state import events_since, now_ms, read_state
 
 router = APIRouter()
 log = logging.getLogger(__name__)

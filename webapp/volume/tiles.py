@@ -9,6 +9,7 @@ from typing import Literal
 from PIL import Image as PILImage
 
 from wall_client.layout import Wall
+from webapp.engine.wall_state import View
 from webapp.volume.layer import VolumeLayer
 from webapp.volume.render import (
     Camera,
@@ -21,7 +22,6 @@ from webapp.volume.render import (
     render,
 )
 from webapp.volume.store import VolumeStore
-from webapp.wall_state import View
 
 Detail = Literal["fallback", "refined"]
 ImageFormat = Literal["png", "webp"]

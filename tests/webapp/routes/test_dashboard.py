@@ -11,11 +11,11 @@ from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
 from tests.conftest import TEST_PASSWORD, csrf_of, register_student, services_of, sign_in
-from webapp.accounts import authenticate, list_accounts, remove_account, set_password
-from webapp.address_rules import list_rules
 from webapp.app import create_app
-from webapp.migrate import upgrade
-from webapp.protocol import CLOSE_POLICY
+from webapp.database.migrate import upgrade
+from webapp.engine.protocol import CLOSE_POLICY
+from webapp.people.accounts import authenticate, list_accounts, remove_account, set_password
+from webapp.people.address_rules import list_rules
 from webapp.settings import Settings
 
 

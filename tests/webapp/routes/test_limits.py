@@ -12,10 +12,10 @@ from httpx import Response
 
 from tests.conftest import csrf_of, operator_headers, services_of
 from webapp.app import create_app
-from webapp.migrate import upgrade
+from webapp.database.migrate import upgrade
+from webapp.engine.wall_state import WallState, read_state
 from webapp.settings import Settings
-from webapp.tags import get_layout, wall_tags
-from webapp.wall_state import WallState, read_state
+from webapp.tags.registry import get_layout, wall_tags
 
 NAT = ("198.51.100.7", 5000)  # the campus NAT every phone of the hall comes from
 PHONES = 300

@@ -16,7 +16,7 @@ def test_healthz_503_when_database_unreachable(client: TestClient) -> None:
 
 
 def test_healthz_503_with_a_dead_database(client: TestClient) -> None:
-    from webapp.db import Database
+    from webapp.database.connection import Database
 
     services = client.app.state.services  # type: ignore[attr-defined]
     services.db = Database("postgresql+psycopg://nobody@127.0.0.1:1/none")

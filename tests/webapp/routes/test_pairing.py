@@ -9,7 +9,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy import update
 
 from tests.conftest import csrf_of, services_of, sign_in
-from webapp.models import PairingRecord
+from webapp.database.models import PairingRecord
 
 
 def new_code(instructor: TestClient) -> dict[str, str]:

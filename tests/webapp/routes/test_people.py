@@ -18,12 +18,12 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
-from webapp.accounts import add_account, remove_account
-from webapp.address_rules import add_rule
-from webapp.models import AuditRecord
+from webapp.database.models import AuditRecord
+from webapp.people.accounts import add_account, remove_account
+from webapp.people.address_rules import add_rule
+from webapp.people.visitors import SESSION_COOKIE
 from webapp.settings import Settings
-from webapp.tags import wall_tags
-from webapp.visitors import SESSION_COOKIE
+from webapp.tags.registry import wall_tags
 
 
 def code_named(client: TestClient, name: str) -> str:
@@ -216,7 +216,7 @@ def with_settings(settings: Settings, **changes: object) -> Settings:
 @pytest.fixture
 def make_app() -> Callable[[Settings], FastAPI]:
     from webapp.app import create_app
-    from webapp.migrate import upgrade
+    from webapp.database.migrate import upgrade
 
     def build(settings: Settings) -> FastAPI:
         upgrade(settings.resolved_database_url)

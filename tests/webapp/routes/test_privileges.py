@@ -26,11 +26,11 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
-from webapp.accounts import add_account
-from webapp.address_rules import add_rule
-from webapp.tags import wall_tags
+from webapp.engine.wall_state import commit_change, read_state
+from webapp.people.accounts import add_account
+from webapp.people.address_rules import add_rule
+from webapp.tags.registry import wall_tags
 from webapp.volume.layer import VolumeLayer
-from webapp.wall_state import commit_change, read_state
 
 ROLES = ("anonymous", "student", "instructor", "admin")
 OK, LOGIN = "ok", "login"  # any success (2xx, or a redirect not to sign in); sent to sign in

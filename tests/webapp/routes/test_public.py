@@ -7,10 +7,10 @@ from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, register_student, services_of, sign_in
 from webapp.app import create_app
+from webapp.engine.wall_state import read_state
 from webapp.publishing import waiting
 from webapp.settings import Settings
-from webapp.tags import wall_tags
-from webapp.wall_state import read_state
+from webapp.tags.registry import wall_tags
 
 
 def setup_code(client: TestClient, tile: str = "r2c2") -> str:

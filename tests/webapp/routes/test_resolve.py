@@ -11,11 +11,11 @@ from itsdangerous import URLSafeSerializer
 from tests.conftest import operator_headers
 from wall_client.layout import Wall
 from webapp.apps import Scan
-from webapp.models import ScanRecord
-from webapp.scanning import scans_of
+from webapp.database.models import ScanRecord
+from webapp.people.visitors import SESSION_COOKIE
 from webapp.services import Services
-from webapp.tags import TagSpec, issue, wall_tags
-from webapp.visitors import SESSION_COOKIE
+from webapp.tags.registry import TagSpec, issue, wall_tags
+from webapp.tags.scanning import scans_of
 
 PHONE = {"User-Agent": "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X)"}
 

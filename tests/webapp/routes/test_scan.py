@@ -23,10 +23,10 @@ from tag_service.sizing import min_module_mm
 from tag_service.verify import Shot, phone_frame
 from tests.conftest import services_of
 from webapp.app import create_app
-from webapp.migrate import upgrade
+from webapp.database.migrate import upgrade
 from webapp.routes import scan
 from webapp.settings import Settings
-from webapp.tags import wall_tags
+from webapp.tags.registry import wall_tags
 
 BASE_URL = "http://192.168.1.20:8000"
 CODE = "K7Q2ZP9"

@@ -16,10 +16,10 @@ from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
 from tests.conftest import TEST_PASSWORD, csrf_of, services_of
-from webapp import accounts
-from webapp.accounts import add_account
-from webapp.models import AuditRecord
-from webapp.signin import ACCOUNT_FREE_CLIENTS
+from webapp.database.models import AuditRecord
+from webapp.people import accounts
+from webapp.people.accounts import add_account
+from webapp.people.signin import ACCOUNT_FREE_CLIENTS
 
 _CSRF = re.compile(r'name="csrf" value="([^"]+)"')
 

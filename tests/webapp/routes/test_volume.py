@@ -15,7 +15,7 @@ from PIL import Image
 
 from tests.conftest import build_test_volume, services_of
 from tests.conftest import operator_headers as operator
-from webapp.wall_state import read_state
+from webapp.engine.wall_state import read_state
 
 
 @pytest.fixture

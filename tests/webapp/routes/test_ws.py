@@ -10,8 +10,8 @@ from starlette.websockets import WebSocketDisconnect
 
 from tests.conftest import TEST_SECRET
 from tests.conftest import operator_headers as operator
-from webapp.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
-from webapp.security import tile_token
+from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
+from webapp.people.security import tile_token
 
 TOKEN = tile_token(TEST_SECRET, "demo")
 TILE = f"/ws/wall/demo/tile/r1c1?token={TOKEN}"

@@ -23,6 +23,7 @@ from pydantic import ValidationError
 
 from wall_client.config import parse_wall
 from wall_client.layout import Wall
+from webapp.engine.wall_state import View
 from webapp.volume.build import build_store, open_source
 from webapp.volume.layer import Mode, VolumeLayer, lookup_table
 from webapp.volume.render import (
@@ -39,7 +40,6 @@ from webapp.volume.render import (
 )
 from webapp.volume.store import VolumeMeta, VolumeStore
 from webapp.volume.wavelet import downsample
-from webapp.wall_state import View
 
 SHAPE = (40, 36, 28)
 BRICK = 8

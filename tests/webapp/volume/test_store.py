@@ -11,6 +11,7 @@ import pytest
 
 from wall_client.config import parse_wall
 from wall_client.layout import Wall
+from webapp.engine.wall_state import View
 from webapp.volume.build import build_store, open_source
 from webapp.volume.layer import VolumeLayer
 from webapp.volume.render import (
@@ -31,7 +32,6 @@ from webapp.volume.store import (
     VolumeStore,
     VolumeStoreError,
 )
-from webapp.wall_state import View
 
 SIDE = 64
 BRICK = 8

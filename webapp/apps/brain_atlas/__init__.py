@@ -33,12 +33,13 @@ from webapp.apps.brain_atlas.matching import AnswerKey, answer_key
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.quiz import Round, get_round, new_order, open_round
 from webapp.apps.brain_atlas.views import ViewPreset, load_views
-from webapp.people import Person
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person
+from webapp.people.roles import UserGroup
 from webapp.publishing import Block, Publication
-from webapp.settings import Settings, UserGroup
-from webapp.tags import TagSpec, anchored_code_side_mm, get_layout, preview, wall_tags
+from webapp.settings import Settings
+from webapp.tags.registry import TagSpec, anchored_code_side_mm, get_layout, preview, wall_tags
 from webapp.volume.build import build_store, open_source
-from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
     from webapp.services import Services
@@ -168,7 +169,7 @@ class BrainApp:
         ``wall`` (placed, so scannable: a pin the picture shows may find no room for
         its code). Phones send students only where they can scan the pin.
 
-        Each view is placed as the wall would place it (``webapp.tags.preview``), and
+        Each view is placed as the wall would place it (``webapp.tags.registry.preview``), and
         the outcome is kept by its inputs' digest, so it is computed once per round."""
         where: dict[int, list[str]] = {}
         for preset in self.views:

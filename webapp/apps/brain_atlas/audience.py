@@ -16,8 +16,8 @@ from datetime import UTC, datetime, timedelta
 from sqlalchemy import or_, update
 from sqlalchemy.exc import IntegrityError
 
-from webapp.db import Database
-from webapp.models import BrainWallRecord
+from webapp.database.connection import Database
+from webapp.database.models import BrainWallRecord
 
 
 def _ensure(db: Database, wall_id: str) -> None:

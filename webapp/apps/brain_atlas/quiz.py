@@ -32,8 +32,8 @@ from sqlalchemy.orm import Session
 
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.matching import MAX_ANSWER_LENGTH
-from webapp.db import Database, as_utc
-from webapp.models import (
+from webapp.database.connection import Database, as_utc
+from webapp.database.models import (
     BrainAnswerRecord,
     BrainQuizFinishRecord,
     BrainQuizRoundRecord,

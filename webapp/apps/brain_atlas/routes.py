@@ -34,13 +34,13 @@ from webapp.apps.brain_atlas.quiz import (
     start_round,
     statistics,
 )
-from webapp.changes import change_wall
-from webapp.db import RowId
+from webapp.database.connection import RowId
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
+from webapp.engine.changes import change_wall
+from webapp.engine.wall_state import WallState
 from webapp.routes.pages import render
 from webapp.schemas import errors
 from webapp.services import Services
-from webapp.wall_state import WallState
 
 router = APIRouter(tags=["brain"])
 

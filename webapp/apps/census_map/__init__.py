@@ -25,10 +25,15 @@ from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
 from webapp.apps.census_map.store import DataSets, current_id
 from webapp.caching import SizedCache
-from webapp.changes import change_wall
+from webapp.engine.changes import change_wall
+from webapp.engine.wall_state import WallState
 from webapp.publishing import Block, Publication
-from webapp.tags import TagSpec, anchored_code_side_mm, anchored_footprint_mm, places_anchored
-from webapp.wall_state import WallState
+from webapp.tags.registry import (
+    TagSpec,
+    anchored_code_side_mm,
+    anchored_footprint_mm,
+    places_anchored,
+)
 
 if TYPE_CHECKING:
     from webapp.services import Services
@@ -224,7 +229,7 @@ class CensusApp:
     async def tract_on_wall(
         self, services: Services, wall: Wall, geoid: str
     ) -> tuple[WallState, DataSet | None, Tract | None]:
-        from webapp.wall_state import read_state
+        from webapp.engine.wall_state import read_state
 
         _, state = await run_in_threadpool(read_state, services.db, wall.id)
         dataset = await run_in_threadpool(self.shown, services, state)

@@ -1,6 +1,6 @@
 """What phones do to the census map on the wall: flip a tract group, open a balloon.
 
-Each is one state change through the door (``webapp.changes``); a balloon is placed
+Each is one state change through the door (``webapp.engine.changes``); a balloon is placed
 while the door holds the wall, so two opened at once never land on each other.
 """
 
@@ -14,10 +14,10 @@ from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
-from webapp.changes import Update, change_wall, plan_change
+from webapp.engine.changes import Update, change_wall, plan_change
+from webapp.engine.wall_state import Balloon, WallState, now_ms
 from webapp.schemas import PlacedCode
-from webapp.tags import get_layout
-from webapp.wall_state import Balloon, WallState, now_ms
+from webapp.tags.registry import get_layout
 
 if TYPE_CHECKING:
     from webapp.apps.census_map import CensusApp

@@ -31,7 +31,7 @@ from shapely.geometry import mapping, shape
 
 from webapp.apps.census_map import store
 from webapp.apps.census_map.dataset import DataSetSettings, Value, default_settings
-from webapp.db import Database
+from webapp.database.connection import Database
 
 LISTED = 20  # keys listed per kind of problem; the rest are counted
 MISSING_TEXT = frozenset({"", "na", "n/a", "-", "null"})

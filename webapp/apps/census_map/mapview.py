@@ -25,7 +25,7 @@ from shapely.ops import nearest_points, polylabel
 
 from wall_client.layout import Affine, Rect, Wall, apply_affine, compose_affine
 from webapp.apps.census_map.dataset import DataSet
-from webapp.wall_state import View
+from webapp.engine.wall_state import View
 
 MARGIN = 0.03  # of the wall left around the data at zoom 1
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before

@@ -15,12 +15,12 @@ from webapp.apps import Scan
 from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.database.models import TagRecord
 from webapp.deps import limit_action
-from webapp.models import TagRecord
-from webapp.people import Person
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person
+from webapp.people.visitors import Visitor
 from webapp.routes.pages import render
-from webapp.visitors import Visitor
-from webapp.wall_state import WallState
 
 if TYPE_CHECKING:
     from webapp.apps.census_map import CensusApp
@@ -32,7 +32,7 @@ async def shown_dataset(
 ) -> tuple[WallState, DataSet]:
     """The data set on the wall; 409 when the census map is not on it now."""
     from webapp.apps.census_map import APP
-    from webapp.wall_state import read_state
+    from webapp.engine.wall_state import read_state
 
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
     dataset = await run_in_threadpool(app.shown, services, state) if state.app == APP else None

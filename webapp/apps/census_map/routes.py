@@ -19,7 +19,8 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.store import list_datasets, make_current
-from webapp.db import ROW_ID_MAX, RowId
+from webapp.database.connection import ROW_ID_MAX, RowId
+from webapp.database.models import TagRecord
 from webapp.deps import (
     ClientAddressDep,
     CsrfDep,
@@ -30,12 +31,11 @@ from webapp.deps import (
     WallDep,
     limit_action,
 )
-from webapp.models import TagRecord
+from webapp.engine.wall_state import View, WallState, now_ms, read_state
 from webapp.routes.pages import render
 from webapp.schemas import PlacedCode, errors
 from webapp.services import Services
-from webapp.tags import get_layout
-from webapp.wall_state import View, WallState, now_ms, read_state
+from webapp.tags.registry import get_layout
 
 router = APIRouter(tags=["census"])
 NETWORK_LINK_REFRESH_S = 10

@@ -24,8 +24,8 @@ from webapp.apps.census_map.dataset import (
     county_of,
     tract_label,
 )
-from webapp.db import Database
-from webapp.models import CensusDataSetRecord, CensusTractRecord
+from webapp.database.connection import Database
+from webapp.database.models import CensusDataSetRecord, CensusTractRecord
 from webapp.settings import CONTENT_DIR
 
 SHIPPED = CONTENT_DIR / "census" / "sacramento-2000.geojson"

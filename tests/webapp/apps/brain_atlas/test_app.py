@@ -15,9 +15,9 @@ from tests.conftest import csrf_of, operator_headers, register_student, services
 from webapp.apps.brain_atlas import BrainApp
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import get_round
+from webapp.engine.wall_state import WallState, events_since, read_state
 from webapp.markdown import markdown_html
-from webapp.tags import get_layout, wall_tags
-from webapp.wall_state import WallState, events_since, read_state
+from webapp.tags.registry import get_layout, wall_tags
 
 
 def state_of(client: TestClient) -> WallState:

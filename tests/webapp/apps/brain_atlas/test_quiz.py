@@ -22,7 +22,7 @@ from webapp.apps.brain_atlas.quiz import (
     start_round,
     statistics,
 )
-from webapp.db import Database
+from webapp.database.connection import Database
 
 WALL = "demo"
 R = 1  # the round the tests answer in (opened by the fixture)

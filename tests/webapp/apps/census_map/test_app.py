@@ -13,9 +13,9 @@ from fastapi.testclient import TestClient
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
 from wall_client.layout import Rect
 from webapp.apps.census_map.store import list_datasets
+from webapp.engine.wall_state import WallState, read_state
 from webapp.schemas import PlacedCode
-from webapp.tags import get_layout, wall_tags
-from webapp.wall_state import WallState, read_state
+from webapp.tags.registry import get_layout, wall_tags
 
 
 def state_of(client: TestClient) -> WallState:

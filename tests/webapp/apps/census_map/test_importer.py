@@ -14,8 +14,8 @@ from sqlalchemy.orm import Session
 
 from webapp.apps.census_map import importer, store
 from webapp.apps.census_map.importer import CensusImportError, ImportReport, import_files
-from webapp.db import Database
-from webapp.models import CensusTractRecord
+from webapp.database.connection import Database
+from webapp.database.models import CensusTractRecord
 
 KEYS = ("06067000100", "06067000200", "06067000300")
 NAD83_UTM = (

@@ -27,8 +27,8 @@ from webapp.apps.census_map.mapview import (
     tile_view,
     tract_codes,
 )
+from webapp.engine.wall_state import View
 from webapp.settings import CONTENT_DIR
-from webapp.wall_state import View
 
 
 @pytest.fixture(scope="module")

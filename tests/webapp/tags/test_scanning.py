@@ -1,0 +1,119 @@
+"""The scan path: codes judged from a short-lived cache, scans written in batches."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+
+import pytest
+from sqlalchemy import update
+from sqlalchemy.exc import DBAPIError
+
+from tests.conftest import tag_spec
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.database.models import TagRecord, WallStateRecord
+from webapp.tags.registry import issue
+from webapp.tags.scanning import CodeDirectory, ScanLog, scans_of
+
+
+def switch_off(db: Database, code: str) -> None:
+    with db.session() as session:
+        session.execute(update(TagRecord).where(TagRecord.code == code).values(active=False))
+
+
+async def test_live_codes_resolve_and_the_rest_say_why(db: Database) -> None:
+    codes = CodeDirectory(db)
+    live = issue(db, "demo", tag_spec(), "test")
+    off = issue(db, "demo", tag_spec(active=False), "test")
+    expired = issue(
+        db, "demo", tag_spec(expires_at=datetime.now(UTC) - timedelta(minutes=1)), "test"
+    )
+    hidden = issue(db, "demo", tag_spec(tag_set="k5"), "test")
+
+    assert (await codes.resolve("NOSUCH1")).tag is None
+    resolution = await codes.resolve(live.code)
+    assert resolution.problem is None and resolution.tag is not None
+    assert resolution.tag.code == live.code
+    for tag in (off, expired):
+        assert (await codes.resolve(tag.code)).problem == (
+            "This code has been switched off or has expired."
+        )
+    problem = (await codes.resolve(hidden.code)).problem
+    assert problem is not None and "'k5' codes, which are not on the wall now" in problem
+
+
+async def test_the_cache_holds_for_its_ttl_and_forget_drops_it(db: Database) -> None:
+    codes = CodeDirectory(db, ttl_s=60.0)
+    tag = issue(db, "demo", tag_spec(), "test")
+    assert (await codes.resolve(tag.code)).problem is None
+    switch_off(db, tag.code)  # as another server process would
+    assert (await codes.resolve(tag.code)).problem is None, "cached for the ttl"
+    codes.forget()
+    assert (await codes.resolve(tag.code)).problem is not None
+
+
+async def test_a_changed_active_set_is_seen_after_the_ttl(db: Database) -> None:
+    codes = CodeDirectory(db, ttl_s=0.0)
+    tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
+    assert (await codes.resolve(tag.code)).problem is not None
+    with db.session() as session:
+        session.add(WallStateRecord(wall_id="demo", version=1, state={"tag_set": "k5"}))
+    assert (await codes.resolve(tag.code)).problem is None
+
+
+async def test_an_expiry_takes_effect_at_its_instant_even_when_cached(db: Database) -> None:
+    codes = CodeDirectory(db, ttl_s=60.0)
+    soon = datetime.now(UTC) + timedelta(milliseconds=300)
+    tag = issue(db, "demo", tag_spec(expires_at=soon), "test")
+    assert (await codes.resolve(tag.code)).problem is None
+    while datetime.now(UTC) <= soon:
+        pass
+    assert (await codes.resolve(tag.code)).problem is not None
+
+
+async def test_the_cache_stays_bounded_forgetting_the_least_recent(db: Database) -> None:
+    codes = CodeDirectory(db, ttl_s=60.0, max_codes=1)
+    first = issue(db, "demo", tag_spec(), "test")
+    assert (await codes.resolve(first.code)).problem is None
+    switch_off(db, first.code)
+    await codes.resolve("NOSUCH1")  # pushes the first code out
+    assert (await codes.resolve(first.code)).problem is not None, "loaded afresh"
+
+
+def test_scans_are_written_in_one_batch_with_every_field(db: Database) -> None:
+    log = ScanLog(db)
+    tag = issue(db, "demo", tag_spec(), "test")
+    for index in range(5):
+        log.record(tag, f"visitor-{index}", "10.0.0.7", "Phone/1.0 " + "x" * 500)
+    assert scans_of(db, tag.code) == [], "queued, not yet written"
+    assert log.flush() == 5
+    assert log.flush() == 0
+    scans = scans_of(db, tag.code)
+    assert [s.visitor_id for s in scans] == [f"visitor-{i}" for i in range(5)]
+    first = scans[0]
+    assert (first.client_address, first.wall_id) == ("10.0.0.7", "demo")
+    assert first.user_agent.startswith("Phone/1.0") and len(first.user_agent) == 400
+    assert first.scanned_at is not None
+
+
+def test_a_failed_write_keeps_the_scans_for_the_next_flush(database_url: str) -> None:
+    db = Database(database_url)  # no tables yet: the write fails
+    log = ScanLog(db)
+    tag = TagRecord(code="ABCDEFG", wall_id="demo")
+    log.record(tag, "visitor", "10.0.0.7", "ua")
+    with pytest.raises(DBAPIError):
+        log.flush()
+    upgrade(database_url)
+    with db.session() as session:
+        session.add(TagRecord(code="ABCDEFG", wall_id="demo", app="quiz", action="ask"))
+    assert log.flush() == 1
+    assert len(scans_of(db, "ABCDEFG")) == 1
+    db.dispose()
+
+
+def test_the_queue_is_bounded(db: Database) -> None:
+    log = ScanLog(db, max_pending=3)
+    tag = issue(db, "demo", tag_spec(), "test")
+    for index in range(10):
+        log.record(tag, f"v{index}", "a", "ua")
+    assert log.flush() == 3

@@ -1,0 +1,257 @@
+"""The authoritative state of a wall and the one function that changes it.
+
+Tiles are pure renderers: they draw the state they are sent. Every change goes
+through the door (``webapp.engine.changes``) to :func:`commit_change`, which bumps the wall's
+version and persists the new state with the event that describes it; only then is the
+event published.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+from sqlalchemy import delete, select, update
+from sqlalchemy.exc import IntegrityError, OperationalError
+from sqlalchemy.orm import Session
+
+from webapp.database.connection import Database, RowId
+from webapp.database.models import WallEventRecord, WallStateRecord
+from webapp.volume.layer import VolumeLayer
+
+
+class View(BaseModel):
+    """Where the scene looks: centre as a fraction of the wall's stage, zoom, orientation."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    center: tuple[float, float] = (0.5, 0.5)
+    zoom: float = Field(default=1.0, gt=0, le=1_000)
+    yaw: float = Field(default=0.0, ge=-360, le=360)
+    pitch: float = Field(default=0.0, ge=-90, le=90)
+
+
+class Balloon(BaseModel):
+    """A description balloon open on the wall, pointing at an anchor (scene mm).
+
+    ``rect`` is where the box stands (placed by the server clear of codes and other
+    balloons); tiles stop drawing it at ``closes_at`` on the shared clock.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+
+    id: str = Field(min_length=1, max_length=64)
+    anchor: tuple[float, float]
+    rect: tuple[float, float, float, float] | None = None  # x, y, width, height
+    title: str = Field(max_length=200)
+    lines: list[str] = Field(default_factory=list, max_length=20)
+    closes_at: int | None = None  # server ms
+
+    def open_at(self, ms: int) -> bool:
+        return self.closes_at is None or self.closes_at > ms
+
+
+class PublicItem(BaseModel):
+    """What the public screen shows: server-rendered, already escaped HTML
+    (see ``webapp.publishing``)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    id: int = Field(default=0, ge=0)  # the publication's id (0: not a stored one)
+    title: str = Field(max_length=200)
+    html: str = Field(max_length=100_000)
+    author: str = Field(max_length=100)
+    published_at: int  # server ms
+
+
+class PublicPolicy(BaseModel):
+    """How the public screen takes publications: held for approval, or locked."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    moderated: bool = False  # students' publications wait for an instructor
+    locked: bool = False  # only instructors may publish
+
+
+class WallState(BaseModel):
+    """Everything a tile needs to draw its part of the wall."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    app: str = Field(default="pattern", min_length=1, max_length=64)
+    mode: str = Field(default="default", min_length=1, max_length=64)
+    view: View = Field(default_factory=View)
+    layers: dict[str, bool] = Field(default_factory=dict)
+    balloons: list[Balloon] = Field(default_factory=list, max_length=100)
+    public: PublicItem | None = None
+    public_policy: PublicPolicy = Field(default_factory=PublicPolicy)
+    tag_set: str | None = Field(default=None, max_length=64)
+    tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
+    volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
+    dataset: RowId | None = None  # the census map's data set
+    quiz_round: RowId | None = None  # the brain quiz's round (its pin codes)
+
+
+class StatePatch(BaseModel):
+    """A partial state: the fields given replace the current ones; ``volume`` alone may
+    be null (it takes the volume off the wall), other fields are left out to keep them."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    app: str | None = Field(default=None, min_length=1, max_length=64)
+    mode: str | None = Field(default=None, min_length=1, max_length=64)
+    view: View | None = None
+    layers: dict[str, bool] | None = None
+    balloons: list[Balloon] | None = Field(default=None, max_length=100)
+    # ``public`` changes only through ``webapp.publishing``, which renders it safely.
+    public_policy: PublicPolicy | None = None
+    volume: VolumeLayer | None = None  # null takes the volume off the wall
+
+    @model_validator(mode="after")
+    def _only_volume_may_be_null(self) -> StatePatch:
+        nulls = sorted(
+            name for name in self.model_fields_set - {"volume"} if getattr(self, name) is None
+        )
+        if nulls:
+            raise ValueError(f"{', '.join(nulls)} may not be null; leave a field out to keep it")
+        return self
+
+    def apply_to(self, state: WallState) -> WallState:
+        """The state with this patch's fields replaced (``layers`` merge key by key)."""
+        given = self.model_dump(exclude_unset=True)
+        if "layers" in given and given["layers"] is not None:
+            given["layers"] = {**state.layers, **given["layers"]}
+        return state.model_validate({**state.model_dump(), **given})
+
+
+class Change(BaseModel):
+    """A committed change: the new version and the top-level fields that changed."""
+
+    wall_id: str
+    version: int
+    changes: dict[str, Any]
+    heavy: bool
+
+
+HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume", "dataset"})
+"""Fields whose change makes tiles fetch something (renders, code layouts) first:
+applied by prepare -> ready -> swap."""
+
+_MAX_RETRIES = 20
+
+
+def now_ms() -> int:
+    """Server time in milliseconds: the clock every tile synchronises to."""
+    return time.time_ns() // 1_000_000
+
+
+def read_state(db: Database, wall_id: str) -> tuple[int, WallState]:
+    """The wall's current version and state (version 0 and defaults if never changed)."""
+    with db.session() as session:
+        record = session.get(WallStateRecord, wall_id)
+        if record is None:
+            return 0, WallState()
+        return record.version, WallState.model_validate(record.state)
+
+
+def events_since(db: Database, wall_id: str, version: int) -> list[Change] | None:
+    """The changes after ``version`` in order, or None when a snapshot is needed instead.
+
+    A snapshot is needed when the history no longer reaches back that far, and when
+    the client claims a version from the future (the database was reset or swapped).
+    """
+    with db.session() as session:
+        current = session.scalar(
+            select(WallStateRecord.version).where(WallStateRecord.wall_id == wall_id)
+        )
+        current = current or 0
+        if version > current:
+            return None
+        if version == current:
+            return []
+        rows = session.scalars(
+            select(WallEventRecord)
+            .where(WallEventRecord.wall_id == wall_id, WallEventRecord.version > version)
+            .order_by(WallEventRecord.version)
+        ).all()
+    if len(rows) != current - version:
+        return None
+    return [
+        Change(wall_id=wall_id, version=r.version, changes=r.changes, heavy=r.heavy) for r in rows
+    ]
+
+
+def commit_change(
+    db: Database,
+    wall_id: str,
+    update_state: Callable[[WallState], WallState],
+    *,
+    keep_events: int,
+) -> Change | None:
+    """Persist ``update_state(current)`` as the next version; None if nothing changed.
+
+    Optimistic concurrency: the version row is updated only if nobody else bumped
+    it meanwhile, and (wall, version) is the events table's primary key, so two
+    writers can never commit the same version; the loser retries on fresh state.
+    """
+    for attempt in range(_MAX_RETRIES):
+        try:
+            with db.session() as session:
+                change = _try_commit(session, wall_id, update_state, keep_events)
+            return change
+        except (IntegrityError, _StaleVersion):
+            continue
+        except OperationalError as error:
+            if not _is_lock_conflict(error):
+                raise
+            time.sleep(0.005 * (attempt + 1))  # SQLite: another writer holds the lock
+    raise RuntimeError(f"wall {wall_id!r}: too much contention to commit a change")
+
+
+def _is_lock_conflict(error: OperationalError) -> bool:
+    return "locked" in str(error.orig).lower() or "could not serialize" in str(error.orig)
+
+
+class _StaleVersion(Exception):
+    """Another writer bumped the version first."""
+
+
+def _try_commit(
+    session: Session,
+    wall_id: str,
+    update_state: Callable[[WallState], WallState],
+    keep_events: int,
+) -> Change | None:
+    # Row lock where the database has one (PostgreSQL): concurrent writers queue up
+    # instead of racing; the version check below still guards every backend.
+    record = session.get(WallStateRecord, wall_id, with_for_update=True)
+    version = record.version if record else 0
+    old = WallState.model_validate(record.state) if record else WallState()
+    new = update_state(old)
+    old_fields, new_fields = old.model_dump(mode="json"), new.model_dump(mode="json")
+    changes = {key: value for key, value in new_fields.items() if old_fields[key] != value}
+    if not changes:
+        return None
+    heavy = bool(HEAVY_FIELDS & changes.keys())
+    if record is None:
+        session.add(WallStateRecord(wall_id=wall_id, version=1, state=new_fields))
+        session.flush()
+    else:
+        result = session.execute(
+            update(WallStateRecord)
+            .where(WallStateRecord.wall_id == wall_id, WallStateRecord.version == version)
+            .values(version=version + 1, state=new_fields)
+            .execution_options(synchronize_session=False)
+        )
+        if result.rowcount != 1:  # type: ignore[attr-defined]
+            raise _StaleVersion
+    session.add(WallEventRecord(wall_id=wall_id, version=version + 1, changes=changes, heavy=heavy))
+    session.execute(
+        delete(WallEventRecord).where(
+            WallEventRecord.wall_id == wall_id,
+            WallEventRecord.version <= version + 1 - keep_events,
+        )
+    )
+    return Change(wall_id=wall_id, version=version + 1, changes=changes, heavy=heavy)

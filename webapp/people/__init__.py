@@ -1,0 +1,2 @@
+"""People and privileges: who a phone is (visitors), roles and groups, accounts,
+pairing, address rules, sign-in throttling, tokens, audit and abuse limits."""

@@ -1,0 +1,114 @@
+"""Where a request comes from, and which address rule covers it.
+
+:class:`ClientAddressMiddleware` is the one place that decides a connection's client
+address (and scheme) for HTTP and websockets alike: the peer's, or behind a proxy
+listed in ``TAGWALL_TRUSTED_PROXIES`` the one its ``X-Forwarded-For`` names. Everything
+else reads :func:`address_of`. The ASGI server must not rewrite them first, so
+``tagwall serve`` runs uvicorn without its proxy headers.
+
+An address is a weak identity (a whole school may share one NAT address), so rules
+give defaults freely but grant a role only when the deployment switches that on
+(``TAGWALL_ADDRESS_RULES_GRANT_ROLES``).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+from collections.abc import Sequence
+from ipaddress import IPv4Address, IPv4Network, IPv6Address, IPv6Network
+
+from starlette.datastructures import Headers
+from starlette.requests import HTTPConnection
+from starlette.types import ASGIApp, Receive, Scope, Send
+
+from webapp.database.models import AddressRuleRecord
+
+Network = IPv4Network | IPv6Network
+Address = IPv4Address | IPv6Address
+
+
+def _address(text: str) -> Address | None:
+    try:
+        return ipaddress.ip_address(text.strip())
+    except ValueError:
+        return None
+
+
+def client_address(peer: str, forwarded_for: str | None, trusted: Sequence[Network]) -> str:
+    """The client's address: the peer's, unless the peer is a trusted proxy.
+
+    Behind trusted proxies, ``X-Forwarded-For`` is read from the right (the entries
+    our own proxies appended) to the first address that is not a trusted proxy;
+    anything left of it was written by the client and proves nothing.
+    """
+    peer_address = _address(peer)
+    if not trusted or peer_address is None or not _is_trusted(peer_address, trusted):
+        return peer
+    hops = [hop for hop in (forwarded_for or "").split(",") if hop.strip()]
+    for hop in reversed(hops):
+        address = _address(hop)
+        if address is None:
+            return peer  # a garbled header: fall back to what we know
+        if not _is_trusted(address, trusted):
+            return str(address)
+    return peer
+
+
+class ClientAddressMiddleware:
+    """Puts the client's address (and, from a trusted proxy, ``X-Forwarded-Proto``'s
+    scheme) into every HTTP and websocket connection's scope."""
+
+    def __init__(self, app: ASGIApp, trusted: Sequence[Network]) -> None:
+        self.app = app
+        self.trusted = list(trusted)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if self.trusted and scope["type"] in ("http", "websocket"):
+            peer = scope["client"][0] if scope.get("client") else ""
+            peer_address = _address(peer)
+            if peer_address is not None and _is_trusted(peer_address, self.trusted):
+                headers = Headers(scope=scope)
+                scope = dict(scope)
+                scope["client"] = (
+                    client_address(peer, headers.get("x-forwarded-for"), self.trusted),
+                    0,
+                )
+                proto = headers.get("x-forwarded-proto", "").strip().lower()
+                if proto in ("http", "https"):
+                    secure = proto == "https"
+                    web = scope["type"] == "http"
+                    scope["scheme"] = (
+                        ("https" if secure else "http") if web else ("wss" if secure else "ws")
+                    )
+        await self.app(scope, receive, send)
+
+
+def address_of(connection: HTTPConnection) -> str:
+    """The client address of a request or websocket (set by the middleware above)."""
+    return connection.client.host if connection.client else ""
+
+
+def _is_trusted(address: Address, trusted: Sequence[Network]) -> bool:
+    return any(address in network for network in trusted if network.version == address.version)
+
+
+def parse_network(text: str) -> Network:
+    """A CIDR network (``10.1.0.0/16``; a bare address is a /32 or /128)."""
+    try:
+        return ipaddress.ip_network(text.strip(), strict=False)
+    except ValueError:
+        raise ValueError(f"{text!r} is not an address or network like 10.1.0.0/16") from None
+
+
+def matching_rule(address: str, rules: Sequence[AddressRuleRecord]) -> AddressRuleRecord | None:
+    """The most specific rule whose network holds ``address`` (None when none does)."""
+    parsed = _address(address)
+    if parsed is None:
+        return None
+    best: tuple[int, AddressRuleRecord] | None = None
+    for rule in rules:
+        network = parse_network(rule.network)
+        inside = network.version == parsed.version and parsed in network
+        if inside and (best is None or network.prefixlen > best[0]):
+            best = (network.prefixlen, rule)
+    return best[1] if best else None

@@ -1,0 +1,279 @@
+"""People: a visitor's role, user group and information class, and the one place
+each of them changes.
+
+A phone is an anonymous visitor until it is given something; then a row in
+``visitors`` holds it. Every privilege change goes through :func:`_store` with
+``rotate=True``: the session id changes, so a cookie copied before the change is
+worth nothing after it, and the change is written to the audit log in the same
+transaction.
+"""
+
+from __future__ import annotations
+
+import unicodedata
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy import select, update
+
+from webapp.database.connection import Database
+from webapp.database.models import AddressRuleRecord, VisitorRecord
+from webapp.people.addresses import matching_rule
+from webapp.people.audit import audit
+from webapp.people.roles import ROLES, Role, UserGroup
+from webapp.people.visitors import Visitor, new_id
+from webapp.settings import Settings
+
+ROLE_LABELS: dict[Role, str] = {
+    "student": "Student",
+    "instructor": "Instructor",
+    "admin": "Administrator",
+}
+# How the public screen names someone who chose no name: the role with its article,
+# written out ("an instructor", never "a instructor").
+SOMEONE_IN_ROLE: dict[Role, str] = {
+    "student": "a student",
+    "instructor": "an instructor",
+    "admin": "an administrator",
+}
+GROUP_LABELS: dict[UserGroup, str] = {
+    "k5": "K-5",
+    "undergraduate": "Undergraduate",
+    "medical": "Medical",
+    "research": "Research",
+}
+
+
+MAX_DISPLAY_NAME = 40
+
+
+def plain_name(text: str) -> str:
+    """A display name as the public screen may show it: compatibility characters
+    folded (NFKC), no control, format (bidirectional overrides, zero-width) or
+    private-use characters, runs of spaces as one, at most :data:`MAX_DISPLAY_NAME`
+    characters."""
+    folded = unicodedata.normalize("NFKC", text)
+    kept = "".join(
+        " " if char.isspace() else char
+        for char in folded
+        if char.isspace() or not unicodedata.category(char).startswith("C")
+    )
+    return " ".join(kept.split())[:MAX_DISPLAY_NAME].strip()
+
+
+def rank(role: str) -> int:
+    """Privilege order: student < instructor < admin (unknown roles rank lowest)."""
+    return ROLES.index(role) if role in ROLES else -1
+
+
+@dataclass(frozen=True)
+class Person:
+    """Who is asking, as every privilege check sees it."""
+
+    visitor: Visitor
+    role: Role
+    authority: str | None
+    authorized_role: Role
+    user_group: UserGroup
+    info_class: int
+    max_info_class: int
+    display_name: str
+    stored: bool  # False: an anonymous visitor nobody gave anything yet
+
+    def at_least(self, role: Role) -> bool:
+        return rank(self.role) >= rank(role)
+
+    @property
+    def is_staff(self) -> bool:
+        """Instructors and admins: who runs a session."""
+        return self.at_least("instructor")
+
+    def may_assume(self, role: Role) -> bool:
+        """Whether this phone's authority reaches ``role`` without signing in again."""
+        return rank(role) <= rank(self.authorized_role)
+
+    @property
+    def public_name(self) -> str:
+        """How the public screen names this person: the role always shows, so a chosen
+        name cannot pass for someone else's (no student publishes as "the instructor")."""
+        if not self.display_name:
+            return SOMEONE_IN_ROLE[self.role]
+        return f"{self.display_name} ({ROLE_LABELS[self.role].lower()})"
+
+
+def load_person(db: Database, visitor: Visitor, address: str, settings: Settings) -> Person:
+    """The person behind ``visitor`` coming from ``address``.
+
+    A cookie whose session id no longer matches (copied before a rotation, or
+    kept past a sign-out elsewhere) is treated as a new, anonymous visitor.
+    """
+    with db.session() as session:
+        record = session.get(VisitorRecord, visitor.id)
+        rules = session.scalars(select(AddressRuleRecord)).all()
+    if record is not None and record.session_id != visitor.session_id:
+        visitor, record = Visitor.fresh(), None
+    return _person(visitor, record, matching_rule(address, rules), settings)
+
+
+def _person(
+    visitor: Visitor,
+    record: VisitorRecord | None,
+    rule: AddressRuleRecord | None,
+    settings: Settings,
+) -> Person:
+    role: Role = _role(record.role if record else "student")
+    max_class = settings.info_class_max[role]
+    chosen = (record.info_class if record else None) or (rule.info_class if rule else None)
+    group = (record.user_group if record else None) or (rule.user_group if rule else None)
+    return Person(
+        visitor=visitor,
+        role=role,
+        authority=record.authority if record else None,
+        authorized_role=_role(record.authorized_role if record else "student"),
+        user_group=group if group in GROUP_LABELS else settings.default_user_group,
+        info_class=min(chosen or settings.info_class_default[role], max_class),
+        max_info_class=max_class,
+        display_name=record.display_name if record else "",
+        stored=record is not None,
+    )
+
+
+def _role(value: str) -> Role:
+    return value if value in ROLES else "student"
+
+
+def _store(
+    db: Database,
+    person: Person,
+    settings: Settings,
+    *,
+    rotate: bool,
+    action: str | None = None,
+    address: str = "",
+    **fields: Any,
+) -> Person:
+    """Write ``fields`` of the person's visitor row (created if need be); the one writer."""
+    visitor = person.visitor.rotated() if rotate else person.visitor
+    with db.session() as session:
+        record = session.get(VisitorRecord, visitor.id)
+        if record is None:
+            record = VisitorRecord(id=visitor.id, session_id=visitor.session_id)
+            session.add(record)
+        record.session_id = visitor.session_id
+        for name, value in fields.items():
+            setattr(record, name, value)
+        if action:
+            audit(
+                session,
+                action,
+                actor=record.authority or "",
+                visitor_id=visitor.id,
+                address=address,
+                role=record.role,
+                **{k: v for k, v in fields.items() if k in ("authority", "authorized_role")},
+            )
+        session.flush()
+        rules = session.scalars(select(AddressRuleRecord)).all()
+    return _person(visitor, record, matching_rule(address, rules), settings)
+
+
+def address_grant(db: Database, address: str, settings: Settings) -> str | None:
+    """The authority (``address:CIDR``) an address rule gives this client to be an
+    instructor, when the deployment lets address rules grant roles at all."""
+    if not settings.address_rules_grant_roles:
+        return None
+    with db.session() as session:
+        rules = session.scalars(select(AddressRuleRecord)).all()
+    rule = matching_rule(address, rules)
+    return f"address:{rule.network}" if rule is not None and rule.role == "instructor" else None
+
+
+def grant(
+    db: Database, person: Person, role: Role, authority: str, settings: Settings, address: str
+) -> Person:
+    """Authorise the phone up to ``role`` on ``authority`` and act in that role."""
+    return _store(
+        db,
+        person,
+        settings,
+        rotate=True,
+        action="role_granted",
+        address=address,
+        role=role,
+        authority=authority,
+        authorized_role=role,
+    )
+
+
+def assume(db: Database, person: Person, role: Role, settings: Settings, address: str) -> Person:
+    """Act in ``role``, which the phone's authority must reach (stepping down always does)."""
+    if not person.may_assume(role):
+        raise PermissionError(f"this phone is not authorised as {role}")
+    if person.stored and person.role == role:
+        return person
+    changes_privilege = role != person.role
+    return _store(
+        db,
+        person,
+        settings,
+        rotate=changes_privilege,
+        action="role_changed" if changes_privilege else None,
+        address=address,
+        role=role,
+    )
+
+
+def sign_out(db: Database, person: Person, settings: Settings, address: str) -> Person:
+    """Back to an anonymous student: role and authority gone, a new session id."""
+    return _store(
+        db,
+        person,
+        settings,
+        rotate=True,
+        action="logout",
+        address=address,
+        role="student",
+        authority=None,
+        authorized_role="student",
+    )
+
+
+def update_profile(
+    db: Database,
+    person: Person,
+    settings: Settings,
+    *,
+    user_group: UserGroup,
+    info_class: int,
+    display_name: str,
+) -> Person:
+    """The visitor's own choices; the information class is capped by the role."""
+    return _store(
+        db,
+        person,
+        settings,
+        rotate=False,
+        user_group=user_group,
+        info_class=max(1, min(info_class, person.max_info_class)),
+        display_name=plain_name(display_name),
+    )
+
+
+def revoke(db: Database, authorities: Sequence[str], actor: str) -> int:
+    """Demote every phone authorised by one of ``authorities`` (an account removed or
+    its password changed, an address rule deleted); returns how many."""
+    with db.session() as session:
+        ids = session.scalars(
+            select(VisitorRecord.id).where(VisitorRecord.authority.in_(authorities))
+        ).all()
+        for visitor_id in ids:
+            session.execute(
+                update(VisitorRecord)
+                .where(VisitorRecord.id == visitor_id)
+                .values(
+                    role="student", authority=None, authorized_role="student", session_id=new_id()
+                )
+            )
+            audit(session, "role_revoked", actor=actor, visitor_id=visitor_id)
+    return len(ids)

@@ -1,0 +1,212 @@
+"""Resolving scans quickly: what codes are, briefly cached; scans recorded in batches.
+
+When a room of phones scans the wall at once, each scan should cost a dictionary
+lookup, not a database transaction. A code's tag and its wall's active tag set are
+cached for ``ttl_s`` seconds (and dropped at once when this process changes tags or
+sets); the scans are queued and written by one INSERT every ``interval_s``. The
+rules themselves (live, in the active set) stay in :mod:`webapp.tags.registry`.
+
+Trade-offs, documented in ``docs/codes.md``: a change made by *another* server process
+reaches this one's cache within ``ttl_s``; scans queued when the process is killed
+hard (not stopped) are lost, at most ``interval_s`` worth.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import logging
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from typing import Any
+
+from fastapi.concurrency import run_in_threadpool
+from sqlalchemy import insert, select
+from sqlalchemy.exc import SQLAlchemyError
+
+from webapp.database.connection import Database
+from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
+from webapp.engine.protocol import ScanSeen
+from webapp.tags.registry import is_live, shown_in
+
+log = logging.getLogger(__name__)
+
+MAX_ADDRESS = 64
+MAX_USER_AGENT = 400
+
+
+@dataclass(frozen=True)
+class Resolution:
+    """What a scanned code turned out to be: its tag, and why it does not work if not."""
+
+    tag: TagRecord | None
+    problem: str | None = None
+
+
+@dataclass(frozen=True)
+class _Facts:
+    tag: TagRecord | None  # detached, read-only
+    active_set: str | None
+    loaded_at: float
+
+
+class CodeDirectory:
+    """Codes as the scan path needs them, from the database, cached for ``ttl_s``."""
+
+    def __init__(self, db: Database, ttl_s: float = 2.0, max_codes: int = 10_000) -> None:
+        self.db = db
+        self.ttl_s = ttl_s
+        self.max_codes = max_codes
+        self._facts: OrderedDict[str, _Facts] = OrderedDict()
+        self._generation = 0  # bumped by forget(): loads begun before it are not kept
+
+    async def resolve(self, code: str) -> Resolution:
+        """The tag behind ``code`` and, if it does not work now, why."""
+        facts = self._facts.get(code)
+        if facts is None or time.monotonic() - facts.loaded_at > self.ttl_s:
+            generation = self._generation
+            facts = await run_in_threadpool(self._load, code)
+            if generation == self._generation:
+                self._facts[code] = facts
+                self._facts.move_to_end(code)
+                if len(self._facts) > self.max_codes:
+                    self._facts.popitem(last=False)
+        return _judge(facts)
+
+    def forget(self) -> None:
+        """Drop everything cached: tags or tag sets changed in this process."""
+        self._generation += 1
+        self._facts.clear()
+
+    def _load(self, code: str) -> _Facts:
+        with self.db.session() as session:
+            tag = session.get(TagRecord, code)
+            state = session.get(WallStateRecord, tag.wall_id) if tag is not None else None
+            active_set = state.state.get("tag_set") if state is not None else None
+            return _Facts(tag, active_set, time.monotonic())
+
+
+def _judge(facts: _Facts) -> Resolution:
+    tag = facts.tag
+    if tag is None:
+        return Resolution(None)
+    if not is_live(tag):
+        return Resolution(tag, "This code has been switched off or has expired.")
+    if not shown_in(tag, facts.active_set):
+        return Resolution(
+            tag, f"This code belongs to the {tag.tag_set!r} codes, which are not on the wall now."
+        )
+    return Resolution(tag)
+
+
+class ScanLog:
+    """Scans queued in memory and written in batches, one INSERT per batch."""
+
+    def __init__(self, db: Database, interval_s: float = 0.1, max_pending: int = 100_000) -> None:
+        self.db = db
+        self.interval_s = interval_s
+        self.max_pending = max_pending
+        self._pending: list[dict[str, Any]] = []
+        self._lock = threading.Lock()
+
+    def record(self, tag: TagRecord, visitor_id: str, client_address: str, user_agent: str) -> None:
+        row = {
+            "code": tag.code,
+            "wall_id": tag.wall_id,
+            "visitor_id": visitor_id,
+            "client_address": client_address[:MAX_ADDRESS],
+            "user_agent": user_agent[:MAX_USER_AGENT],
+            "scanned_at": datetime.now(UTC),
+        }
+        with self._lock:
+            if len(self._pending) < self.max_pending:
+                self._pending.append(row)
+
+    def flush(self) -> int:
+        """Write what is queued (thread-safe); returns how many scans were written."""
+        with self._lock:
+            rows, self._pending = self._pending, []
+        if not rows:
+            return 0
+        try:
+            with self.db.session() as session:
+                session.execute(insert(ScanRecord), rows)
+        except Exception:
+            with self._lock:  # keep them for the next try, oldest first
+                self._pending = (rows + self._pending)[: self.max_pending]
+            raise
+        return len(rows)
+
+    async def run(self) -> None:
+        """Flush every ``interval_s`` until cancelled (the app's lifespan owns this task).
+
+        While the database is down the scans wait in memory; that is said once, and
+        once more when they are written again."""
+        failing = False
+        while True:
+            await asyncio.sleep(self.interval_s)
+            try:
+                await run_in_threadpool(self.flush)
+            except SQLAlchemyError as error:
+                if not failing:
+                    log.warning("could not record scans (%s); will retry", type(error).__name__)
+                failing = True
+                continue
+            except Exception:
+                log.exception("could not record scans; will retry")
+                continue
+            if failing:
+                log.warning("recording scans again")
+                failing = False
+
+
+def scans_of(db: Database, code: str) -> list[ScanRecord]:
+    """The recorded scans of ``code``, oldest first (queued ones once flushed)."""
+    with db.session() as session:
+        return list(
+            session.scalars(
+                select(ScanRecord).where(ScanRecord.code == code).order_by(ScanRecord.id)
+            )
+        )
+
+
+class ScanFeed:
+    """Scans as they happen, for the dashboards connected to this process.
+
+    Each dashboard has a bounded queue; a dashboard that does not keep up misses
+    notices rather than slowing the scan path down.
+    """
+
+    def __init__(self, maxsize: int = 100) -> None:
+        self.maxsize = maxsize
+        self._queues: dict[str, set[asyncio.Queue[ScanSeen]]] = {}
+
+    def publish(self, tag: TagRecord, visitor_id: str) -> None:
+        queues = self._queues.get(tag.wall_id)
+        if not queues:
+            return
+        notice = ScanSeen(
+            wall=tag.wall_id,
+            code=tag.code,
+            label=tag.label,
+            app=tag.app,
+            visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
+            at=time.time_ns() // 1_000_000,
+        )
+        for queue in queues:
+            if queue.qsize() < self.maxsize:
+                queue.put_nowait(notice)
+
+    @contextmanager
+    def subscribe(self, wall_id: str) -> Iterator[asyncio.Queue[ScanSeen]]:
+        queue: asyncio.Queue[ScanSeen] = asyncio.Queue()
+        self._queues.setdefault(wall_id, set()).add(queue)
+        try:
+            yield queue
+        finally:
+            self._queues[wall_id].discard(queue)
