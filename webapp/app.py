@@ -21,7 +21,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.config import load_walls
-from webapp.apps import builtin_apps
+from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
 from webapp.engine.bus import MemoryBus

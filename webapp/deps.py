@@ -11,15 +11,14 @@ from typing import Annotated, Any
 from urllib.parse import quote
 
 from fastapi import Depends, Header, HTTPException, Query, Request, status
-from fastapi.concurrency import run_in_threadpool
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
 from webapp.people.addresses import address_of
-from webapp.people.person import Person, load_person
+from webapp.people.person import Person, person_of
 from webapp.people.ratelimit import WallAction
 from webapp.people.security import csrf_token, token_matches
-from webapp.people.visitors import Visitor, adopt, visitor_of
+from webapp.people.visitors import Visitor
 from webapp.services import Services
 
 
@@ -98,20 +97,8 @@ def limit_action(
         raise too_fast(wait)
 
 
-def remember_person(request: Request, person: Person) -> None:
-    """Make ``person`` the request's person; a new or rotated session cookie follows."""
-    adopt(request, person.visitor)
-    request.state.person = person
-
-
 async def get_person(request: Request, services: ServicesDep, address: ClientAddressDep) -> Person:
-    known: Person | None = getattr(request.state, "person", None)
-    if known is not None:
-        return known
-    visitor = visitor_of(request, services.secret)
-    person = await run_in_threadpool(load_person, services.db, visitor, address, services.settings)
-    remember_person(request, person)
-    return person
+    return await person_of(request, services.db, services.settings, address)
 
 
 PersonDep = Annotated[Person, Depends(get_person)]

@@ -2,7 +2,7 @@
 
 An app is a small plug-in: the core resolves a scanned code to its tag and hands the
 scan to the app named on the tag, which returns the phone page. Adding an app means
-adding a module here and listing it in :func:`builtin_apps`; the core knows nothing
+adding a package here and listing it in ``webapp.apps.builtin``; the core knows nothing
 app-specific. An app extends the dashboard with a panel (``dashboard_panel``), the
 public screen with what its pages publish (``publication``) and the server with its
 own pages and API (``router``).
@@ -18,7 +18,7 @@ from fastapi import APIRouter, Request, Response
 from wall_client.layout import Wall
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState
-from webapp.people.person import Person
+from webapp.people.person import Person, person_of
 from webapp.people.visitors import Visitor
 from webapp.publishing import Publication
 from webapp.tags.registry import TagSpec
@@ -41,9 +41,7 @@ class Scan:
 
     async def person(self) -> Person:
         """Who scanned: role, user group, information class (loaded when an app asks)."""
-        from webapp.deps import get_person
-
-        return await get_person(self.request, self.services, self.address)
+        return await person_of(self.request, self.services.db, self.services.settings, self.address)
 
 
 class WallApp(Protocol):
@@ -90,13 +88,3 @@ class WallApp(Protocol):
     def router(self) -> APIRouter | None:
         """The app's own pages and API (None: it has none)."""
         ...
-
-
-def builtin_apps() -> dict[str, WallApp]:
-    from webapp.apps.brain_atlas import BrainApp
-    from webapp.apps.census_map import CensusApp
-    from webapp.apps.core import CoreApp
-    from webapp.apps.pattern import PatternApp
-
-    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp(), CensusApp(), BrainApp())
-    return {app.name: app for app in apps}

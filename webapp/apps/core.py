@@ -11,13 +11,12 @@ from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
 from webapp.apps import Scan
-from webapp.deps import remember_person
 from webapp.engine.wall_state import WallState
-from webapp.people.person import Person, address_grant, assume, grant
+from webapp.people.person import Person, address_grant, assume, grant, remember_person
 from webapp.people.roles import Role
 from webapp.publishing import Publication
-from webapp.routes.pages import render
 from webapp.tags.registry import TagSpec
+from webapp.templating import render
 
 if TYPE_CHECKING:
     from webapp.services import Services

@@ -19,8 +19,8 @@ from wall_client.layout import ROLES, Display, Wall
 from webapp.apps import Scan
 from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing import Block, Publication
-from webapp.routes.pages import render
 from webapp.tags.registry import TagSpec, get_layout
+from webapp.templating import render
 
 if TYPE_CHECKING:
     from webapp.services import Services

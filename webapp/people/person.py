@@ -15,14 +15,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from fastapi.concurrency import run_in_threadpool
 from sqlalchemy import select, update
+from starlette.requests import HTTPConnection
 
 from webapp.database.connection import Database
 from webapp.database.models import AddressRuleRecord, VisitorRecord
 from webapp.people.addresses import matching_rule
 from webapp.people.audit import audit
 from webapp.people.roles import ROLES, Role, UserGroup
-from webapp.people.visitors import Visitor, new_id
+from webapp.people.visitors import Visitor, adopt, new_id, visitor_of
 from webapp.settings import Settings
 
 ROLE_LABELS: dict[Role, str] = {
@@ -277,3 +279,22 @@ def revoke(db: Database, authorities: Sequence[str], actor: str) -> int:
             )
             audit(session, "role_revoked", actor=actor, visitor_id=visitor_id)
     return len(ids)
+
+
+def remember_person(request: HTTPConnection, person: Person) -> None:
+    """Make ``person`` the request's person; a new or rotated session cookie follows."""
+    adopt(request, person.visitor)
+    request.state.person = person
+
+
+async def person_of(
+    request: HTTPConnection, db: Database, settings: Settings, address: str
+) -> Person:
+    """The request's person, loaded from its session cookie once per request."""
+    known: Person | None = getattr(request.state, "person", None)
+    if known is not None:
+        return known
+    visitor = visitor_of(request, settings.resolved_secret_key)
+    person = await run_in_threadpool(load_person, db, visitor, address, settings)
+    remember_person(request, person)
+    return person

@@ -22,10 +22,10 @@ from webapp.people.audit import recent_entries
 from webapp.people.person import GROUP_LABELS, load_person
 from webapp.people.visitors import visitor_of
 from webapp.publishing import waiting
-from webapp.routes.pages import render
 from webapp.routes.walls import status_of
 from webapp.schemas import PublicationInfo, WallInfo
 from webapp.services import Services
+from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
 

@@ -1,4 +1,4 @@
-"""HTML pages: the start page, tiles and the wall overview; ``render`` for every page."""
+"""HTML pages: the start page, tiles and the wall overview."""
 
 from __future__ import annotations
 
@@ -7,26 +7,11 @@ from fastapi.responses import HTMLResponse
 
 from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
 from webapp.engine.protocol import ViewportInfo
-from webapp.people.security import csrf_token
 from webapp.publishing import screen_layout
 from webapp.schemas import WallInfo
+from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
-
-
-def render(
-    request: Request, template: str, status_code: int = 200, **context: object
-) -> HTMLResponse:
-    """A page; forms on it get the session's CSRF token as ``csrf``."""
-    visitor = getattr(request.state, "visitor", None)
-    if visitor is not None:
-        secret = request.app.state.services.secret
-        context.setdefault("csrf", csrf_token(secret, visitor.session_id))
-    context.setdefault("person", getattr(request.state, "person", None))
-    response: HTMLResponse = request.app.state.templates.TemplateResponse(
-        request, template, context, status_code=status_code
-    )
-    return response
 
 
 @router.get("/", response_class=HTMLResponse)

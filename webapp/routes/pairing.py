@@ -11,10 +11,10 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from pydantic import BaseModel
 
 from tag_service.codes import make_symbol, render_svg, url_payload
-from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep, remember_person
+from webapp.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep
 from webapp.people.pairing import PairingError, check_pairing, redeem, start_pairing
-from webapp.people.person import grant
-from webapp.routes.pages import render
+from webapp.people.person import grant, remember_person
+from webapp.templating import render
 
 router = APIRouter()
 

@@ -14,16 +14,15 @@ from webapp.deps import (
     CsrfDep,
     PersonDep,
     ServicesDep,
-    remember_person,
 )
 from webapp.people.accounts import authenticate
 from webapp.people.audit import audit
-from webapp.people.person import GROUP_LABELS, grant, sign_out, update_profile
+from webapp.people.person import GROUP_LABELS, grant, remember_person, sign_out, update_profile
 from webapp.people.roles import USER_GROUPS
 from webapp.people.security import token_matches
 from webapp.people.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
-from webapp.routes.pages import render
 from webapp.services import Services
+from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
 

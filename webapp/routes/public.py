@@ -22,9 +22,9 @@ from webapp.deps import (
 )
 from webapp.engine.wall_state import PublicPolicy, read_state
 from webapp.publishing import PublishRefused, clear, decide, set_policy, submit, waiting
-from webapp.routes.pages import render
 from webapp.schemas import PublicationInfo, PublicScreenInfo, errors
 from webapp.tags.registry import find, is_live
+from webapp.templating import render
 
 router = APIRouter()
 

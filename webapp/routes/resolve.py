@@ -13,8 +13,8 @@ from tag_service.codes import content_hash, make_symbol, normalize_code, render_
 from webapp.apps import Scan
 from webapp.deps import ClientAddressDep, ServicesDep
 from webapp.people.visitors import Visitor, visitor_of
-from webapp.routes.pages import render
 from webapp.tags.registry import find, payload_of
+from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
 

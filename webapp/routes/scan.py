@@ -27,9 +27,9 @@ from tag_service.codes import normalize_code
 from tag_service.verify import Decoded, NotAnImage, TooManyPixels, decode_image, open_image
 from webapp.deps import ServicesDep
 from webapp.engine.wall_state import read_state
-from webapp.routes.pages import render
 from webapp.services import Services
 from webapp.tags.registry import find, get_layout
+from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
 

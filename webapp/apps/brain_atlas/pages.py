@@ -34,15 +34,14 @@ from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_s
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
 from webapp.database.models import TagRecord
-from webapp.deps import remember_person
 from webapp.engine.changes import change_wall
 from webapp.engine.wall_state import WallState, read_state
 from webapp.markdown import markdown_html
-from webapp.people.person import Person, update_profile
+from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.roles import USER_GROUPS, UserGroup
 from webapp.people.visitors import Visitor
-from webapp.routes.pages import render
 from webapp.tags.registry import find, wall_tags
+from webapp.templating import render
 
 if TYPE_CHECKING:
     from webapp.services import Services

@@ -38,9 +38,9 @@ from webapp.database.connection import RowId
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.engine.changes import change_wall
 from webapp.engine.wall_state import WallState
-from webapp.routes.pages import render
 from webapp.schemas import errors
 from webapp.services import Services
+from webapp.templating import render
 
 router = APIRouter(tags=["brain"])
 

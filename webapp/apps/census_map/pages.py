@@ -20,7 +20,7 @@ from webapp.deps import limit_action
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
 from webapp.people.visitors import Visitor
-from webapp.routes.pages import render
+from webapp.templating import render
 
 if TYPE_CHECKING:
     from webapp.apps.census_map import CensusApp

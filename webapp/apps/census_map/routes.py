@@ -32,10 +32,10 @@ from webapp.deps import (
     limit_action,
 )
 from webapp.engine.wall_state import View, WallState, now_ms, read_state
-from webapp.routes.pages import render
 from webapp.schemas import PlacedCode, errors
 from webapp.services import Services
 from webapp.tags.registry import get_layout
+from webapp.templating import render
 
 router = APIRouter(tags=["census"])
 NETWORK_LINK_REFRESH_S = 10

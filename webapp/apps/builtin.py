@@ -1,0 +1,14 @@
+"""The apps that ship with tagwall: the one list the app factory registers."""
+
+from __future__ import annotations
+
+from webapp.apps import WallApp
+from webapp.apps.brain_atlas import BrainApp
+from webapp.apps.census_map import CensusApp
+from webapp.apps.core import CoreApp
+from webapp.apps.pattern import PatternApp
+
+
+def builtin_apps() -> dict[str, WallApp]:
+    apps: tuple[WallApp, ...] = (CoreApp(), PatternApp(), CensusApp(), BrainApp())
+    return {app.name: app for app in apps}
