@@ -37,7 +37,9 @@ def _imported(node: ast.stmt) -> Iterator[str]:
     if isinstance(node, ast.Import):
         names = [alias.name for alias in node.names]
     elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-        names = [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+        names = [f"{node.module}.{alias.name}" for alias in node.names]
+        if not all(name in MODULES for name in names):  # names from the module itself
+            names.append(node.module)
     else:
         return
     for name in names:
