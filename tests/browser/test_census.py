@@ -16,7 +16,8 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
-from wall_client.layout import Rect, Wall, apply_affine, load_wall
+from wall_client.config import load_wall
+from wall_client.layout import Rect, Wall, apply_affine
 from webapp.apps.census_map.mapview import COLOURS, contrast_ratio
 from webapp.check import fetch_layout
 from webapp.people.security import operator_token

@@ -11,7 +11,7 @@ from jinja2 import Environment
 from pydantic import ValidationError
 from sqlalchemy import select
 
-from wall_client.layout import load_walls
+from wall_client.config import load_walls
 from webapp.app import create_app
 from webapp.database.connection import Database
 from webapp.database.models import PublicationRecord
