@@ -86,7 +86,8 @@ class ServerProcess:
                 stdout=log,
                 stderr=subprocess.STDOUT,
             )
-        wait_until(self.healthy, what=f"the server to answer (log: {self.log})")
+        # a loaded machine (other test runs beside this one) starts it slowly
+        wait_until(self.healthy, timeout=60, what=f"the server to answer (log: {self.log})")
 
     def healthy(self) -> bool:
         assert self.process is not None
