@@ -2,6 +2,8 @@
 // tile's own pixels (outlines clipped and simplified, labels, groups, codes); the
 // tile draws it, hiding the groups whose layer is off, so a toggle is instant.
 
+import {angleOf, upright} from "./matrix.js";
+
 const KEEP = 4;
 const FILL = "rgba(139, 90, 43, 0.55)";
 const EDGE = "#5a3310";
@@ -55,10 +57,11 @@ export class CensusViews {
   }
 }
 
-/** The tracts, in the tile's native pixels (the caller scales them to the canvas). */
-export function drawCensus(ctx, view, state, width, height) {
+/** The tracts, in the display's native pixels (the caller's transform maps those to
+ * its canvas). */
+export function drawCensus(ctx, view, state, display) {
   ctx.fillStyle = "#0d1b2a";
-  ctx.fillRect(0, 0, width, height);
+  ctx.fillRect(0, 0, ...display.resolution);
   const shown = view.tracts.filter((tract) => groupShown(state, tract.group));
   ctx.fillStyle = FILL;
   ctx.strokeStyle = EDGE;
@@ -74,13 +77,13 @@ export function drawCensus(ctx, view, state, width, height) {
     ctx.fill("evenodd");
     ctx.stroke();
   }
-  drawLabels(ctx, shown, view.label_px);
+  drawLabels(ctx, shown, view.label_px, angleOf(display.to_pixels));
 }
 
 // Tract numbers where they fit inside their tract and stay clear of every code and
 // caption (the server says which: label_clear); a tract with its own code is named by
-// the code's caption.
-function drawLabels(ctx, tracts, size) {
+// the code's caption. Each is turned by `angle`, upright as the panel hangs.
+function drawLabels(ctx, tracts, size, angle) {
   ctx.font = `bold ${Math.round(size)}px sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
@@ -89,7 +92,11 @@ function drawLabels(ctx, tracts, size) {
     if (tract.code || !tract.label_clear) continue;  // codes' captions name their tracts
     const width = ctx.measureText(tract.label).width;
     if (width > 2 * tract.room) continue;
-    ctx.fillText(tract.label, tract.at[0], tract.at[1]);
+    ctx.save();
+    ctx.translate(tract.at[0], tract.at[1]);
+    ctx.rotate(angle);
+    ctx.fillText(tract.label, 0, 0);
+    ctx.restore();
   }
 }
 
@@ -104,9 +111,14 @@ export function withToggleStates(layout, view, state) {
   return {...layout, placed};
 }
 
-/** On the menu screen, along its bottom edge: how many tracts carry codes. */
-export function drawCaption(ctx, view, width, height) {
+/** On the menu screen, along its bottom edge as the panel hangs: how many tracts
+ * carry codes. */
+export function drawCaption(ctx, view, display) {
   if (!view.caption) return;
+  const hanging = upright(display);
+  const [width, height] = hanging.size;
+  ctx.save();
+  ctx.transform(...hanging.matrix);
   const size = Math.round(view.label_px);
   ctx.font = `${size}px sans-serif`;
   const fit = Math.min(1, (width - 2 * size) / ctx.measureText(view.caption).width);
@@ -115,4 +127,5 @@ export function drawCaption(ctx, view, width, height) {
   ctx.textAlign = "right";
   ctx.textBaseline = "bottom";
   ctx.fillText(view.caption, width - size / 2, height - size / 2);
+  ctx.restore();
 }

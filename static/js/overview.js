@@ -37,7 +37,7 @@ function drawer(state, clock) {
       if (map) {
         ctx.save();
         ctx.transform(...inverse(display.to_pixels));
-        drawCensus(ctx, map, state, ...display.resolution);
+        drawCensus(ctx, map, state, display);
         ctx.restore();
       } else if (volume) {
         ctx.save();

@@ -29,9 +29,9 @@ function drawer(state, clock) {
     const matrix = [a * sx, b * sy, c * sx, d * sy, e * sx, f * sy];
     const layout = withToggleStates(layouts.get(state.tag_layout), map, state);
     ctx.setTransform(sx, 0, 0, sy, 0, 0);
-    if (map) drawCensus(ctx, map, state, ...viewport.pixels);
+    if (map) drawCensus(ctx, map, state, display);
     else if (volume) drawVolume(ctx, volume);
-    if (map && display?.roles.includes("menu")) drawCaption(ctx, map, ...viewport.pixels);
+    if (map && display?.roles.includes("menu")) drawCaption(ctx, map, display);
     ctx.setTransform(...matrix);
     if (!volume && !map) drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
     drawCodes(ctx, layout, matrix, map ? maps.hiddenCodes(state) : null);
