@@ -55,3 +55,15 @@ function fitText(ctx, text, x, y, room, font, weight) {
   ctx.font = `${weight}${size}px sans-serif`;
   ctx.fillText(text, x, y);
 }
+
+/** The balloons layer, shared by every app. */
+export function createLayer() {
+  return {
+    name: "balloons",
+    draw(ctx, {state, clock, matrix}) {
+      ctx.setTransform(...matrix);
+      drawBalloons(ctx, state, clock(), Math.hypot(matrix[0], matrix[1]));
+    },
+    due: nextClosing,
+  };
+}

@@ -100,10 +100,13 @@ function drawLabels(ctx, tracts, size, angle) {
   }
 }
 
-/** The layout with each group toggle's label saying whether its group is shown now. */
-export function withToggleStates(layout, view, state) {
-  if (!layout || !view) return layout;
-  const placed = layout.placed.map((code) => {
+/** The layout without the codes of hidden groups (with what they stand on), each
+ * group toggle's label saying whether its group is shown now. */
+export function codesShown(layout, views, state) {
+  const view = views.get(state);
+  if (!view) return layout;
+  const hidden = views.hiddenCodes(state);
+  const placed = layout.placed.filter((code) => !hidden.has(code.code)).map((code) => {
     const group = view.toggles[code.code];
     if (!group) return code;
     return {...code, label: `${code.label} · ${groupShown(state, group) ? "shown" : "hidden"}`};
@@ -128,4 +131,26 @@ export function drawCaption(ctx, view, display) {
   ctx.textBaseline = "bottom";
   ctx.fillText(view.caption, width - size / 2, height - size / 2);
   ctx.restore();
+}
+
+/** The census app's layer: each display's share of the map (and on the menu screen,
+ * the caption), its codes as the groups shown say. */
+export function createLayer({wall, displays}) {
+  const views = new Map(displays.map((d) => [d.id, new CensusViews(wall.id, d.id)]));
+  return {
+    name: "census",
+    load: (state) => Promise.all([...views.values()].map((view) => view.load(state))),
+    draw(ctx, {state, display, native}) {
+      const view = views.get(display.id).get(state);
+      if (!view) return;
+      ctx.setTransform(...native);
+      drawCensus(ctx, view, state, display);
+      if (display.roles.includes("menu")) drawCaption(ctx, view, display);
+    },
+    codes: (layout, {state, display}) => codesShown(layout, views.get(display.id), state),
+    marks(state) {
+      const view = displays.length === 1 ? views.get(displays[0].id).get(state) : null;
+      return {census: view ? `${view.dataset} ${view.tracts.length}` : ""};
+    },
+  };
 }

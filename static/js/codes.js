@@ -1,6 +1,8 @@
 // The codes layer: placed QR codes, drawn so every module covers whole device pixels,
 // and the red pins from displaced codes to their anchors.
 
+import {angleOf, apply} from "./matrix.js";
+
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
 const CAPTION_BACKING = "#10161f";
@@ -28,9 +30,6 @@ export class CodeLayouts {
   }
 }
 
-function apply([a, b, c, d, e, f], x, y) {
-  return [a * x + c * y + e, b * x + d * y + f];
-}
 
 // A scene-mm rectangle as whole device pixels under `matrix` (rotation included).
 export function pixelBox(matrix, x, y, w, h) {
@@ -103,8 +102,7 @@ export function drawCaption(ctx, text, [left, top, boxW, boxH], angle = 0) {
 // Every labelled code carries its caption in the strip placement reserved under it (same
 // display, clear of other codes and captions).
 function drawCaptions(ctx, codes, matrix) {
-  const [a, b] = matrix;
-  const angle = Math.atan2(b, a);  // the panel's rotation: text turns with the scene
+  const angle = angleOf(matrix);  // the panel's rotation: text turns with the scene
   for (const code of codes) {
     if (code.label && code.caption) {
       drawCaption(ctx, code.label, pixelBox(matrix, ...code.caption), angle);
@@ -113,18 +111,28 @@ function drawCaptions(ctx, codes, matrix) {
 }
 
 /**
- * Draw a layout's codes. `matrix` maps scene mm to the canvas's device pixels; the
- * context's current transform is the same map (pins and labels use it). Codes in
- * `hidden` (a Set) are left out, with what they stand on.
+ * Draw a layout's codes: pins under codes, then the codes, then their captions.
+ * `matrix` maps scene mm to the canvas's device pixels.
  */
-export function drawCodes(ctx, layout, matrix, hidden = null) {
+export function drawCodes(ctx, layout, matrix) {
   if (!layout) return;
-  const codes = hidden?.size ? layout.placed.filter((c) => !hidden.has(c.code)) : layout.placed;
+  const codes = layout.placed;
   const [a, b] = matrix;
+  ctx.setTransform(...matrix);
   drawPins(ctx, codes, Math.hypot(a, b));
-  ctx.save();
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) drawCode(ctx, code, matrix);
-  ctx.restore();
   drawCaptions(ctx, codes, matrix);
+}
+
+/** The codes layer, shared by every app: the layout the wall state names (a tile gets
+ * what its display draws of it, the overview all of it). */
+export function createLayer({wall, displays}) {
+  const layouts = new CodeLayouts(wall.id, displays.length === 1 ? displays[0].id : null);
+  return {
+    name: "codes",
+    load: (state) => layouts.load(state.tag_layout),
+    draw: (ctx, frame) => drawCodes(ctx, frame.codes(layouts.get(frame.state.tag_layout)),
+      frame.matrix),
+  };
 }

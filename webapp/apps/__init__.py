@@ -52,9 +52,17 @@ class Scan:
         return await get_person(self.request, self.services, self.address)
 
 
+SHARED_LAYERS = ("/static/js/codes.js", "/static/js/balloons.js")
+"""The scene's layers drawn over every app's: the placed codes with their pins, and
+description balloons."""
+
+
 class WallApp(Protocol):
     name: str
     default_tag_set: str | None  # the set shown when the app comes on the wall
+    layers: tuple[str, ...]
+    """The JS modules that draw the app's scene on tiles and the overview, bottom first,
+    under :data:`SHARED_LAYERS` (each exports ``createLayer``: ``static/js/layers.js``)."""
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """The state as the app needs it when it comes on ``wall`` (say, the data set
@@ -134,6 +142,12 @@ async def change_state(
             return update(state).model_copy(update=placed)
 
         return await services.hub.change_state(wall.id, with_codes)
+
+
+def layer_stacks(apps: dict[str, WallApp]) -> dict[str, Any]:
+    """What pages that draw the scene load (``static/js/layers.js``): each app's layers
+    and the shared ones."""
+    return {"apps": {name: list(app.layers) for name, app in apps.items()}, "shared": SHARED_LAYERS}
 
 
 def _place_for(

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
+
 from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 
+from webapp.apps import layer_stacks
 from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
 from webapp.protocol import ViewportInfo
 from webapp.schemas import WallInfo
@@ -53,11 +56,16 @@ def tile_page(
         token=services.tile_token(wall.id),
         viewport_json=viewport.model_dump_json(),
         wall_json=WallInfo.of(wall).model_dump_json(),
+        layers_json=json.dumps(layer_stacks(services.apps)),
     )
 
 
 @router.get("/wall/{wall_id}/overview")
-def overview_page(request: Request, wall: WallDep) -> HTMLResponse:
+def overview_page(request: Request, wall: WallDep, services: ServicesDep) -> HTMLResponse:
     return render(
-        request, "overview.html", wall=wall, wall_json=WallInfo.of(wall).model_dump_json()
+        request,
+        "overview.html",
+        wall=wall,
+        wall_json=WallInfo.of(wall).model_dump_json(),
+        layers_json=json.dumps(layer_stacks(services.apps)),
     )

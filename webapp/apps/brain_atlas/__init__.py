@@ -91,6 +91,7 @@ def group_tag(group: UserGroup) -> str:
 class BrainApp:
     name: str = APP
     default_tag_set: str | None = TAG_SETS["full"]
+    layers: tuple[str, ...] = ("/static/js/volume.js",)
 
     def __init__(self) -> None:
         self._lock = threading.Lock()

@@ -60,6 +60,7 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
 class CensusApp:
     name: str = APP
     default_tag_set: str | None = CENSUS_SET
+    layers: tuple[str, ...] = ("/static/js/census.js",)
 
     def __init__(self) -> None:
         self.datasets = DataSets()
