@@ -191,6 +191,40 @@ def test_a_pin_reaching_a_neighbouring_display_is_drawn_there(
         page.context.close()
 
 
+def shares(image: Image.Image) -> tuple[float, float]:
+    """The share of a tile that is brain (the tissue colours: warm, light) and that is
+    the setup pattern's display background (#182030)."""
+    rgb = np.asarray(image.convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    # the tissue colours: light and warm, blue about 0.8 of green (not the pattern's
+    # yellow diagonals, 0.4, nor its orange circle, 0.7)
+    tissue = (r > 150) & (r > g + 20) & (b > 0.76 * g) & (b < 0.9 * g)
+    pattern = np.abs(rgb - [0x18, 0x20, 0x30]).sum(axis=2) < 12
+    return float(tissue.mean()), float(pattern.mean())
+
+
+def test_back_to_the_pattern_no_brain_is_left_on_the_tiles(
+    browser: Browser, atlas: ServerProcess
+) -> None:
+    """Switching from the brain atlas back to the setup pattern shows the pattern on
+    every stage tile, and nothing of the brain, without clearing the volume by hand."""
+    tiles = dict(zip(FREE, open_tiles(browser, atlas, "demo", FREE, native=True), strict=True))
+    settle(atlas, tiles)
+    shots = {t: Image.open(io.BytesIO(p.screenshot(type="png"))) for t, p in tiles.items()}
+    assert max(shares(shot)[0] for shot in shots.values()) > 0.05, "the brain is up"
+    version = atlas.change("demo", {"app": "pattern"})
+    wait_until(lambda: all(version_of(t) == version for t in tiles.values()), what="the switch")
+    for tile, page in tiles.items():
+        image = Image.open(io.BytesIO(page.screenshot(type="png")))
+        brain, pattern = shares(image)
+        assert brain < 0.002 and pattern > 0.5, f"{tile}: brain {brain:.3f}, pattern {pattern:.3f}"
+        assert page.evaluate("document.body.dataset.volume") == ""
+        assert f"Display {tile}" in {c.label for c in layout_of(atlas).placed}
+    assert atlas.status("demo")["state"]["volume"] is None
+    for page in tiles.values():
+        page.context.close()
+
+
 def test_a_class_meets_the_quiz_off_the_tiles(browser: Browser, atlas: ServerProcess) -> None:
     """Students on 390 px phones, every code decoded from native tile screenshots: a
     child's K-5 scan changes the child's pages, not the wall; the pins' numbers are read

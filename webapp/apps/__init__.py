@@ -69,6 +69,11 @@ class WallApp(Protocol):
         it shows); called in a worker thread, at start too."""
         ...
 
+    def leave(self, state: WallState) -> WallState:
+        """The state without what only this app shows (say, its volume), as another app
+        comes on the wall: a scene shows only its own app's layers."""
+        ...
+
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """The named tags the app needs on ``wall`` in ``state`` (declared at every
         start, and again whenever one of :data:`PLACING_FIELDS` changes)."""
@@ -122,18 +127,20 @@ async def change_state(
         if all(getattr(target, f) == getattr(current, f) for f in PLACING_FIELDS):
             return await services.hub.change_state(wall.id, update)
         app = services.apps.get(target.app)
+        leaving = services.apps.get(current.app) if current.app != target.app else None
         tag_set = target.tag_set
         settled: dict[str, Any] = {}
-        if target.app != current.app and app is not None:
-            tag_set = app.default_tag_set
-            ready = await run_in_threadpool(app.settle, services, wall, target)
+        if target.app != current.app:
+            ready = leaving.leave(target) if leaving is not None else target
+            if app is not None:
+                tag_set = app.default_tag_set
+                ready = await run_in_threadpool(app.settle, services, wall, ready)
             settled = {
                 name: getattr(ready, name)
                 for name in WallState.model_fields
                 if getattr(ready, name) != getattr(target, name)
             }
             target = ready
-        leaving = services.apps.get(current.app) if current.app != target.app else None
         apps = [a for a in (leaving, app) if a is not None]
         layout_id = await run_in_threadpool(_place_for, services, wall, apps, target, tag_set)
         placed = {**settled, "tag_set": tag_set, "tag_layout": layout_id}

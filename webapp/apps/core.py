@@ -30,6 +30,9 @@ class CoreApp:
     default_tag_set: str | None = None
     layers: tuple[str, ...] = ()
 
+    def leave(self, state: WallState) -> WallState:
+        return state
+
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state
 

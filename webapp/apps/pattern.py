@@ -34,6 +34,9 @@ class PatternApp:
     # a volume the dashboard puts up shows instead of the pattern
     layers: tuple[str, ...] = ("/static/js/volume.js", "/static/js/scene.js")
 
+    def leave(self, state: WallState) -> WallState:
+        return state
+
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state
 

@@ -239,6 +239,10 @@ class BrainApp:
             ).number
         return state.model_copy(update=update) if update else state
 
+    def leave(self, state: WallState) -> WallState:
+        """The brain's volume goes with it (its view and quiz round stay for its return)."""
+        return state.model_copy(update={"volume": None})
+
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the brain is on the wall: the user-group menu on the menu screen and a
         pin on every region of each set that the current picture shows, numbered and

@@ -93,6 +93,9 @@ class CensusApp:
 
     # --- the WallApp interface -----------------------------------------------------
 
+    def leave(self, state: WallState) -> WallState:
+        return state
+
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the shipped one until an
         import): seeded on first use, so walls that never show the map pay nothing."""

@@ -139,6 +139,18 @@ def test_a_tile_gets_every_pin_that_reaches_its_display(on_wall: TestClient) -> 
     assert unknown.status_code == 404 and "r2c2" in unknown.json()["detail"]
 
 
+def test_the_brain_leaving_the_wall_takes_its_volume(on_wall: TestClient) -> None:
+    """Back to the setup pattern: no brain volume left in the state for tiles to draw."""
+    assert state_of(on_wall).volume is not None
+    response = on_wall.post(
+        "/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall)
+    )
+    assert response.status_code == 200, response.text
+    state = state_of(on_wall)
+    assert state.app == "pattern" and state.volume is None and state.tag_set == "setup"
+    assert show_brain(on_wall).volume is not None, "and it comes back with the brain"
+
+
 def test_every_region_of_both_sets_gets_a_pin_in_some_preset(on_wall: TestClient) -> None:
     app = brain(on_wall)
     for tag_set in ("k5", "full"):
