@@ -2,6 +2,8 @@
 // it describes. Drawn in scene mm (the caller's transform); each closes at its time on
 // the wall's shared clock, so every tile drops it at the same instant.
 
+import {markMm} from "./matrix.js";
+
 const PAD = 0.5;          // of the font size
 const LINE_HEIGHT = 1.35; // of the font size
 
@@ -15,14 +17,15 @@ export function nextClosing(state, serverNow) {
   return times.length ? Math.min(...times) : null;
 }
 
-export function drawBalloons(ctx, state, serverNow, pxPerMm) {
+/** `mm(px)`: a line `px` of the display's pixels wide, in scene mm. */
+export function drawBalloons(ctx, state, serverNow, mm) {
   for (const balloon of openBalloons(state, serverNow)) {
     const [ax, ay] = balloon.anchor;
     const [x, y, w, h] = balloon.rect ?? [ax + 20, ay - 60, 300, 120];
     const font = h / (LINE_HEIGHT * (1 + balloon.lines.length) + 2 * PAD);
     ctx.strokeStyle = "#1b1b1b";
     ctx.fillStyle = "#fffdf5";
-    ctx.lineWidth = 2 / pxPerMm;
+    ctx.lineWidth = mm(2);
     const edgeX = Math.min(Math.max(ax, x), x + w);
     const edgeY = Math.min(Math.max(ay, y), y + h);
     ctx.beginPath();
@@ -30,7 +33,7 @@ export function drawBalloons(ctx, state, serverNow, pxPerMm) {
     ctx.lineTo(ax, ay);
     ctx.stroke();
     ctx.beginPath();
-    ctx.arc(ax, ay, 4 / pxPerMm, 0, 2 * Math.PI);
+    ctx.arc(ax, ay, mm(4), 0, 2 * Math.PI);
     ctx.fillStyle = "#1b1b1b";
     ctx.fill();
     ctx.fillStyle = "#fffdf5";
@@ -60,9 +63,9 @@ function fitText(ctx, text, x, y, room, font, weight) {
 export function createLayer() {
   return {
     name: "balloons",
-    draw(ctx, {state, clock, matrix}) {
+    draw(ctx, {state, clock, matrix, display}) {
       ctx.setTransform(...matrix);
-      drawBalloons(ctx, state, clock(), Math.hypot(matrix[0], matrix[1]));
+      drawBalloons(ctx, state, clock(), (px) => markMm(px, display, matrix, 1));
     },
     due: nextClosing,
   };

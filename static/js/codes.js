@@ -1,7 +1,7 @@
 // The codes layer: placed QR codes, drawn so every module covers whole device pixels,
 // and the red pins from displaced codes to their anchors.
 
-import {angleOf, apply} from "./matrix.js";
+import {angleOf, apply, markMm} from "./matrix.js";
 
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
@@ -56,11 +56,12 @@ function drawCode(ctx, code, matrix) {
   });
 }
 
-// Pins are drawn in scene mm (the caller's transform), under the codes.
-function drawPins(ctx, codes, pxPerMm) {
+// Pins are drawn in scene mm (the caller's transform), under the codes; `mm(px)` sizes
+// their marks in the display's pixels.
+function drawPins(ctx, codes, mm) {
   ctx.strokeStyle = PIN;
   ctx.fillStyle = PIN;
-  ctx.lineWidth = 3 / pxPerMm;
+  ctx.lineWidth = mm(3);
   for (const code of codes) {
     if (!code.leader) continue;
     const [[x0, y0], [x1, y1]] = code.leader;
@@ -69,7 +70,7 @@ function drawPins(ctx, codes, pxPerMm) {
     ctx.lineTo(x1, y1);
     ctx.stroke();
     ctx.beginPath();
-    ctx.arc(x1, y1, 6 / pxPerMm, 0, 2 * Math.PI);
+    ctx.arc(x1, y1, mm(6), 0, 2 * Math.PI);
     ctx.fill();
   }
 }
@@ -111,15 +112,14 @@ function drawCaptions(ctx, codes, matrix) {
 }
 
 /**
- * Draw a layout's codes: pins under codes, then the codes, then their captions.
- * `matrix` maps scene mm to the canvas's device pixels.
+ * Draw a layout's codes on `display`: pins under codes, then the codes, then their
+ * captions. `matrix` maps scene mm to the canvas's device pixels.
  */
-export function drawCodes(ctx, layout, matrix) {
+export function drawCodes(ctx, layout, matrix, display) {
   if (!layout) return;
   const codes = layout.placed;
-  const [a, b] = matrix;
   ctx.setTransform(...matrix);
-  drawPins(ctx, codes, Math.hypot(a, b));
+  drawPins(ctx, codes, (px) => markMm(px, display, matrix));
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) drawCode(ctx, code, matrix);
   drawCaptions(ctx, codes, matrix);
@@ -133,6 +133,6 @@ export function createLayer({wall, displays}) {
     name: "codes",
     load: (state) => layouts.load(state.tag_layout),
     draw: (ctx, frame) => drawCodes(ctx, frame.codes(layouts.get(frame.state.tag_layout)),
-      frame.matrix),
+      frame.matrix, frame.display),
   };
 }

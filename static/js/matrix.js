@@ -25,6 +25,16 @@ export function angleOf([a, b]) {
 }
 
 /**
+ * A mark `px` of the display's own pixels wide (a pin's line, its head), in scene mm,
+ * given the canvas's `matrix` (scene mm -> canvas px): as large on the overview as on
+ * the wall, where it stays at least `least` canvas px so it can be seen.
+ */
+export function markMm(px, display, matrix, least = 2) {
+  const [a, b] = display.to_pixels;
+  return Math.max(px / Math.hypot(a, b), least / Math.hypot(matrix[0], matrix[1]));
+}
+
+/**
  * A display's pixels as the panel hangs (x to the right and y down on the wall):
  * `matrix` maps them to the native framebuffer pixels the tile draws in, `size` is
  * their extent ([width, height], swapped on a turned panel).
