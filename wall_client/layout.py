@@ -144,6 +144,45 @@ class Viewport:
     to_pixels: Affine  # scene mm -> window px (rotation included)
     to_wall: Affine  # scene mm -> physical wall mm (identity in overlay mode)
 
+    def px_to_mm(self, px: float) -> float:
+        """A length in this display's pixels as scene mm (the longer, where the axes
+        differ), for marks drawn a fixed number of pixels wide."""
+        a, b, c, d, _, _ = self.to_pixels
+        return px / min(math.hypot(a, b), math.hypot(c, d))
+
+    def shows(self, rect: Rect) -> bool:
+        """Whether any of ``rect`` (scene mm) falls on this display."""
+        return self.scene_rect.intersects(rect)
+
+    def shows_segment(
+        self, start: tuple[float, float], end: tuple[float, float], reach_px: float
+    ) -> bool:
+        """Whether a line from ``start`` to ``end`` (scene mm), drawn with marks up to
+        ``reach_px`` pixels around it (its width, a disc at its end), falls on this
+        display. The marks are taken as squares, so a line that just misses a corner
+        may count: a tile clips what it draws, so a spare one costs nothing."""
+        reach = self.px_to_mm(reach_px)
+        rect = self.scene_rect
+        (x0, y0), (x1, y1) = start, end
+        # Liang-Barsky: clip the segment's parameter range [0, 1] to the grown rectangle.
+        low, high = 0.0, 1.0
+        for delta, distance in (
+            (-(x1 - x0), x0 - (rect.x - reach)),
+            (x1 - x0, rect.right + reach - x0),
+            (-(y1 - y0), y0 - (rect.y - reach)),
+            (y1 - y0, rect.bottom + reach - y0),
+        ):
+            if delta == 0:
+                if distance < 0:
+                    return False
+                continue
+            t = distance / delta
+            if delta < 0:
+                low = max(low, t)
+            else:
+                high = min(high, t)
+        return low <= high
+
 
 @dataclass(frozen=True)
 class Wall:

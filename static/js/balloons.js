@@ -3,12 +3,20 @@
 // the wall's shared clock, so every tile drops it at the same instant. The server keeps
 // box, pointer and dot clear of every code and caption by CLEAR_PX in
 // webapp/apps/census_map/actions.py: keep the sizes below within it.
+//
+// Two layers: the pointers and dots go under the codes (where codes crowd the map and
+// no straight line from the box to the tract misses them all, the line passes under a
+// code rather than over it), the boxes over everything else.
+
+import {markMm} from "./matrix.js";
 
 const PAD = 0.5;          // of the font size
 const LINE_HEIGHT = 1.35; // of the font size
 
 export function openBalloons(state, serverNow) {
-  return (state.balloons ?? []).filter((b) => b.closes_at == null || b.closes_at > serverNow);
+  // A balloon never placed is not drawn: anywhere else, it could cover a code.
+  return (state.balloons ?? [])
+    .filter((b) => b.rect && (b.closes_at == null || b.closes_at > serverNow));
 }
 
 /** When the next open balloon closes (server ms), or null. */
@@ -17,15 +25,12 @@ export function nextClosing(state, serverNow) {
   return times.length ? Math.min(...times) : null;
 }
 
-// Pointers and dots go under the codes (drawn before them): where codes crowd the map
-// and no straight line from the box to the tract misses them all, the line passes
-// under a code rather than over it.
-export function drawPointers(ctx, state, serverNow, pxPerMm) {
+/** `mm(px)`: a line `px` of the display's pixels wide, in scene mm. */
+export function drawPointers(ctx, state, serverNow, mm) {
   ctx.strokeStyle = "#1b1b1b";
   ctx.fillStyle = "#1b1b1b";
-  ctx.lineWidth = 2 / pxPerMm;
+  ctx.lineWidth = mm(2);
   for (const balloon of openBalloons(state, serverNow)) {
-    if (!balloon.rect) continue;  // never placed: drawn anywhere, it could cover a code
     const [ax, ay] = balloon.anchor;
     const [x, y, w, h] = balloon.rect;
     ctx.beginPath();
@@ -33,20 +38,19 @@ export function drawPointers(ctx, state, serverNow, pxPerMm) {
     ctx.lineTo(ax, ay);
     ctx.stroke();
     ctx.beginPath();
-    ctx.arc(ax, ay, 4 / pxPerMm, 0, 2 * Math.PI);
+    ctx.arc(ax, ay, mm(4), 0, 2 * Math.PI);
     ctx.fill();
   }
 }
 
-// The boxes go over everything else (the server keeps them clear of codes).
-export function drawBalloons(ctx, state, serverNow, pxPerMm) {
+/** `mm(px)`: a line `px` of the display's pixels wide, in scene mm. */
+export function drawBalloons(ctx, state, serverNow, mm) {
   for (const balloon of openBalloons(state, serverNow)) {
-    if (!balloon.rect) continue;
     const [x, y, w, h] = balloon.rect;
     const font = h / (LINE_HEIGHT * (1 + balloon.lines.length) + 2 * PAD);
     ctx.strokeStyle = "#1b1b1b";
     ctx.fillStyle = "#fffdf5";
-    ctx.lineWidth = 2 / pxPerMm;
+    ctx.lineWidth = mm(2);
     ctx.fillRect(x, y, w, h);
     ctx.strokeRect(x, y, w, h);
     ctx.fillStyle = "#1b1b1b";
@@ -67,4 +71,16 @@ function fitText(ctx, text, x, y, room, font, weight) {
   const size = width > room ? font * room / width : font;
   ctx.font = `${weight}${size}px sans-serif`;
   ctx.fillText(text, x, y);
+}
+
+/** The balloons' boxes, shared by every app, over everything else. */
+export function createLayer() {
+  return {
+    name: "balloons",
+    draw(ctx, {state, clock, matrix, display}) {
+      ctx.setTransform(...matrix);
+      drawBalloons(ctx, state, clock(), (px) => markMm(px, display, matrix, 1));
+    },
+    due: nextClosing,
+  };
 }

@@ -1,6 +1,8 @@
 // The codes layer: placed QR codes, drawn so every module covers whole device pixels,
 // and the red pins from displaced codes to their anchors.
 
+import {angleOf, apply, markMm} from "./matrix.js";
+
 const KEEP_LAYOUTS = 4;
 const PIN = "#e63946";
 const CAPTION_BACKING = "#10161f";
@@ -28,9 +30,6 @@ export class CodeLayouts {
   }
 }
 
-function apply([a, b, c, d, e, f], x, y) {
-  return [a * x + c * y + e, b * x + d * y + f];
-}
 
 // A scene-mm rectangle as whole device pixels under `matrix` (rotation included).
 export function pixelBox(matrix, x, y, w, h) {
@@ -57,11 +56,12 @@ function drawCode(ctx, code, matrix) {
   });
 }
 
-// Pins are drawn in scene mm (the caller's transform), under the codes.
-function drawPins(ctx, codes, pxPerMm) {
+// Pins are drawn in scene mm (the caller's transform), under the codes; `mm(px)` sizes
+// their marks in the display's pixels.
+function drawPins(ctx, codes, mm) {
   ctx.strokeStyle = PIN;
   ctx.fillStyle = PIN;
-  ctx.lineWidth = 3 / pxPerMm;
+  ctx.lineWidth = mm(3);
   for (const code of codes) {
     if (!code.leader) continue;
     const [[x0, y0], [x1, y1]] = code.leader;
@@ -70,7 +70,7 @@ function drawPins(ctx, codes, pxPerMm) {
     ctx.lineTo(x1, y1);
     ctx.stroke();
     ctx.beginPath();
-    ctx.arc(x1, y1, 6 / pxPerMm, 0, 2 * Math.PI);
+    ctx.arc(x1, y1, mm(6), 0, 2 * Math.PI);
     ctx.fill();
   }
 }
@@ -107,8 +107,7 @@ export function drawCaption(ctx, text, [left, top, boxW, boxH], angle = 0) {
 // Every labelled code carries its caption in the strip placement reserved under it (same
 // display, clear of other codes and captions).
 function drawCaptions(ctx, codes, matrix) {
-  const [a, b] = matrix;
-  const angle = Math.atan2(b, a);  // the panel's rotation: text turns with the scene
+  const angle = angleOf(matrix);  // the panel's rotation: text turns with the scene
   for (const code of codes) {
     if (code.label && code.caption) {
       drawCaption(ctx, code.label, pixelBox(matrix, ...code.caption), angle);
@@ -117,18 +116,27 @@ function drawCaptions(ctx, codes, matrix) {
 }
 
 /**
- * Draw a layout's codes. `matrix` maps scene mm to the canvas's device pixels; the
- * context's current transform is the same map (pins and labels use it). Codes in
- * `hidden` (a Set) are left out, with what they stand on.
+ * Draw a layout's codes on `display`: pins under codes, then the codes, then their
+ * captions. `matrix` maps scene mm to the canvas's device pixels.
  */
-export function drawCodes(ctx, layout, matrix, hidden = null) {
+export function drawCodes(ctx, layout, matrix, display) {
   if (!layout) return;
-  const codes = hidden?.size ? layout.placed.filter((c) => !hidden.has(c.code)) : layout.placed;
-  const [a, b] = matrix;
-  drawPins(ctx, codes, Math.hypot(a, b));
-  ctx.save();
+  const codes = layout.placed;
+  ctx.setTransform(...matrix);
+  drawPins(ctx, codes, (px) => markMm(px, display, matrix));
   ctx.setTransform(1, 0, 0, 1, 0, 0);
   for (const code of codes) drawCode(ctx, code, matrix);
-  ctx.restore();
   drawCaptions(ctx, codes, matrix);
+}
+
+/** The codes layer, shared by every app: the layout the wall state names (a tile gets
+ * what its display draws of it, the overview all of it). */
+export function createLayer({wall, displays}) {
+  const layouts = new CodeLayouts(wall.id, displays.length === 1 ? displays[0].id : null);
+  return {
+    name: "codes",
+    load: (state) => layouts.load(state.tag_layout),
+    draw: (ctx, frame) => drawCodes(ctx, frame.codes(layouts.get(frame.state.tag_layout)),
+      frame.matrix, frame.display),
+  };
 }

@@ -72,3 +72,15 @@ export function drawPattern(ctx, wall, state, pxPerMm) {
     }
   }
 }
+
+/** The pattern app's layer; it steps aside for a volume the dashboard puts up. */
+export function createLayer({wall}) {
+  return {
+    name: "pattern",
+    draw(ctx, {state, matrix}) {
+      if (state.volume) return;
+      ctx.setTransform(...matrix);
+      drawPattern(ctx, wall, state, Math.hypot(matrix[0], matrix[1]));
+    },
+  };
+}

@@ -88,3 +88,26 @@ export function drawVolume(ctx, image) {
   ctx.drawImage(image.bitmap, 0, 0, image.bitmap.width * image.scale,
     image.bitmap.height * image.scale);
 }
+
+/** The volume layer (apps that show a volume): each display's image of the wall
+ * state's volume, refined after the swap on tiles (they hold the tile token). */
+export function createLayer({wall, displays, token}) {
+  const images = new Map(displays.map((d) => [d.id, new VolumeImages(wall.id, d.id, token)]));
+  return {
+    name: "volume",
+    load: (state) => Promise.all([...images.values()].map((image) => image.load(state))),
+    draw(ctx, {state, display, native}) {
+      const image = images.get(display.id).get(state);
+      if (!image) return;
+      ctx.setTransform(...native);
+      drawVolume(ctx, image);
+    },
+    shown(state, redraw) {
+      if (token) for (const image of images.values()) image.refine(state, redraw);
+    },
+    marks(state) {
+      const image = displays.length === 1 ? images.get(displays[0].id).get(state) : null;
+      return {volume: image ? `${image.detail} ${image.level}` : ""};
+    },
+  };
+}

@@ -19,11 +19,14 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, serve, version_of
+from wall_client.config import load_wall
+from wall_client.layout import Rect, apply_affine
 from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.views import load_views
 from webapp.check import fetch_layout
 from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo
+from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess, wait_until
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
@@ -140,6 +143,87 @@ def pins_seen(server: ServerProcess, tiles: dict[str, Page]) -> dict[int, str]:
             assert caption_reads(tiles[tile], image, entry.caption, total) == number
             found[number] = code.payload
     return found
+
+
+PIN_RED = np.array([0xE6, 0x39, 0x46])
+
+
+def red_near(image: Image.Image, x: float, y: float, radius: int = 2) -> bool:
+    """Whether pin red is drawn within ``radius`` px of (x, y) on a tile screenshot."""
+    rgb = np.asarray(image.convert("RGB")).astype(int)
+    col, row = round(x), round(y)
+    patch = rgb[max(row - radius, 0) : row + radius + 1, max(col - radius, 0) : col + radius + 1]
+    return bool((np.abs(patch - PIN_RED).sum(axis=2) < 40).any())
+
+
+def test_a_pin_reaching_a_neighbouring_display_is_drawn_there(
+    browser: Browser, atlas: ServerProcess
+) -> None:
+    """Left side, full set: a pin's code stands on r2c3 and its head on r2c2; the r2c2
+    tile draws the head and its part of the line, as the overview does."""
+    control(atlas, preset="left-side", tag_set="full")
+    tiles = dict(zip(FREE, open_tiles(browser, atlas, "demo", FREE, native=True), strict=True))
+    settle(atlas, tiles)
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    shots = {t: Image.open(io.BytesIO(page.screenshot(type="png"))) for t, page in tiles.items()}
+    placed = layout_of(atlas).placed
+    # a pin's line may pass under another code or caption (drawn over pins)
+    covers = [Rect(x - 2, y - 2, w + 4, h + 4) for x, y, w, h in (c.footprint for c in placed)]
+    crossing = 0
+    for code in placed:
+        if code.leader is None:
+            continue
+        start, head = code.leader
+        for display in (wall.display(t) for t in FREE):
+            to_pixels = wall.viewport(display.id).to_pixels
+            if display.rect.contains(head):
+                crossing += code.display != display.id
+                assert red_near(shots[display.id], *apply_affine(to_pixels, *head)), (
+                    f"{display.id} lacks the head of {code.label}"
+                )
+            for t in np.linspace(0.1, 0.9, 9):  # the line, wherever it crosses a tile
+                point = (start[0] + t * (head[0] - start[0]), start[1] + t * (head[1] - start[1]))
+                if display.rect.contains(point) and not any(r.contains(point) for r in covers):
+                    assert red_near(shots[display.id], *apply_affine(to_pixels, *point)), (
+                        f"{display.id} lacks the line of {code.label}"
+                    )
+    assert crossing, "some pin's head stands on another display than its code"
+    for page in tiles.values():
+        page.context.close()
+
+
+def shares(image: Image.Image) -> tuple[float, float]:
+    """The share of a tile that is brain (the tissue colours: warm, light) and that is
+    the setup pattern's display background (#182030)."""
+    rgb = np.asarray(image.convert("RGB")).astype(int)
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    # the tissue colours: light and warm, blue about 0.8 of green (not the pattern's
+    # yellow diagonals, 0.4, nor its orange circle, 0.7)
+    tissue = (r > 150) & (r > g + 20) & (b > 0.76 * g) & (b < 0.9 * g)
+    pattern = np.abs(rgb - [0x18, 0x20, 0x30]).sum(axis=2) < 12
+    return float(tissue.mean()), float(pattern.mean())
+
+
+def test_back_to_the_pattern_no_brain_is_left_on_the_tiles(
+    browser: Browser, atlas: ServerProcess
+) -> None:
+    """Switching from the brain atlas back to the setup pattern shows the pattern on
+    every stage tile, and nothing of the brain, without clearing the volume by hand."""
+    tiles = dict(zip(FREE, open_tiles(browser, atlas, "demo", FREE, native=True), strict=True))
+    settle(atlas, tiles)
+    shots = {t: Image.open(io.BytesIO(p.screenshot(type="png"))) for t, p in tiles.items()}
+    assert max(shares(shot)[0] for shot in shots.values()) > 0.05, "the brain is up"
+    version = atlas.change("demo", {"app": "pattern"})
+    wait_until(lambda: all(version_of(t) == version for t in tiles.values()), what="the switch")
+    for tile, page in tiles.items():
+        image = Image.open(io.BytesIO(page.screenshot(type="png")))
+        brain, pattern = shares(image)
+        assert brain < 0.002 and pattern > 0.5, f"{tile}: brain {brain:.3f}, pattern {pattern:.3f}"
+        assert page.evaluate("document.body.dataset.volume") == ""
+        assert f"Display {tile}" in {c.label for c in layout_of(atlas).placed}
+    assert atlas.status("demo")["state"]["volume"] is None
+    for page in tiles.values():
+        page.context.close()
 
 
 def test_a_class_meets_the_quiz_off_the_tiles(browser: Browser, atlas: ServerProcess) -> None:

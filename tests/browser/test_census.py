@@ -330,3 +330,86 @@ def test_menu_labels_leave_the_toggle_codes_intact_on_kl_3x3(
         assert damaged == {tile: {} for tile in menus}, patch
     for page in tiles.values():
         page.context.close()
+
+
+LABEL = np.array([0xF5, 0xE6, 0xD0])  # tract numbers (static/js/census.js)
+PORTRAIT_VIEW = {"center": [1.7, 0.45], "zoom": 1.5}  # the map across the portrait panel
+
+
+def best_overlap(seen: np.ndarray, expected: np.ndarray) -> float:
+    """How well a mask matches ``expected`` (intersection over union) at the best of
+    the shifts of up to 2 px the 4 px larger ``seen`` allows (text lands on whole
+    pixels differently)."""
+    h, w = expected.shape
+    return max(
+        float((part & expected).sum() / (part | expected).sum())
+        for dy in range(5)
+        for dx in range(5)
+        if (part := seen[dy : dy + h, dx : dx + w]) is not None
+    )
+
+
+def test_tract_numbers_read_upright_as_the_portrait_panel_hangs(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    """The irregular wall's portrait panel is turned 90 degrees: its screenshot, turned
+    the way the panel hangs, shows each tract number as the same text written upright
+    (not sideways, not upside down)."""
+    server = serve(tmp_path, database_url)
+    try:
+        server.change("irregular", {"app": "census"})
+        version = server.change("irregular", {"view": PORTRAIT_VIEW})
+        [tile] = open_tiles(browser, server, "irregular", ["portrait"], native=True)
+        wait_until(lambda: version_of(tile) == version and shown(tile, "census"), what="the map")
+        state = server.status("irregular")["state"]
+        (cx, cy), zoom = PORTRAIT_VIEW["center"], PORTRAIT_VIEW["zoom"]
+        query = {"dataset": state["dataset"], "layout": state["tag_layout"]}
+        share = httpx.get(
+            f"{server.url}/api/walls/irregular/tiles/portrait/census",
+            params={**query, "cx": cx, "cy": cy, "zoom": zoom},
+        ).json()
+        labels = [
+            t for t in share["tracts"] if not t["code"] and t["label_clear"] and len(t["label"]) > 3
+        ]
+        # each number written upright in the tile's font, as a mask
+        references = tile.evaluate(
+            """([labels, size]) => labels.map(([text, room]) => {
+              const probe = new OffscreenCanvas(1, 1).getContext("2d");
+              probe.font = `bold ${Math.round(size)}px sans-serif`;
+              const width = Math.ceil(probe.measureText(text).width);
+              if (width > 2 * room) return null;  // the tile leaves it out
+              const [w, h] = [width + 8, Math.ceil(size * 1.6)];
+              const ctx = new OffscreenCanvas(w, h).getContext("2d");
+              ctx.font = probe.font;
+              ctx.textAlign = "center";
+              ctx.textBaseline = "middle";
+              ctx.fillText(text, w / 2, h / 2);
+              const alpha = ctx.getImageData(0, 0, w, h).data.filter((_, i) => i % 4 === 3);
+              return [w, h, Array.from(alpha, (a) => (a > 128 ? 1 : 0))];
+            })""",
+            [[[t["label"], t["room"]] for t in labels], share["label_px"]],
+        )
+        framebuffer = screenshot(tile).astype(int)
+        height = framebuffer.shape[0]
+        hung = np.rot90(framebuffer, k=-1)  # turned clockwise: the panel as it hangs
+        scores = []
+        for tract, reference in zip(labels, references, strict=True):
+            if reference is None:
+                continue
+            w, h, bits = reference
+            expected = np.array(bits, dtype=bool).reshape(h, w)
+            x, y = tract["at"]
+            hx, hy = height - 1 - round(y), round(x)  # where the framebuffer point hangs
+            top, left = hy - h // 2 - 2, hx - w // 2 - 2
+            crop = hung[top : top + h + 4, left : left + w + 4]
+            if top < 0 or left < 0 or crop.shape[:2] != (h + 4, w + 4):
+                continue  # cut by the display's edge
+            seen = np.abs(crop - LABEL).sum(axis=2) < 120
+            upright = best_overlap(seen, expected)
+            upside_down = best_overlap(seen[::-1, ::-1], expected)
+            scores.append((tract["label"], round(upright, 2), round(upside_down, 2)))
+        assert len(scores) >= 5, f"tract numbers on the portrait panel: {scores}"
+        assert all(up > 0.6 and up > down + 0.2 for _, up, down in scores), scores
+        tile.context.close()
+    finally:
+        server.stop()

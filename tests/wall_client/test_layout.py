@@ -344,6 +344,26 @@ def test_mm_per_px_accounts_for_rotation() -> None:
     assert wall.display("a").mounted_resolution == (1080, 1920)
 
 
+def test_a_viewport_shows_lines_that_cross_it_or_end_just_outside() -> None:
+    """What a display draws of a line: any of it, widened by marks a few pixels wide
+    (a pin's head), even when neither end lies on the display."""
+    viewport = parse_wall(grid_config()).viewport("r1c2")
+    rect = viewport.scene_rect
+    reach = viewport.px_to_mm(8)
+    assert reach == pytest.approx(8 * 1209.6 / 1920)
+    middle = rect.y + rect.height / 2
+    assert viewport.shows_segment((rect.right + 50, middle), (rect.x + 50, middle), 8)  # ends on it
+    assert viewport.shows_segment((rect.x - 200, middle), (rect.right + 200, middle + 50), 8)
+    head_in = (rect.x - reach / 2, middle)  # the head's disc reaches over the edge
+    assert viewport.shows_segment((rect.x - 200, middle), head_in, 8)
+    assert not viewport.shows_segment((rect.x - 200, middle), (rect.x - 2 * reach, middle), 8)
+    below = rect.bottom + 2 * reach  # along the bezel under it
+    assert not viewport.shows_segment((rect.x - 200, below), (rect.right + 200, below), 8)
+    assert not viewport.shows_segment((rect.x - 100, below + 100), (rect.x - 2 * reach, below), 8)
+    assert viewport.shows(Rect(rect.x - 10, rect.y, 30, 30))
+    assert not viewport.shows(Rect(rect.x - 40, rect.y, 30, 30))
+
+
 # --- explicit form -------------------------------------------------------------------
 
 

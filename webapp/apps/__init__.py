@@ -11,7 +11,7 @@ own pages and API (``router``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from fastapi import APIRouter, Request, Response
 
@@ -44,13 +44,26 @@ class Scan:
         return await person_of(self.request, self.services.db, self.services.settings, self.address)
 
 
+SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
+"""The scene's layers drawn over every app's: the balloons' pointers, the placed codes
+with their pins, and the balloons' boxes."""
+
+
 class WallApp(Protocol):
     name: str
     default_tag_set: str | None  # the set shown when the app comes on the wall
+    layers: tuple[str, ...]
+    """The JS modules that draw the app's scene on tiles and the overview, bottom first,
+    under :data:`SHARED_LAYERS` (each exports ``createLayer``: ``static/js/layers.js``)."""
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """The state as the app needs it when it comes on ``wall`` (say, the data set
         it shows); called in a worker thread, at start too."""
+        ...
+
+    def leave(self, state: WallState) -> WallState:
+        """The state without what only this app shows (say, its volume), as another app
+        comes on the wall: a scene shows only its own app's layers."""
         ...
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
@@ -88,3 +101,9 @@ class WallApp(Protocol):
     def router(self) -> APIRouter | None:
         """The app's own pages and API (None: it has none)."""
         ...
+
+
+def layer_stacks(apps: dict[str, WallApp]) -> dict[str, Any]:
+    """What pages that draw the scene load (``static/js/layers.js``): each app's layers
+    and the shared ones."""
+    return {"apps": {name: list(app.layers) for name, app in apps.items()}, "shared": SHARED_LAYERS}

@@ -27,6 +27,10 @@ REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 class CoreApp:
     name: str = "core"
     default_tag_set: str | None = None
+    layers: tuple[str, ...] = ()
+
+    def leave(self, state: WallState) -> WallState:
+        return state
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state

@@ -31,6 +31,11 @@ SETUP_SET = "setup"
 class PatternApp:
     name: str = "pattern"
     default_tag_set: str | None = SETUP_SET
+    # a volume the dashboard puts up shows instead of the pattern
+    layers: tuple[str, ...] = ("/static/js/volume.js", "/static/js/scene.js")
+
+    def leave(self, state: WallState) -> WallState:
+        return state
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         return state

@@ -8,12 +8,13 @@ A change:
 1. runs under the wall's placing lock, so two changes of one wall never interleave
    (a tag-set switch racing an app switch cannot leave codes that belong to another
    view);
-2. when it moves what codes stand on (:data:`PLACING_FIELDS`), has the apps on the wall
+2. lets an app leaving the wall take what only it shows (its volume) and an app
+   coming on settle and bring its own tag set;
+3. when it moves what codes stand on (:data:`PLACING_FIELDS`), has the apps on the wall
    declare their tags for the new state and places the set shown, so the codes arrive
-   in the same swap as the scene; an app coming on the wall settles first and brings
-   its own tag set;
-3. drops the cached code look-ups when tags were declared or placed;
-4. commits (bumping the version) and publishes to the tiles, through the hub.
+   in the same swap as the scene;
+4. drops the cached code look-ups when tags were declared or placed;
+5. commits (bumping the version) and publishes to the tiles, through the hub.
 """
 
 from __future__ import annotations
@@ -100,18 +101,20 @@ def _place_codes(
     """The fields that put the right codes up for ``target``: what the app coming on
     the wall settles, and the tag set and its layout (runs in a worker thread)."""
     app = services.apps.get(target.app)
+    leaving = services.apps.get(current.app) if current.app != target.app else None
     fields: dict[str, Any] = {}
     tag_set = target.tag_set
-    if target.app != current.app and app is not None:
-        tag_set = app.default_tag_set
-        ready = app.settle(services, wall, target)
+    if target.app != current.app:
+        ready = leaving.leave(target) if leaving is not None else target
+        if app is not None:
+            tag_set = app.default_tag_set
+            ready = app.settle(services, wall, ready)
         fields = {
             name: getattr(ready, name)
             for name in WallState.model_fields
             if getattr(ready, name) != getattr(target, name)
         }
         target = ready
-    leaving = services.apps.get(current.app) if current.app != target.app else None
     declaring = [a for a in (leaving, app) if a is not None]
     return {**fields, **_declare_and_place(services, wall, declaring, target, tag_set)}
 

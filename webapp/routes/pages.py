@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
+
 from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 
+from webapp.apps import layer_stacks
 from webapp.deps import ServicesDep, TileDep, TileTokenDep, WallDep
 from webapp.engine.protocol import ViewportInfo
 from webapp.publishing import screen_layout
@@ -42,11 +45,16 @@ def tile_page(
         viewport_json=viewport.model_dump_json(),
         wall_json=WallInfo.of(wall).model_dump_json(),
         public_screen_json=layout.model_dump_json() if layout else "",
+        layers_json=json.dumps(layer_stacks(services.apps)),
     )
 
 
 @router.get("/wall/{wall_id}/overview")
-def overview_page(request: Request, wall: WallDep) -> HTMLResponse:
+def overview_page(request: Request, wall: WallDep, services: ServicesDep) -> HTMLResponse:
     return render(
-        request, "overview.html", wall=wall, wall_json=WallInfo.of(wall).model_dump_json()
+        request,
+        "overview.html",
+        wall=wall,
+        wall_json=WallInfo.of(wall).model_dump_json(),
+        layers_json=json.dumps(layer_stacks(services.apps)),
     )

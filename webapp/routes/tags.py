@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
+from wall_client.layout import Rect, Viewport
 from webapp.database.connection import RowId
 from webapp.database.models import TagRecord
 from webapp.deps import ServicesDep, StaffOnly, WallDep
@@ -135,6 +136,21 @@ async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: Services
     return await list_tag_sets(wall, services)
 
 
+PIN_REACH_PX = 8
+"""How far a pin's marks reach around its line, in a display's pixels: the head's
+radius (6 px in ``static/js/codes.js``) with a margin for the line's width."""
+
+
+def drawn_on(placed: dict[str, Any], viewport: Viewport) -> bool:
+    """Whether a display draws any of a placed code: its symbol, its caption or its
+    pin (line and head), which may cross into a neighbouring display."""
+    rects = [placed["rect"], *([placed["caption"]] if placed.get("caption") else [])]
+    if any(viewport.shows(Rect(*rect)) for rect in rects):
+        return True
+    leader = placed.get("leader")
+    return leader is not None and viewport.shows_segment(leader[0], leader[1], PIN_REACH_PX)
+
+
 @router.get("/walls/{wall_id}/layouts/{layout_id}")
 async def get_wall_layout(
     wall: WallDep,
@@ -142,7 +158,8 @@ async def get_wall_layout(
     services: ServicesDep,
     display: Annotated[str | None, Query(max_length=64)] = None,
 ) -> JSONResponse:
-    """A placement of codes, optionally just one display's (tiles fetch only theirs).
+    """A placement of codes, optionally just what one display draws of it (tiles
+    fetch only theirs: :func:`drawn_on`).
 
     Public: the codes stand on the wall for anyone in the room to see. Layouts never
     change once made, so they are cached for good.
@@ -152,7 +169,13 @@ async def get_wall_layout(
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, f"Wall {wall.id!r} has no layout {layout_id}."
         )
-    placed = [p for p in record.placed if display is None or p["display"] == display]
+    placed = record.placed
+    if display is not None:
+        try:
+            viewport = wall.viewport(display)
+        except KeyError as error:
+            raise HTTPException(status.HTTP_404_NOT_FOUND, str(error.args[0])) from None
+        placed = [p for p in placed if drawn_on(p, viewport)]
     info = LayoutInfo.model_validate(
         {
             "id": record.id,

@@ -33,6 +33,7 @@ class MarkerApp:
 
     name = "marker"
     default_tag_set: str | None = MARKERS
+    layers: tuple[str, ...] = ()
 
     def __init__(self) -> None:
         self.settle_delay_s = 0.0
@@ -42,6 +43,9 @@ class MarkerApp:
         self.settled.set()
         time.sleep(self.settle_delay_s)  # a slow app (a volume built on first use)
         return state.model_copy(update={"mode": "marked"})
+
+    def leave(self, state: WallState) -> WallState:
+        return state.model_copy(update={"mode": "default"})
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         x, y = state.view.center

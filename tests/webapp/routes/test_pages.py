@@ -1,5 +1,10 @@
+import html
+import json
+import re
+
 from fastapi.testclient import TestClient
 
+from webapp.app import STATIC_DIR as STATIC
 from webapp.security_headers import HEADERS
 
 
@@ -53,6 +58,28 @@ def test_overview_page_carries_the_layout(client: TestClient) -> None:
     page = client.get("/wall/kl-3x3/overview")
     assert page.status_code == 200
     assert "overview.js" in page.text and "data-wall-info" in page.text
+
+
+def test_scene_pages_list_each_apps_layers_and_import_no_app_module(client: TestClient) -> None:
+    """Tiles and the overview draw through the layers the apps register: the census
+    map never shows a volume (the pattern shows one the dashboard puts up)."""
+    token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
+    for url in (f"/wall/demo/tile/r2c2?token={token}", "/wall/demo/overview"):
+        found = re.search(r'data-layers="([^"]*)"', client.get(url).text)
+        assert found is not None, url
+        stacks = json.loads(html.unescape(found.group(1)))
+        assert stacks["shared"] == [
+            "/static/js/pointers.js",
+            "/static/js/codes.js",
+            "/static/js/balloons.js",
+        ]
+        assert stacks["apps"]["brain"] == ["/static/js/volume.js"]
+        assert stacks["apps"]["pattern"] == ["/static/js/volume.js", "/static/js/scene.js"]
+        assert stacks["apps"]["census"] == ["/static/js/census.js"]
+    for page in ("tile", "overview"):
+        source = (STATIC / "js" / f"{page}.js").read_text()
+        imported = set(re.findall(r'from "\./([a-z]+)\.js"', source))
+        assert imported <= {"layers", "live", "public"}, imported
 
 
 def test_the_operator_link_signs_in_as_admin_and_opens_the_dashboard(

@@ -92,6 +92,7 @@ def group_tag(group: UserGroup) -> str:
 class BrainApp:
     name: str = APP
     default_tag_set: str | None = TAG_SETS["full"]
+    layers: tuple[str, ...] = ("/static/js/volume.js",)
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -238,6 +239,10 @@ class BrainApp:
                 services.db, wall.id, f"app:{APP}", self.fresh_orders()
             ).number
         return state.model_copy(update=update) if update else state
+
+    def leave(self, state: WallState) -> WallState:
+        """The brain's volume goes with it (its view and quiz round stay for its return)."""
+        return state.model_copy(update={"volume": None})
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the brain is on the wall: the user-group menu on the menu screen and a

@@ -67,6 +67,7 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
 class CensusApp:
     name: str = APP
     default_tag_set: str | None = CENSUS_SET
+    layers: tuple[str, ...] = ("/static/js/census.js",)
 
     def __init__(self) -> None:
         self.datasets = DataSets()
@@ -98,6 +99,9 @@ class CensusApp:
         return self.dataset(services, state.dataset)
 
     # --- the WallApp interface -----------------------------------------------------
+
+    def leave(self, state: WallState) -> WallState:
+        return state
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the shipped one until an

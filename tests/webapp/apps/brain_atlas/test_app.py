@@ -115,6 +115,42 @@ def test_putting_the_brain_up_shows_the_template_with_pins_and_the_group_menu(
     assert not pins_on_wall(on_wall, "k5"), "only the active set's pins are placed"
 
 
+def test_a_tile_gets_every_pin_that_reaches_its_display(on_wall: TestClient) -> None:
+    """A pin's line and head may cross into a neighbouring display; that display's
+    tile must get the code too, or it never draws them (left-side preset, full set:
+    a code on r2c3 marks a point on r2c2)."""
+    control(on_wall, preset="left-side", tag_set="full")
+    wall = services_of(on_wall).walls["demo"]
+    layout_id = state_of(on_wall).tag_layout
+    crossing = 0
+    for display in wall.displays:
+        drawn = on_wall.get(f"/api/walls/demo/layouts/{layout_id}?display={display.id}")
+        assert drawn.status_code == 200
+        codes = {p["code"] for p in drawn.json()["placed"]}
+        for placed in on_wall.get(f"/api/walls/demo/layouts/{layout_id}").json()["placed"]:
+            head = placed["leader"][1] if placed["leader"] else None
+            if head is not None and display.rect.contains(tuple(head)):
+                assert placed["code"] in codes, f"{display.id} lacks the head of {placed['label']}"
+                crossing += placed["display"] != display.id
+            if placed["display"] == display.id:
+                assert placed["code"] in codes
+    assert crossing, "the preset has a pin whose head stands on another display"
+    unknown = on_wall.get(f"/api/walls/demo/layouts/{layout_id}?display=r9c9")
+    assert unknown.status_code == 404 and "r2c2" in unknown.json()["detail"]
+
+
+def test_the_brain_leaving_the_wall_takes_its_volume(on_wall: TestClient) -> None:
+    """Back to the setup pattern: no brain volume left in the state for tiles to draw."""
+    assert state_of(on_wall).volume is not None
+    response = on_wall.post(
+        "/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall)
+    )
+    assert response.status_code == 200, response.text
+    state = state_of(on_wall)
+    assert state.app == "pattern" and state.volume is None and state.tag_set == "setup"
+    assert show_brain(on_wall).volume is not None, "and it comes back with the brain"
+
+
 def test_every_region_of_both_sets_gets_a_pin_in_some_preset(on_wall: TestClient) -> None:
     app = brain(on_wall)
     for tag_set in ("k5", "full"):
