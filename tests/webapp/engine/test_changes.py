@@ -12,7 +12,6 @@ import json
 import threading
 import time
 from collections.abc import AsyncIterator
-from pathlib import Path
 
 import pytest
 from fastapi import FastAPI
@@ -21,7 +20,7 @@ from wall_client.layout import Wall
 from webapp.engine.changes import Update, change_wall, open_wall, plan_change, unchanged
 from webapp.engine.wall_state import View, WallState, read_state
 from webapp.services import Services
-from webapp.settings import CONTENT_DIR, Settings
+from webapp.settings import CONTENT_DIR, PROJECT_ROOT, Settings
 from webapp.tags.registry import TagSpec, get_layout, issue
 
 WALL = "demo"
@@ -223,7 +222,7 @@ async def test_a_tag_set_switch_racing_an_app_switch_does_not_interleave(
 def test_nothing_but_the_door_commits_wall_changes() -> None:
     """Every state change goes through webapp.engine.changes: no other module calls the hub's
     commit or the database's commit_change."""
-    webapp = Path(__file__).parents[2] / "webapp"
+    webapp = PROJECT_ROOT / "webapp"
     callers = set()
     for path in webapp.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
@@ -235,4 +234,4 @@ def test_nothing_but_the_door_commits_wall_changes() -> None:
             )
             if hub_commit or (isinstance(node, ast.Name) and node.id == "commit_change"):
                 callers.add(path.relative_to(webapp).as_posix())
-    assert callers == {"changes.py", "hub.py"}
+    assert callers == {"engine/changes.py", "engine/hub.py"}
