@@ -112,7 +112,8 @@ class ScanLog:
         self.interval_s = interval_s
         self.max_pending = max_pending
         self._pending: list[dict[str, Any]] = []
-        self._lock = threading.Lock()
+        self._lock = threading.Lock()  # guards the queue
+        self._writing = threading.Lock()  # one batch written at a time
 
     def record(self, tag: TagRecord, visitor_id: str, client_address: str, user_agent: str) -> None:
         row = {
@@ -128,19 +129,23 @@ class ScanLog:
                 self._pending.append(row)
 
     def flush(self) -> int:
-        """Write what is queued (thread-safe); returns how many scans were written."""
-        with self._lock:
-            rows, self._pending = self._pending, []
-        if not rows:
-            return 0
-        try:
-            with self.db.session() as session:
-                session.execute(insert(ScanRecord), rows)
-        except Exception:
-            with self._lock:  # keep them for the next try, oldest first
-                self._pending = (rows + self._pending)[: self.max_pending]
-            raise
-        return len(rows)
+        """Write what is queued (thread-safe); returns how many scans were written.
+
+        When it returns, every scan recorded before the call is in the database: a
+        batch another thread took from the queue is waited for, not skipped."""
+        with self._writing:
+            with self._lock:
+                rows, self._pending = self._pending, []
+            if not rows:
+                return 0
+            try:
+                with self.db.session() as session:
+                    session.execute(insert(ScanRecord), rows)
+            except Exception:
+                with self._lock:  # keep them for the next try, oldest first
+                    self._pending = (rows + self._pending)[: self.max_pending]
+                raise
+            return len(rows)
 
     async def run(self) -> None:
         """Flush every ``interval_s`` until cancelled (the app's lifespan owns this task).

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import contextlib
+import threading
+from collections.abc import Iterator
 from datetime import UTC, datetime, timedelta
 
 import pytest
 from sqlalchemy import update
 from sqlalchemy.exc import DBAPIError
+from sqlalchemy.orm import Session
 
 from tests.conftest import tag_spec
 from webapp.database.connection import Database
@@ -94,6 +98,35 @@ def test_scans_are_written_in_one_batch_with_every_field(db: Database) -> None:
     assert (first.client_address, first.wall_id) == ("10.0.0.7", "demo")
     assert first.user_agent.startswith("Phone/1.0") and len(first.user_agent) == 400
     assert first.scanned_at is not None
+
+
+def test_a_flush_waits_for_the_batch_another_thread_is_writing(
+    db: Database, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The app's flusher may have taken the queue a moment ago: a flush (a test, the
+    shutdown) returns only once those scans are written too."""
+    log = ScanLog(db)
+    tag = issue(db, "demo", tag_spec(), "test")
+    log.record(tag, "visitor-1", "10.0.0.7", "Phone/1.0")
+    writing, release = threading.Event(), threading.Event()
+    real_session = db.session
+
+    @contextlib.contextmanager
+    def slow_session() -> Iterator[Session]:
+        writing.set()
+        release.wait(5)
+        with real_session() as session:
+            yield session
+
+    monkeypatch.setattr(db, "session", slow_session)
+    background = threading.Thread(target=log.flush)
+    background.start()
+    writing.wait(5)
+    monkeypatch.setattr(db, "session", real_session)
+    threading.Timer(0.2, release.set).start()
+    log.flush()  # nothing left in the queue, but the batch in flight is waited for
+    assert [s.visitor_id for s in scans_of(db, tag.code)] == ["visitor-1"]
+    background.join(5)
 
 
 def test_a_failed_write_keeps_the_scans_for_the_next_flush(database_url: str) -> None:
