@@ -9,6 +9,10 @@ from typing import Generic, TypeVar
 
 T = TypeVar("T")
 
+IMMUTABLE = "public, max-age=31536000, immutable"
+"""Cache-Control for what is named by its content (code images, placed layouts):
+the name changes whenever the content would."""
+
 
 class SizedCache(Generic[T]):
     """Entries by key, least recently used dropped first once their sizes pass

@@ -10,10 +10,11 @@ from collections.abc import Callable
 from typing import Annotated, Any
 from urllib.parse import quote
 
-from fastapi import Depends, Header, HTTPException, Query, Request, status
+from fastapi import Depends, Header, HTTPException, Query, Request, WebSocket, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
+from webapp.engine.protocol import CLOSE_UNKNOWN
 from webapp.people.addresses import address_of
 from webapp.people.person import Person, person_of
 from webapp.people.ratelimit import WallAction
@@ -50,6 +51,21 @@ async def get_tile(tile_id: str, wall: WallDep) -> Display:
 
 
 TileDep = Annotated[Display, Depends(get_tile)]
+
+
+async def open_wall_socket(
+    websocket: WebSocket, wall_id: str, tile_id: str | None = None
+) -> tuple[Services, Wall] | None:
+    """Accept a websocket of one wall (and tile): the services and the wall, or None
+    when the socket was closed because there is no such wall or tile. Sockets close
+    with a code of their own rather than an HTTP status, so this is not a dependency."""
+    services: Services = websocket.app.state.services
+    await websocket.accept()
+    wall = services.walls.get(wall_id)
+    if wall is None or (tile_id is not None and tile_id not in {d.id for d in wall.displays}):
+        await websocket.close(CLOSE_UNKNOWN, "unknown wall or tile" if tile_id else "unknown wall")
+        return None
+    return services, wall
 
 
 async def require_tile_token(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
+from collections.abc import Callable
 from typing import Annotated
 from urllib.parse import urlsplit
 
@@ -13,8 +14,8 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
-from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep
-from webapp.engine.protocol import CLOSE_POLICY, CLOSE_UNKNOWN, DashboardStatus, ScanSeen
+from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep, open_wall_socket
+from webapp.engine.protocol import CLOSE_POLICY, DashboardStatus, ScanSeen
 from webapp.people.accounts import AccountError, add_account, list_accounts, remove_account
 from webapp.people.address_rules import RuleError, add_rule, list_rules, remove_rule
 from webapp.people.addresses import address_of
@@ -66,12 +67,9 @@ def dashboard_page(
 @router.websocket("/ws/dashboard/{wall_id}")
 async def dashboard_socket(websocket: WebSocket, wall_id: str) -> None:
     """Live status and scans for one wall's dashboard: instructors only, same site only."""
-    services: Services = websocket.app.state.services
-    await websocket.accept()
-    wall = services.walls.get(wall_id)
-    if wall is None:
-        await websocket.close(CLOSE_UNKNOWN, "unknown wall")
+    if (opened := await open_wall_socket(websocket, wall_id)) is None:
         return
+    services, wall = opened
     if not _same_origin(websocket):
         await websocket.close(CLOSE_POLICY, "cross-site connection refused")
         return
@@ -159,7 +157,18 @@ def _admin(request: Request, services: Services, error: str | None) -> HTMLRespo
     )
 
 
-def _back_to_admin() -> RedirectResponse:
+def _admin_change(
+    request: Request,
+    services: Services,
+    change: Callable[[], object],
+    refused: type[Exception],
+) -> Response:
+    """An admin form's change: back to the admin page when it is done, or the page
+    again saying why not (``refused`` carries the reason people read)."""
+    try:
+        change()
+    except refused as error:
+        return _admin(request, services, str(error))
     return RedirectResponse("/dashboard/admin", status.HTTP_303_SEE_OTHER)
 
 
@@ -172,22 +181,23 @@ def create_account(
     role: Annotated[str, Form(max_length=16)],
     password: Annotated[str, Form(max_length=1_000)],
 ) -> Response:
-    try:
-        add_account(services.db, username, role, password, actor=person.authority or "admin")
-    except AccountError as error:
-        return _admin(request, services, str(error))
-    return _back_to_admin()
+    actor = person.authority or "admin"
+    return _admin_change(
+        request,
+        services,
+        lambda: add_account(services.db, username, role, password, actor=actor),
+        AccountError,
+    )
 
 
 @router.post("/dashboard/admin/accounts/{username}/remove", dependencies=[CsrfDep])
 def delete_account(
     request: Request, username: str, person: AdminPageDep, services: ServicesDep
 ) -> Response:
-    try:
-        remove_account(services.db, username, actor=person.authority or "admin")
-    except AccountError as error:
-        return _admin(request, services, str(error))
-    return _back_to_admin()
+    actor = person.authority or "admin"
+    return _admin_change(
+        request, services, lambda: remove_account(services.db, username, actor=actor), AccountError
+    )
 
 
 def _optional(value: str | None) -> str | None:
@@ -205,30 +215,28 @@ def create_rule(
     info_class: Annotated[str | None, Form(max_length=2)] = None,
     note: Annotated[str, Form(max_length=200)] = "",
 ) -> Response:
-    try:
+    def add() -> None:
         level_text = _optional(info_class)
-        level = int(level_text) if level_text else None
+        if level_text is not None and not level_text.isdigit():
+            raise RuleError("the class is a number 1-5")
         add_rule(
             services.db,
             network,
             role=_optional(role),
             user_group=_optional(user_group),
-            info_class=level,
+            info_class=int(level_text) if level_text else None,
             note=note,
             actor=person.authority or "admin",
         )
-    except ValueError as error:  # RuleError, or a class that is not a number
-        message = str(error) if isinstance(error, RuleError) else "the class is a number 1-5"
-        return _admin(request, services, message)
-    return _back_to_admin()
+
+    return _admin_change(request, services, add, RuleError)
 
 
 @router.post("/dashboard/admin/rules/{rule_id}/remove", dependencies=[CsrfDep])
 def delete_rule(
     request: Request, rule_id: int, person: AdminPageDep, services: ServicesDep
 ) -> Response:
-    try:
-        remove_rule(services.db, rule_id, actor=person.authority or "admin")
-    except RuleError as error:
-        return _admin(request, services, str(error))
-    return _back_to_admin()
+    actor = person.authority or "admin"
+    return _admin_change(
+        request, services, lambda: remove_rule(services.db, rule_id, actor=actor), RuleError
+    )

@@ -11,14 +11,13 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
 from webapp.apps import Scan
+from webapp.caching import IMMUTABLE
 from webapp.deps import ClientAddressDep, ServicesDep
 from webapp.people.visitors import Visitor, visitor_of
 from webapp.tags.registry import find, payload_of
 from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
-
-IMMUTABLE = "public, max-age=31536000, immutable"
 
 
 def problem_page(

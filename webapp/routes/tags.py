@@ -10,6 +10,7 @@ from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
 from wall_client.layout import Rect, Viewport
+from webapp.caching import IMMUTABLE
 from webapp.database.connection import RowId
 from webapp.database.models import TagRecord
 from webapp.deps import ServicesDep, StaffOnly, WallDep
@@ -32,31 +33,16 @@ from webapp.urls import code_image_path
 
 router = APIRouter(prefix="/api", tags=["tags"])
 
-IMMUTABLE = "public, max-age=31536000, immutable"
-
 
 def tag_info(tag: TagRecord, services: Services) -> TagInfo:
+    """The tag as the API shows it: its stored columns plus what follows from them."""
     payload = payload_of(tag, services.base_url)
+    stored = {name: getattr(tag, name) for name in TagInfo.model_fields if hasattr(tag, name)}
     return TagInfo(
-        code=tag.code,
-        name=tag.name,
-        label=tag.label,
+        **stored,
         wall=tag.wall_id,
-        app=tag.app,
-        action=tag.action,
-        params=tag.params,
-        kind=tag.kind,
         payload=payload,
-        tag_set=tag.tag_set,
         anchor=anchor_of(tag),
-        screen=tag.screen,
-        slot=tag.slot,
-        size_mm=tag.size_mm,
-        clear_mm=tag.clear_mm,
-        active=tag.active,
-        expires_at=tag.expires_at,
-        created_at=tag.created_at,
-        created_by=tag.created_by,
         svg_url=code_image_path(tag.code, payload, "svg"),
         png_url=code_image_path(tag.code, payload, "png"),
     )

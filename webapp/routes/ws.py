@@ -20,13 +20,13 @@ from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from wall_client.layout import Wall
 from webapp.database.connection import is_outage
+from webapp.deps import open_wall_socket
 from webapp.engine.bus import SubscriberTooSlow, Subscription
 from webapp.engine.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
     CLOSE_TOO_BIG,
     CLOSE_TRY_AGAIN,
-    CLOSE_UNKNOWN,
     Applied,
     Event,
     Hello,
@@ -61,12 +61,9 @@ class CloseConnection(Exception):
 async def tile_socket(
     websocket: WebSocket, wall_id: str, tile_id: str, token: str | None = None
 ) -> None:
-    services: Services = websocket.app.state.services
-    await websocket.accept()
-    wall = services.walls.get(wall_id)
-    if wall is None or tile_id not in {d.id for d in wall.displays}:
-        await websocket.close(CLOSE_UNKNOWN, "unknown wall or tile")
+    if (opened := await open_wall_socket(websocket, wall_id, tile_id)) is None:
         return
+    services, wall = opened
     if not token_matches(services.tile_token(wall_id), token):
         await websocket.close(CLOSE_POLICY, "bad tile token")
         return
@@ -75,12 +72,9 @@ async def tile_socket(
 
 @router.websocket("/ws/wall/{wall_id}/view")
 async def viewer_socket(websocket: WebSocket, wall_id: str) -> None:
-    services: Services = websocket.app.state.services
-    await websocket.accept()
-    wall = services.walls.get(wall_id)
-    if wall is None:
-        await websocket.close(CLOSE_UNKNOWN, "unknown wall")
+    if (opened := await open_wall_socket(websocket, wall_id)) is None:
         return
+    services, wall = opened
     await Connection(websocket, services, wall, None).serve()
 
 

@@ -190,6 +190,8 @@ class SetStats(BaseModel):
 
 
 class RoundStatus(BaseModel):
+    model_config = ConfigDict(from_attributes=True)  # read off the stored round
+
     number: int
     open: bool
     reveal: Reveal
@@ -243,16 +245,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
         tag_set=set_on_wall(state),
         presets=[PresetEntry(id=v.id, name=v.name) for v in app.views],
         audience_switches=await run_in_threadpool(audience_switches, services.db, wall.id),
-        round=None
-        if quiz_round is None
-        else RoundStatus(
-            number=quiz_round.number,
-            open=quiz_round.open,
-            reveal=quiz_round.reveal,
-            started_at=quiz_round.started_at,
-            closed_at=quiz_round.closed_at,
-            last_answer_at=quiz_round.last_answer_at,
-        ),
+        round=None if quiz_round is None else RoundStatus.model_validate(quiz_round),
         quiz=quiz,
     )
 
