@@ -25,9 +25,10 @@ from typing import Any
 
 from wall_client.config import load_walls
 from wall_client.layout import Wall
-from webapp.apps.census_map import APP, CENSUS_SET, CensusApp
+from webapp.apps.census_map.app import CensusApp
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
+from webapp.apps.census_map.rules import APP, CENSUS_SET
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
 from webapp.apps.core import CoreApp
 from webapp.database.connection import Database

@@ -57,13 +57,22 @@ def test_every_wall_state_field_is_documented_with_its_weight() -> None:
         assert (row.group(1).strip() == "yes") == (field in HEAVY_FIELDS), field
 
 
+def test_the_apps_commands_are_found() -> None:
+    paths = {path for path, _ in commands(main)}
+    assert {"tagwall census import", "tagwall content check", "tagwall serve"} <= paths
+
+
 def test_message_types_are_found() -> None:
     names = {model.model_fields["type"].default for model in message_types()}
     assert {"hello", "ping", "ready", "applied", "snapshot", "event", "prepare", "swap"} <= names
 
 
 def commands(group: click.Group, prefix: str = "tagwall") -> Iterator[tuple[str, click.Command]]:
-    for name, command in group.commands.items():
+    """Every command, the apps' included (as ``tagwall --help`` lists them)."""
+    context = click.Context(group)
+    for name in group.list_commands(context):
+        command = group.get_command(context, name)
+        assert command is not None
         path = f"{prefix} {name}"
         yield path, command
         if isinstance(command, click.Group):

@@ -21,6 +21,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.config import load_walls
+from webapp.apps import static_url
 from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
 from webapp.deps import DEPENDENCY_ERRORS
@@ -97,12 +98,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.services = services
-    app.state.templates = Jinja2Templates(directory=TEMPLATES_DIR)
+    app.state.templates = Jinja2Templates(
+        directory=[TEMPLATES_DIR, *(a.templates for a in services.apps.values() if a.templates)]
+    )
     app.state.templates.env.filters["markdown"] = markdown_html
     app.state.templates.env.filters["markdown_inline"] = markdown_inline
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost
+    for wall_app in services.apps.values():  # before /static, which would take their paths
+        if wall_app.static:
+            app.mount(static_url(wall_app.name), StaticFiles(directory=wall_app.static))
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     for router in (
         health.router,

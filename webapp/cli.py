@@ -6,111 +6,68 @@ import logging
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import Any
 
 import click
-from pydantic import ValidationError
-from pydantic_settings import SettingsError
+import httpx
+import uvicorn
 from sqlalchemy.exc import SQLAlchemyError
 
-from wall_client.config import WallConfigError, load_wall, load_walls
+from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
+from wall_client.config import WallConfigError, load_wall
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
+from webapp.app import create_app
+from webapp.apps.builtin import builtin_apps
+from webapp.console import (
+    EXIT_USAGE,
+    current_tokens,
+    fail,
+    load_configured_walls,
+    load_settings,
+    open_database,
+    pick_wall,
+)
 from webapp.database.connection import Database, database_problem
-from webapp.people.tokens import Tokens, load_tokens
+from webapp.database.migrate import upgrade
+from webapp.logs import redact, redact_root_handlers, uvicorn_log_config
+from webapp.people.accounts import (
+    AccountError,
+    add_account,
+    list_accounts,
+    remove_account,
+    set_password,
+)
+from webapp.people.person import revoke
+from webapp.people.tokens import OPERATOR, Tokens, load_tokens, rotate, tile_purpose
 from webapp.settings import Settings, lan_address
 from webapp.urls import dashboard_url, overview_url, tile_path, tile_url
-
-if TYPE_CHECKING:
-    import httpx
-
-EXIT_USAGE = 2
+from webapp.volume.build import VolumeBuildError, build_store, open_source
+from webapp.volume.catalog import VolumeCatalog
+from webapp.volume.store import VolumeStoreError
 
 
-def load_settings(**overrides: Any) -> Settings:
-    """Settings from the environment, with command-line overrides; exit 2 when invalid."""
-    given = {key: value for key, value in overrides.items() if value is not None}
-    try:
-        return Settings(**given)
-    except ValidationError as error:
-        for problem in error.errors():
-            field = ".".join(str(part) for part in problem["loc"]) or "settings"
-            click.echo(f"error: {_setting_name(field)}: {problem['msg']}", err=True)
-    except SettingsError as error:  # a value that is not even JSON, before validation
-        field = str(error).removeprefix('error parsing value for field "').split('"')[0]
-        reason = error.__cause__ or error
-        click.echo(f"error: {_setting_name(field)}: not valid JSON ({reason})", err=True)
-    sys.exit(EXIT_USAGE)
+class CommandsWithApps(click.Group):
+    """The core's commands and those each app contributes (``WallApp.commands``)."""
+
+    def _apps_commands(self) -> dict[str, click.Command]:
+        return {
+            command.name: command
+            for app in builtin_apps().values()
+            for command in app.commands()
+            if command.name
+        }
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *self._apps_commands()})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        return super().get_command(ctx, cmd_name) or self._apps_commands().get(cmd_name)
 
 
-def _setting_name(field: str) -> str:
-    """``info_class_max`` as the operator wrote it: ``TAGWALL_INFO_CLASS_MAX``."""
-    head, _, rest = field.partition(".")
-    known = head in Settings.model_fields
-    return f"TAGWALL_{head.upper()}{'.' + rest if rest else ''}" if known else field
-
-
-def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
-    click.echo(f"error: {message}", err=True)
-    sys.exit(code)
-
-
-def load_configured_walls(settings: Settings) -> dict[str, Wall]:
-    """The configured walls; exit 2 when a config is invalid or there is none at all."""
-    try:
-        walls = load_walls(settings.wall_configs)
-    except WallConfigError as error:
-        click.echo(str(error), err=True)
-        sys.exit(EXIT_USAGE)
-    if not walls:
-        where = ", ".join(str(path) for path in settings.wall_configs) or "(nothing)"
-        fail(
-            f"no wall configs found in {where}; point TAGWALL_WALL_CONFIGS at wall .toml "
-            "files or folders (see docs/wall-config.md)"
-        )
-    return walls
-
-
-def pick_wall(walls: dict[str, Wall], wall_id: str | None, settings: Settings) -> Wall:
-    """The wall named by ``--wall``, else ``TAGWALL_DEFAULT_WALL``; exit 2 naming which
-    one is unknown."""
-    chosen = wall_id or settings.default_wall
-    if chosen not in walls:
-        known = ", ".join(sorted(walls)) or "none"
-        source = "" if wall_id else "TAGWALL_DEFAULT_WALL: "
-        fail(f"{source}no wall {chosen!r} (configured: {known})")
-    return walls[chosen]
-
-
-def open_database(settings: Settings, *, migrate: bool = True) -> Database:
-    """The database, migrated first unless told not to; exit 2 with one line saying
-    what is wrong when it cannot be reached or used."""
-    from webapp.database.migrate import upgrade
-
-    url = settings.resolved_database_url
-    try:
-        if migrate:
-            upgrade(url)
-        return Database(url)
-    except SQLAlchemyError as error:
-        fail(database_problem(error, url))
-
-
-def current_tokens(settings: Settings) -> Tokens:
-    """The operator and tile tokens as the server checks them (rotations included)."""
-    database = open_database(settings, migrate=False)
-    try:
-        return load_tokens(database, settings.resolved_secret_key)
-    except SQLAlchemyError as error:
-        fail(database_problem(error, settings.resolved_database_url))
-    finally:
-        database.dispose()
-
-
-@click.group()
+@click.group(cls=CommandsWithApps)
 def main() -> None:
     """tagwall: one interactive screen from a wall of monitors."""
-    from webapp.logs import redact_root_handlers
 
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     redact_root_handlers()
@@ -122,10 +79,6 @@ def main() -> None:
 @click.option("--port", type=int, help="Port to listen on (TAGWALL_PORT).")
 def serve(host: str | None, port: int | None) -> None:
     """Upgrade the database, print the wall's URLs and serve."""
-    import uvicorn
-
-    from webapp.app import create_app
-    from webapp.logs import uvicorn_log_config
 
     settings = load_settings(host=host, port=port)
     walls = load_configured_walls(settings)
@@ -151,7 +104,6 @@ def print_urls(
 ) -> None:
     """The dashboard, overview and tile URLs; with ``reveal`` off, their tokens masked
     (a server's output usually ends up in a log)."""
-    from webapp.logs import redact
 
     def say(line: str) -> None:
         click.echo(line if reveal else redact(line))
@@ -340,7 +292,6 @@ def codes_size(
     wall_id: str | None, distance: float | None, purpose: CodePurpose, qr_version: int
 ) -> None:
     """Print the code size on each display for a purpose's design distance."""
-    from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)
@@ -373,8 +324,6 @@ def codes_size(
 @click.option("--browser", default=None, help="Chromium executable (default: chromium on PATH).")
 def check(wall_id: str | None, server: str | None, browser: str | None) -> None:
     """Screenshot every tile of a running wall and decode its codes; exit 1 on any failure."""
-    import httpx
-
     try:
         from webapp.check import check_wall, fetch_layout
     except ImportError as missing:  # Playwright is the `check` extra
@@ -409,7 +358,6 @@ def db() -> None:
 @click.option("--revision", default="head", show_default=True)
 def db_upgrade(revision: str) -> None:
     """Apply migrations up to REVISION (serve does this by itself)."""
-    from webapp.database.migrate import upgrade
 
     settings = load_settings()
     try:
@@ -427,7 +375,6 @@ def user() -> None:
 def _account_action(action: Callable[[Database], str]) -> None:
     """Run ``action`` on the database; its message on success, exit 1 with the reason
     when the account request cannot be carried out."""
-    from webapp.people.accounts import AccountError
 
     database = open_database(load_settings())
     try:
@@ -451,7 +398,6 @@ def _account_action(action: Callable[[Database], str]) -> None:
 @click.password_option(help="The password (asked for when not given).")
 def user_add(name: str, role: str, password: str) -> None:
     """Add an account (the password is asked for twice, never echoed)."""
-    from webapp.people.accounts import add_account
 
     _account_action(
         lambda db: f"added {add_account(db, name, role, password, actor='cli').username} ({role})"
@@ -461,7 +407,6 @@ def user_add(name: str, role: str, password: str) -> None:
 @user.command("list")
 def user_list() -> None:
     """List the accounts: username, role, created."""
-    from webapp.people.accounts import list_accounts
 
     def listing(db: Database) -> str:
         rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
@@ -474,7 +419,6 @@ def user_list() -> None:
 @click.argument("name")
 def user_remove(name: str) -> None:
     """Remove an account; phones it signed in or paired become students."""
-    from webapp.people.accounts import remove_account
 
     def remove(db: Database) -> str:
         remove_account(db, name, actor="cli")
@@ -488,7 +432,6 @@ def user_remove(name: str) -> None:
 @click.password_option(help="The new password (asked for when not given).")
 def user_passwd(name: str, password: str) -> None:
     """Set a new password; phones signed in with the old one are signed out."""
-    from webapp.people.accounts import set_password
 
     def change(db: Database) -> str:
         set_password(db, name, password, actor="cli")
@@ -508,8 +451,6 @@ def tokens() -> None:
 def tokens_rotate(which: str, wall_id: str | None) -> None:
     """Replace the operator token or the tile tokens; the old ones stop working within
     seconds, on every server process, and the new URLs are printed."""
-    from webapp.people.person import revoke
-    from webapp.people.tokens import OPERATOR, rotate, tile_purpose
 
     settings = load_settings()
     walls = load_configured_walls(settings)
@@ -572,7 +513,6 @@ def volume_build(
 ) -> None:
     """Build SOURCE (.nii, .nii.gz or .npy) into the brick store OUT
     (default: TAGWALL_VOLUME_DIR/NAME), a slab at a time."""
-    from webapp.volume.build import VolumeBuildError, build_store, open_source
 
     stem = source.name.removesuffix(".gz").removesuffix(".nii").removesuffix(".npy")
     name = name or (out.name if out else stem)
@@ -601,8 +541,6 @@ def volume_build(
 @volume.command("list")
 def volume_list() -> None:
     """The volumes in TAGWALL_VOLUME_DIR."""
-    from webapp.volume.catalog import VolumeCatalog
-    from webapp.volume.store import VolumeStoreError
 
     settings = load_settings()
     catalog = VolumeCatalog(settings.resolved_volume_dir, cache_voxels=0)
@@ -620,165 +558,3 @@ def volume_list() -> None:
             f"{name}: {x} x {y} x {z} voxels of {meta.spacing[0]:g} mm, from {meta.source}; "
             f"{meta.stored_bricks} bricks of {meta.brick}, {meta.levels} levels"
         )
-
-
-@main.group()
-def census() -> None:
-    """Census data sets for the census map."""
-
-
-@census.command("import")
-@click.option(
-    "--shapes",
-    required=True,
-    type=click.Path(path_type=Path, dir_okay=False),
-    help="Tract outlines: .shp, a .zip holding one shapefile, or .geojson.",
-)
-@click.option("--key", required=True, help="The column joining shapes and table (e.g. GEOID).")
-@click.option(
-    "--table",
-    type=click.Path(path_type=Path, dir_okay=False),
-    help="CSV of values by key (default: the shapes' own columns).",
-)
-@click.option(
-    "--settings",
-    "settings_file",
-    type=click.Path(path_type=Path, dir_okay=False),
-    help="Settings TOML (default: the .toml beside the shapes, else generated).",
-)
-@click.option("--name", help="The data set's name (default: the shapes' file name).")
-@click.option("--strict", is_flag=True, help="Refuse any unmatched key, repair or skip.")
-def census_import(
-    shapes: Path,
-    key: str,
-    table: Path | None,
-    settings_file: Path | None,
-    name: str | None,
-    strict: bool,
-) -> None:
-    """Import a census data set and make it the one the census map shows."""
-    from webapp.apps.census_map.importer import CensusImportError, import_files
-
-    settings = load_settings()
-    database = open_database(settings)
-    try:
-        report = import_files(
-            database,
-            shapes=shapes,
-            key=key,
-            table=table,
-            settings=settings_file,
-            name=name,
-            strict=strict,
-        )
-    except CensusImportError as error:
-        click.echo(f"error: {error}", err=True)
-        sys.exit(1)
-    finally:
-        database.dispose()
-    for line in report.lines():
-        click.echo(line)
-    click.echo(_switch_census_map(settings, report.dataset_id))
-
-
-def _switch_census_map(settings: Settings, dataset_id: int) -> str:
-    """Ask a running server to show the new data set now; what happened, as a line.
-    The import already made it current, so a server that is down shows it at start."""
-    import httpx
-
-    url = f"{settings.local_url}/api/census/current"
-    token = current_tokens(settings).operator
-    try:
-        response = httpx.post(
-            url,
-            json={"dataset": dataset_id},
-            headers={"Authorization": f"Bearer {token}"},
-            timeout=5,
-        )
-    except (httpx.ConnectError, httpx.TimeoutException):
-        return (
-            f"the server ({settings.local_url}) is not reachable; "
-            f"the map switches to data set {dataset_id} when it next starts"
-        )
-    except httpx.HTTPError as error:
-        return (
-            f"could not tell the server ({settings.local_url}) to switch the map: {error}; "
-            f"it shows data set {dataset_id} when it next starts"
-        )
-    if response.is_error:
-        return (
-            f"the server did not switch the map: {response.status_code} {_error_detail(response)}"
-        )
-    return f"the map now shows data set {dataset_id}"
-
-
-def _error_detail(response: httpx.Response) -> str:
-    """FastAPI's ``detail``, else the start of the body."""
-    try:
-        detail = response.json().get("detail")
-    except (ValueError, AttributeError):
-        detail = None
-    return str(detail) if detail is not None else response.text[:200]
-
-
-@census.command("list")
-def census_list() -> None:
-    """The stored data sets, the current one marked with *."""
-    from webapp.apps.census_map.store import list_datasets
-
-    database = open_database(load_settings())
-    try:
-        datasets = list_datasets(database)
-    finally:
-        database.dispose()
-    if not datasets:
-        click.echo("no census data sets; import one with `tagwall census import`")
-    for d in datasets:
-        mark = "*" if d.current else " "
-        click.echo(
-            f"{mark} {d.id:>4}  {d.name}  {d.title!r}  {d.tract_count} tracts  "
-            f"{d.created_at:%Y-%m-%d %H:%M} UTC"
-        )
-
-
-@main.group()
-def content() -> None:
-    """Teaching content the apps read (the brain atlas's regions and texts)."""
-
-
-@content.command("check")
-@click.option(
-    "--dir",
-    "directory",
-    type=click.Path(path_type=Path, file_okay=False),
-    default=None,
-    help="The brain atlas content folder (default: content/brain_atlas).",
-)
-def content_check(directory: Path | None) -> None:
-    """Check the brain atlas's regions, tutor texts, references and view presets (every
-    region must show in one of them); exit 2 on problems."""
-    from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
-    from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache
-    from webapp.apps.brain_atlas.views import load_views, showing
-
-    folder = directory or ATLAS_DIR
-    try:
-        loaded = load_content(folder)
-        presets = load_views(folder / "views.yaml")
-        shown = showing(presets, loaded.regions, AtlasVolumes.load(folder), PinCache())
-    except ContentError as error:
-        for problem in error.problems:
-            click.echo(problem, err=True)
-        click.echo(f"{len(error.problems)} problem(s) found", err=True)
-        sys.exit(EXIT_USAGE)
-    unseen = [region_id for region_id, ids in shown.items() if not ids]
-    for region_id in unseen:
-        click.echo(f"views.yaml: no view shows the pin of {region_id}", err=True)
-    if unseen:
-        click.echo(f"{len(unseen)} problem(s) found", err=True)
-        sys.exit(EXIT_USAGE)
-    click.echo(
-        f"ok: {len(loaded.in_set('full'))} quiz regions, {len(loaded.in_set('k5'))} K-5 "
-        f"regions, {len(loaded.tutors)} tutor files, {len(loaded.references)} references, "
-        f"{len(presets)} views showing every pin"
-    )

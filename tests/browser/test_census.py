@@ -332,7 +332,7 @@ def test_menu_labels_leave_the_toggle_codes_intact_on_kl_3x3(
         page.context.close()
 
 
-LABEL = np.array([0xF5, 0xE6, 0xD0])  # tract numbers (static/js/census.js)
+LABEL = np.array([0xF5, 0xE6, 0xD0])  # tract numbers (census_map/static/census.js)
 PORTRAIT_VIEW = {"center": [1.7, 0.45], "zoom": 1.5}  # the map across the portrait panel
 
 

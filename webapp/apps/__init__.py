@@ -3,16 +3,20 @@
 An app is a small plug-in: the core resolves a scanned code to its tag and hands the
 scan to the app named on the tag, which returns the phone page. Adding an app means
 adding a package here and listing it in ``webapp.apps.builtin``; the core knows nothing
-app-specific. An app extends the dashboard with a panel (``dashboard_panel``), the
-public screen with what its pages publish (``publication``) and the server with its
-own pages and API (``router``).
+app-specific. An app owns all of its parts in its package and contributes them here:
+its scene layers (``layers``), page templates (``templates``), browser modules
+(``static``), a dashboard panel (``dashboard_panel``), what its pages publish to the
+public screen (``publication``), its own pages and API (``router``) and its
+``tagwall`` commands (``commands``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+import click
 from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
@@ -55,6 +59,11 @@ class WallApp(Protocol):
     layers: tuple[str, ...]
     """The JS modules that draw the app's scene on tiles and the overview, bottom first,
     under :data:`SHARED_LAYERS` (each exports ``createLayer``: ``static/js/layers.js``)."""
+    templates: Path | None
+    """The folder of the app's page templates, each under the app's own prefix
+    (``census/tract.html``), so apps never shadow the core's or each other's."""
+    static: Path | None
+    """The folder of the app's browser modules, served at :func:`static_url`."""
 
     def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
         """The state as the app needs it when it comes on ``wall`` (say, the data set
@@ -101,6 +110,15 @@ class WallApp(Protocol):
     def router(self) -> APIRouter | None:
         """The app's own pages and API (None: it has none)."""
         ...
+
+    def commands(self) -> list[click.Command]:
+        """The app's ``tagwall`` commands (documented in docs/cli.md like the core's)."""
+        ...
+
+
+def static_url(app_name: str) -> str:
+    """Where an app's ``static`` folder is served."""
+    return f"/static/apps/{app_name}"
 
 
 def layer_stacks(apps: dict[str, WallApp]) -> dict[str, Any]:

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from webapp.apps import WallApp
-from webapp.apps.brain_atlas import BrainApp
-from webapp.apps.census_map import CensusApp
+from webapp.apps.brain_atlas.app import BrainApp
+from webapp.apps.census_map.app import CensusApp
 from webapp.apps.core import CoreApp
-from webapp.apps.pattern import PatternApp
+from webapp.apps.pattern.app import PatternApp
 
 
 def builtin_apps() -> dict[str, WallApp]:

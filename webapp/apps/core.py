@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING
 from urllib.parse import quote
 
+import click
 from fastapi import APIRouter, Response, status
 from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import RedirectResponse
@@ -28,6 +30,8 @@ class CoreApp:
     name: str = "core"
     default_tag_set: str | None = None
     layers: tuple[str, ...] = ()
+    templates: Path | None = None  # the core's pages are its own
+    static: Path | None = None
 
     def leave(self, state: WallState) -> WallState:
         return state
@@ -81,6 +85,9 @@ class CoreApp:
 
     def router(self) -> APIRouter | None:
         return None
+
+    def commands(self) -> list[click.Command]:
+        return []
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return None

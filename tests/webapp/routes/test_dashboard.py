@@ -22,7 +22,7 @@ from webapp.settings import Settings
 def test_the_dashboard_includes_each_apps_panel(client: TestClient) -> None:
     sign_in(client, "instructor")
     page = client.get("/dashboard").text
-    assert "Test pattern" in page and "/static/js/panels/pattern.js" in page
+    assert "Test pattern" in page and "/static/apps/pattern/panel.js" in page
     assert "Pair a phone" in page and "Public screen" in page
     assert "Accounts and address rules" not in page  # instructors are not admins
 

@@ -74,8 +74,9 @@ def test_scene_pages_list_each_apps_layers_and_import_no_app_module(client: Test
             "/static/js/balloons.js",
         ]
         assert stacks["apps"]["brain"] == ["/static/js/volume.js"]
-        assert stacks["apps"]["pattern"] == ["/static/js/volume.js", "/static/js/scene.js"]
-        assert stacks["apps"]["census"] == ["/static/js/census.js"]
+        pattern = ["/static/js/volume.js", "/static/apps/pattern/scene.js"]
+        assert stacks["apps"]["pattern"] == pattern
+        assert stacks["apps"]["census"] == ["/static/apps/census/census.js"]
     for page in ("tile", "overview"):
         source = (STATIC / "js" / f"{page}.js").read_text()
         imported = set(re.findall(r'from "\./([a-z]+)\.js"', source))

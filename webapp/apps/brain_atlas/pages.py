@@ -20,19 +20,18 @@ from fastapi.responses import RedirectResponse
 from tag_service.codes import normalize_code
 from wall_client.layout import Wall
 from webapp.apps import Scan
-from webapp.apps.brain_atlas import (
+from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
+from webapp.apps.brain_atlas.content import Region, TagSetName
+from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
+from webapp.apps.brain_atlas.rules import (
     APP,
     GROUP_LABELS,
     TAG_SETS,
-    BrainApp,
     mode_of,
     reveals_answers,
     set_of_group,
     set_on_wall,
 )
-from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
-from webapp.apps.brain_atlas.content import Region, TagSetName
-from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
 from webapp.database.models import TagRecord
 from webapp.engine.changes import change_wall
 from webapp.engine.wall_state import WallState, read_state
@@ -44,6 +43,7 @@ from webapp.tags.registry import find, wall_tags
 from webapp.templating import render
 
 if TYPE_CHECKING:
+    from webapp.apps.brain_atlas.app import BrainApp
     from webapp.services import Services
 
 SUMMARY_PARAGRAPHS = 2  # of a tutor text, on the phone; the public screen shows it all

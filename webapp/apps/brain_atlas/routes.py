@@ -5,21 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from datetime import datetime
-from typing import Annotated, Literal, cast
+from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field
 
-from webapp.apps.brain_atlas import (
-    APP,
-    TAG_SETS,
-    BrainApp,
-    Mode,
-    mode_of,
-    pages,
-    set_on_wall,
-)
+from webapp.apps.brain_atlas import pages
 from webapp.apps.brain_atlas.audience import allow_audience_switches, audience_switches
 from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
@@ -34,6 +26,13 @@ from webapp.apps.brain_atlas.quiz import (
     start_round,
     statistics,
 )
+from webapp.apps.brain_atlas.rules import (
+    APP,
+    TAG_SETS,
+    Mode,
+    mode_of,
+    set_on_wall,
+)
 from webapp.database.connection import RowId
 from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
 from webapp.engine.changes import change_wall
@@ -47,9 +46,12 @@ router = APIRouter(tags=["brain"])
 TagSetPath = Literal["k5", "full"]
 AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its own words
 
+if TYPE_CHECKING:
+    from webapp.apps.brain_atlas.app import BrainApp
+
 
 def brain_app(services: Services) -> BrainApp:
-    return cast(BrainApp, services.apps[APP])
+    return cast("BrainApp", services.apps[APP])
 
 
 async def quiz_step(step: Callable[..., Round], *args: object) -> Round:

@@ -14,13 +14,14 @@ from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
+from webapp.apps.census_map.rules import APP
 from webapp.engine.changes import Update, change_wall, plan_change
 from webapp.engine.wall_state import Balloon, WallState, now_ms
 from webapp.schemas import PlacedCode
 from webapp.tags.registry import get_layout
 
 if TYPE_CHECKING:
-    from webapp.apps.census_map import CensusApp
+    from webapp.apps.census_map.app import CensusApp
     from webapp.services import Services
 
 MAX_BALLOONS = 8
@@ -152,3 +153,15 @@ def _place_balloon(
     if box is None:
         raise NoRoom
     return targets[0], box
+
+
+async def switch_dataset(services: Services, dataset_id: int) -> None:
+    """Show ``dataset_id`` on every wall the census map is on (codes placed again)."""
+    for wall in services.walls.values():
+
+        def show(state: WallState) -> WallState:
+            if state.app != APP:
+                return state
+            return state.model_copy(update={"dataset": dataset_id})
+
+        await change_wall(services, wall, show)

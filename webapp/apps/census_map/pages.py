@@ -15,15 +15,16 @@ from webapp.apps import Scan
 from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.rules import APP, INDEX_TAG
 from webapp.database.models import TagRecord
 from webapp.deps import limit_action
-from webapp.engine.wall_state import WallState
+from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person
 from webapp.people.visitors import Visitor
 from webapp.templating import render
 
 if TYPE_CHECKING:
-    from webapp.apps.census_map import CensusApp
+    from webapp.apps.census_map.app import CensusApp
     from webapp.services import Services
 
 
@@ -31,9 +32,6 @@ async def shown_dataset(
     app: CensusApp, services: Services, wall: Wall
 ) -> tuple[WallState, DataSet]:
     """The data set on the wall; 409 when the census map is not on it now."""
-    from webapp.apps.census_map import APP
-    from webapp.engine.wall_state import read_state
-
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
     dataset = await run_in_threadpool(app.shown, services, state) if state.app == APP else None
     if dataset is None:
@@ -52,8 +50,6 @@ def tract_of(dataset: DataSet, geoid: str) -> Tract:
 
 def index_code(services: Services, wall: Wall) -> str | None:
     """The tract index's code: publishing from a tract page goes through it."""
-    from webapp.apps.census_map import INDEX_TAG
-
     with services.db.session() as session:
         return session.scalar(
             select(TagRecord.code).where(TagRecord.wall_id == wall.id, TagRecord.name == INDEX_TAG)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from typing import Annotated, Literal, cast
+from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
@@ -13,11 +13,18 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
-from webapp.apps.census_map import APP, CensusApp, pages, switch_dataset
-from webapp.apps.census_map.actions import GroupHidden, NoRoom, group_shown, open_balloon
+from webapp.apps.census_map import pages
+from webapp.apps.census_map.actions import (
+    GroupHidden,
+    NoRoom,
+    group_shown,
+    open_balloon,
+    switch_dataset,
+)
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
+from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
 from webapp.database.connection import ROW_ID_MAX, RowId
 from webapp.database.models import TagRecord
@@ -42,9 +49,12 @@ NETWORK_LINK_REFRESH_S = 10
 KML_TYPE = "application/vnd.google-earth.kml+xml"
 KMZ_TYPE = "application/vnd.google-earth.kmz"
 
+if TYPE_CHECKING:
+    from webapp.apps.census_map.app import CensusApp
+
 
 def census_app(services: Services) -> CensusApp:
-    return cast(CensusApp, services.apps[APP])
+    return cast("CensusApp", services.apps[APP])
 
 
 class DataSetChoice(BaseModel):

@@ -12,7 +12,7 @@ from fastapi.testclient import TestClient
 from markupsafe import escape
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
-from webapp.apps.brain_atlas import BrainApp
+from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import get_round
 from webapp.engine.wall_state import WallState, events_since, read_state

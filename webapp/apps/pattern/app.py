@@ -10,13 +10,15 @@ unplaceable instead, which the dashboard shows).
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import click
 from fastapi import APIRouter, Response
 from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps import Scan
+from webapp.apps import Scan, static_url
 from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing import Block, Publication
 from webapp.tags.registry import TagSpec, get_layout
@@ -25,6 +27,7 @@ from webapp.templating import render
 if TYPE_CHECKING:
     from webapp.services import Services
 
+FOLDER = Path(__file__).parent
 SETUP_SET = "setup"
 
 
@@ -32,7 +35,9 @@ class PatternApp:
     name: str = "pattern"
     default_tag_set: str | None = SETUP_SET
     # a volume the dashboard puts up shows instead of the pattern
-    layers: tuple[str, ...] = ("/static/js/volume.js", "/static/js/scene.js")
+    layers: tuple[str, ...] = ("/static/js/volume.js", f"{static_url('pattern')}/scene.js")
+    templates: Path | None = FOLDER / "templates"
+    static: Path | None = FOLDER / "static"
 
     def leave(self, state: WallState) -> WallState:
         return state
@@ -61,7 +66,7 @@ class PatternApp:
         placed, display = await _placement_of(scan)
         return render(
             scan.request,
-            "locate.html",
+            "pattern/locate.html",
             wall=scan.wall,
             tag=scan.tag,
             placed=placed,
@@ -94,8 +99,11 @@ class PatternApp:
     def router(self) -> APIRouter | None:
         return None
 
+    def commands(self) -> list[click.Command]:
+        return []
+
     def dashboard_panel(self, wall: Wall) -> str | None:
-        return "panels/pattern.html"
+        return "pattern/panel.html"
 
 
 async def _placement_of(scan: Scan) -> tuple[dict[str, Any] | None, Display | None]:

@@ -2,7 +2,7 @@
 // tile's own pixels (outlines clipped and simplified, labels, groups, codes); the
 // tile draws it, hiding the groups whose layer is off, so a toggle is instant.
 
-import {angleOf, upright} from "./matrix.js";
+import {angleOf, upright} from "/static/js/matrix.js";
 
 const KEEP = 4;
 

@@ -1,6 +1,6 @@
 // The census map's dashboard panel: the data set, pan and zoom, groups, open balloons.
-import {STATUS_EVENT, api, changeState} from "../api.js";
-import {bindViewControls} from "./view.js";
+import {STATUS_EVENT, api, changeState} from "/static/js/api.js";
+import {bindViewControls} from "/static/js/panels/view.js";
 
 const $ = (id) => document.getElementById(id);
 let state = null;

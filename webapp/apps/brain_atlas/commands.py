@@ -1,0 +1,52 @@
+"""The brain atlas's command: ``tagwall content check``."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
+from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache
+from webapp.apps.brain_atlas.views import load_views, showing
+from webapp.console import EXIT_USAGE
+
+
+@click.group()
+def content() -> None:
+    """Teaching content the apps read (the brain atlas's regions and texts)."""
+
+
+@content.command("check")
+@click.option(
+    "--dir",
+    "directory",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=None,
+    help="The brain atlas content folder (default: content/brain_atlas).",
+)
+def content_check(directory: Path | None) -> None:
+    """Check the brain atlas's regions, tutor texts, references and view presets (every
+    region must show in one of them); exit 2 on problems."""
+    folder = directory or ATLAS_DIR
+    try:
+        loaded = load_content(folder)
+        presets = load_views(folder / "views.yaml")
+        shown = showing(presets, loaded.regions, AtlasVolumes.load(folder), PinCache())
+    except ContentError as error:
+        for problem in error.problems:
+            click.echo(problem, err=True)
+        click.echo(f"{len(error.problems)} problem(s) found", err=True)
+        sys.exit(EXIT_USAGE)
+    unseen = [region_id for region_id, ids in shown.items() if not ids]
+    for region_id in unseen:
+        click.echo(f"views.yaml: no view shows the pin of {region_id}", err=True)
+    if unseen:
+        click.echo(f"{len(unseen)} problem(s) found", err=True)
+        sys.exit(EXIT_USAGE)
+    click.echo(
+        f"ok: {len(loaded.in_set('full'))} quiz regions, {len(loaded.in_set('k5'))} K-5 "
+        f"regions, {len(loaded.tutors)} tutor files, {len(loaded.references)} references, "
+        f"{len(presets)} views showing every pin"
+    )

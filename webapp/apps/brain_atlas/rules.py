@@ -1,0 +1,51 @@
+"""The atlas's small rules, shared by its app, pages and routes: its modes and tag sets,
+which set a user group gets, who sees answers early, how its tags are named."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from webapp.apps.brain_atlas.content import TagSetName
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person
+from webapp.people.roles import UserGroup
+
+APP = "brain"
+Mode = Literal["quiz", "tutor"]
+MODES: tuple[Mode, ...] = ("quiz", "tutor")
+TAG_SETS: dict[TagSetName, str] = {"k5": "brain-k5", "full": "brain-full"}
+GROUP_LABELS: dict[UserGroup, str] = {
+    "k5": "K-5",
+    "undergraduate": "Undergraduate",
+    "medical": "Medical",
+    "research": "Research",
+}
+
+
+def set_of_group(group: UserGroup) -> TagSetName:
+    """Children get the K-5 pins; every other group the full set."""
+    return "k5" if group == "k5" else "full"
+
+
+def set_on_wall(state: WallState) -> TagSetName:
+    """Which pins the wall shows now (the full set unless K-5 was chosen)."""
+    return "k5" if state.tag_set == TAG_SETS["k5"] else "full"
+
+
+def mode_of(state: WallState) -> Mode:
+    return "tutor" if state.mode == "tutor" else "quiz"
+
+
+def reveals_answers(person: Person) -> bool:
+    """The one rule for early answers: instructors (and admins) see them at once;
+    students only on their own results page, after finishing."""
+    return person.is_staff
+
+
+def pin_tag(tag_set: TagSetName, round_number: int, number: int) -> str:
+    """A pin's tag name: new in every round, so every round has new codes."""
+    return f"brain:{tag_set}:r{round_number}:pin:{number}"
+
+
+def group_tag(group: UserGroup) -> str:
+    return f"brain:group:{group}"

@@ -1,0 +1,1 @@
+"""The setup test pattern (``app``), with its page, panel and panel script."""
