@@ -1,13 +1,18 @@
 """Fixtures: every test builds its own settings, database and app (no shared state).
 
 With TAGWALL_TEST_DATABASE_URL set (a PostgreSQL URL) each test gets a fresh
-PostgreSQL database created from it; otherwise a SQLite file in its tmp_path.
+PostgreSQL database created from it; otherwise a SQLite file in its tmp_path. Tests of
+what several processes share use Redis: TAGWALL_TEST_REDIS_URL, else a private
+redis-server, with a key prefix of their own.
 """
 
 from __future__ import annotations
 
 import os
 import re
+import shutil
+import socket
+import subprocess
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -28,10 +33,12 @@ from webapp.people.accounts import add_account
 from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
 from webapp.tags.registry import TagSpec, wall_tags
+from webapp.testing import wait_until
 from webapp.volume.build import build_store, open_source
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
+REDIS_URL = os.environ.get("TAGWALL_TEST_REDIS_URL", "")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -57,6 +64,60 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.browser)
         if "postgres" in item.keywords and not POSTGRES_URL:
             item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def redis_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
+    """The Redis URL tests use: ``TAGWALL_TEST_REDIS_URL`` (CI: the machine's Redis), else a
+    private ``redis-server`` (Debian's redis-server package, which ``make test`` installs)
+    on a free port, without persistence, for the whole session."""
+    if REDIS_URL:
+        yield REDIS_URL
+        return
+    executable = shutil.which("redis-server")
+    if executable is None:
+        pytest.fail("redis-server is not installed: run `make test` (it installs it as root)")
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    folder = tmp_path_factory.mktemp("redis")
+    process = subprocess.Popen(
+        [
+            executable,
+            "--port",
+            str(port),
+            "--bind",
+            "127.0.0.1",
+            "--save",
+            "",
+            "--appendonly",
+            "no",
+        ],
+        cwd=folder,
+        stdout=subprocess.DEVNULL,
+    )
+    try:
+        url = f"redis://127.0.0.1:{port}/0"
+        wait_until(lambda: _answers(port), what="redis-server to start", timeout=30)
+        yield url
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+
+
+def _answers(port: int) -> bool:
+    try:
+        with socket.create_connection(("127.0.0.1", port), timeout=1) as connection:
+            connection.sendall(b"PING\r\n")
+            return connection.recv(16).startswith(b"+PONG")
+    except OSError:
+        return False
+
+
+@pytest.fixture
+def redis_prefix() -> str:
+    """Each test's own key prefix on the shared Redis, so tests never see each other's keys."""
+    return f"tagwall-test:{uuid.uuid4().hex[:12]}"
 
 
 @pytest.fixture

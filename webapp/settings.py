@@ -56,7 +56,10 @@ class Settings(BaseSettings):
         default_factory=lambda: [CONTENT_DIR / "walls"]
     )
     default_wall: str = "demo"
-    bus: Literal["memory"] = "memory"
+    bus: Literal["memory", "redis"] = "memory"
+    redis_url: str = Field(default="redis://127.0.0.1:6379/0", pattern=r"^(redis|rediss|unix)://")
+    # Keys are named under the prefix, so several installations can share one Redis.
+    redis_prefix: str = Field(default="tagwall", pattern=r"^[A-Za-z0-9_.:-]{1,64}$")
     apply_lead_ms: int = Field(default=250, ge=0, le=10_000)
     swap_timeout_ms: int = Field(default=3_000, ge=100, le=60_000)
     tile_queue_size: int = Field(default=256, ge=8, le=100_000)
