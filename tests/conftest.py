@@ -54,6 +54,11 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers", "browser: drives Debian Chromium against a server process (-m 'not browser')"
     )
+    config.addinivalue_line(
+        "markers",
+        "persistence: a browser test of what the database keeps across restarts and crashes "
+        "(CI's PostgreSQL pass runs these and every test that is not a browser test)",
+    )
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:

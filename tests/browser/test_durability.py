@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import httpx
+import pytest
 from playwright.sync_api import Browser
 from sqlalchemy import select
 
@@ -93,6 +94,7 @@ def operator(server: ServerProcess, seen: Acknowledged, stop: threading.Event) -
                     seen.versions[response.json()["version"]] = {"grid": shown}
 
 
+@pytest.mark.persistence
 def test_nothing_acknowledged_is_lost_to_a_kill_9(
     browser: Browser, tmp_path: Path, database_url: str
 ) -> None:

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import httpx
+import pytest
 from websockets.sync.client import connect
 
 from tests.browser.conftest import serve
@@ -71,6 +72,7 @@ def test_forwarded_addresses_are_not_believed_and_tokens_stay_out_of_the_log(
         assert secret not in log
 
 
+@pytest.mark.persistence
 def test_rotating_tokens_closes_old_tiles_and_signs_out_the_old_operator_link(
     tmp_path: Path, database_url: str
 ) -> None:

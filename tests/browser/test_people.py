@@ -63,6 +63,7 @@ def sign_in_on_dashboard(page: Page, server: ServerProcess, username: str) -> No
     expect(page.locator("#live")).to_have_text("live")
 
 
+@pytest.mark.persistence
 def test_students_register_instructors_pair_and_publications_reach_the_public_tile(
     browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
 ) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import statistics
 import time
 
+import pytest
 from playwright.sync_api import Browser, Page
 
 from tests.browser.conftest import open_tiles, version_of
@@ -39,6 +40,7 @@ def test_a_state_change_shows_on_every_demo_tile(browser: Browser, server: Serve
         page.context.close()
 
 
+@pytest.mark.persistence
 def test_tiles_reconnect_after_a_server_restart_with_the_same_state(
     browser: Browser, server: ServerProcess
 ) -> None:
