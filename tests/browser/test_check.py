@@ -12,8 +12,9 @@ import sys
 from pathlib import Path
 
 from wall_client.config import load_wall
-from webapp.check import check_wall, fetch_layout
+from webapp.check import CheckReport, check_wall, fetch_layout
 from webapp.people.security import operator_token, tile_token
+from webapp.schemas import LayoutInfo, PlacedCode
 from webapp.settings import CONTENT_DIR
 from webapp.testing import ServerProcess
 from webapp.urls import tile_path
@@ -28,6 +29,20 @@ def run_check(server: ServerProcess, *args: str) -> subprocess.CompletedProcess[
         text=True,
         timeout=180,
     )
+
+
+def check_expecting(
+    server: ServerProcess, version: int, layout: LayoutInfo, expected: PlacedCode
+) -> CheckReport:
+    """The check of the demo tiles against ``layout`` with its first code replaced by
+    ``expected``: what the check says when a tile shows something else than it should."""
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
+    token = tile_token(server.secret, "demo")
+    urls = {d.id: server.url + tile_path(token, "demo", d.id) for d in wall.displays}
+    chromium = shutil.which("chromium")
+    assert chromium is not None
+    return check_wall(wall, urls, version, tampered, chromium)
 
 
 def test_check_decodes_every_code_the_demo_tiles_show(server: ServerProcess) -> None:
@@ -46,20 +61,14 @@ def test_check_decodes_every_code_the_demo_tiles_show(server: ServerProcess) -> 
 def test_check_compares_every_module_with_the_symbol(server: ServerProcess) -> None:
     """A code that differs from its symbol in three modules still decodes: the check
     reports exactly those three, and fails."""
-    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
     version, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
     code = layout.placed[0]
     rows = [list(row) for row in code.matrix]
     for i in (9, 10, 11):  # in the middle: data modules, not a finder pattern
         rows[i][i] = "0" if rows[i][i] == "1" else "1"
     expected = code.model_copy(update={"matrix": ["".join(row) for row in rows]})
-    tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
-    token = tile_token(server.secret, "demo")
-    urls = {d.id: server.url + tile_path(token, "demo", d.id) for d in wall.displays}
-    chromium = shutil.which("chromium")
-    assert chromium is not None
 
-    report = check_wall(wall, urls, version, tampered, chromium)
+    report = check_expecting(server, version, layout, expected)
 
     count = len(layout.placed)
     assert report.decoded == count, "it still decodes"
@@ -74,17 +83,11 @@ def test_check_compares_every_module_with_the_symbol(server: ServerProcess) -> N
 
 
 def test_check_reports_a_tile_that_shows_the_wrong_code(server: ServerProcess) -> None:
-    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
     version, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
     wrong = layout.placed[0]
     expected = wrong.model_copy(update={"payload": wrong.payload + "X"})
-    tampered = layout.model_copy(update={"placed": [expected, *layout.placed[1:]]})
-    token = tile_token(server.secret, "demo")
-    urls = {d.id: server.url + tile_path(token, "demo", d.id) for d in wall.displays}
-    chromium = shutil.which("chromium")
-    assert chromium is not None
 
-    report = check_wall(wall, urls, version, tampered, chromium)
+    report = check_expecting(server, version, layout, expected)
 
     assert not report.ok
     assert report.decoded == len(layout.placed) - 1

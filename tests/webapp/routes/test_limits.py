@@ -4,6 +4,7 @@ hall behind one NAT address goes through, a phone that drops its cookie does not
 from __future__ import annotations
 
 from ipaddress import ip_network
+from typing import Any
 
 import pytest
 from fastapi import FastAPI
@@ -127,6 +128,18 @@ def refused_clearly(answer: Response) -> None:
     assert int(wait) > 0 and f"Try again in {wait} seconds" in answer.text
 
 
+def took_effect(client: TestClient, method: str, url: str, **request: Any) -> bool:
+    """Whether the request was let through; a refused one is refused clearly and leaves
+    the wall exactly as it was."""
+    before = wall_now(client)
+    answer = client.request(method, url, **request)
+    if answer.status_code == 200:
+        return True
+    refused_clearly(answer)
+    assert wall_now(client) == before
+    return False
+
+
 def test_a_cookie_dropper_cannot_flicker_the_census_groups(
     app_with_defaults: FastAPI, defaults: Settings
 ) -> None:
@@ -141,13 +154,7 @@ def test_a_cookie_dropper_cannot_flicker_the_census_groups(
         flipped = 0
         for _ in range(20):
             spammer.cookies.clear()
-            before = wall_now(spammer)
-            answer = spammer.get(f"/t/{toggle.code}")
-            if answer.status_code == 200:
-                flipped += 1
-            else:
-                refused_clearly(answer)
-                assert wall_now(spammer) == before
+            flipped += took_effect(spammer, "GET", f"/t/{toggle.code}")
     assert flipped == defaults.new_visitor_actions_per_address_per_minute
 
 
@@ -205,17 +212,13 @@ def test_the_wall_has_one_budget_for_phones_at_every_address(defaults: Settings)
             at = {"X-Forwarded-For": f"192.0.2.{phone + 1}"}
             csrf = csrf_of(proxy)
             for tract in dataset.tracts[2 * phone : 2 * phone + 2]:
-                before = wall_now(proxy)
-                answer = proxy.post(
+                opened += took_effect(
+                    proxy,
+                    "POST",
                     f"/apps/census/demo/tracts/{tract.geoid}/balloon",
                     data={"csrf": csrf},
                     headers=at,
                 )
-                if answer.status_code == 200:
-                    opened += 1
-                else:
-                    refused_clearly(answer)
-                    assert wall_now(proxy) == before
     assert opened == limited.actions_per_wall_per_minute
 
 
@@ -241,13 +244,9 @@ def test_one_address_has_one_budget_for_all_its_phones(defaults: Settings) -> No
             room.cookies.clear()
             csrf = csrf_of(room)
             for _ in range(2):
-                before = wall_now(room)
-                answer = room.post(f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf})
-                if answer.status_code == 200:
-                    flipped += 1
-                else:
-                    refused_clearly(answer)
-                    assert wall_now(room) == before
+                flipped += took_effect(
+                    room, "POST", f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf}
+                )
         other = ("198.51.100.8", 5000)
         with TestClient(room.app, client=other) as elsewhere:
             answer = elsewhere.post(
