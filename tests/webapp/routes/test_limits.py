@@ -4,7 +4,7 @@ hall behind one NAT address goes through, a phone that drops its cookie does not
 from __future__ import annotations
 
 from ipaddress import ip_network
-from typing import Any
+from typing import Any, cast
 
 import pytest
 from fastapi import FastAPI
@@ -13,6 +13,8 @@ from httpx import Response
 
 from tests.conftest import csrf_of, operator_headers, services_of
 from webapp.app import create_app
+from webapp.apps.census_map.app import CensusApp
+from webapp.apps.census_map.dataset import DataSet
 from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import WallState, read_state
 from webapp.settings import Settings
@@ -121,6 +123,18 @@ def wall_now(client: TestClient) -> tuple[int, WallState]:
     return read_state(services_of(client).db, "demo")
 
 
+def census_on_the_wall(client: TestClient) -> DataSet:
+    """Put the census map on the demo wall; the data set it shows."""
+    changed = client.post(
+        "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(client)
+    )
+    assert changed.status_code == 200
+    census = cast(CensusApp, services_of(client).apps["census"])
+    dataset = census.datasets.current(services_of(client).db)
+    assert dataset is not None, "the shipped data set is seeded"
+    return dataset
+
+
 def refused_clearly(answer: Response) -> None:
     """A refused action: 429 with a page that says how long to wait, as Retry-After does."""
     assert answer.status_code == 429
@@ -200,12 +214,7 @@ def test_the_wall_has_one_budget_for_phones_at_every_address(defaults: Settings)
     )
     upgrade(limited.resolved_database_url)
     with TestClient(create_app(limited), client=("10.0.0.2", 5000)) as proxy:
-        changed = proxy.post(
-            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(proxy)
-        )
-        assert changed.status_code == 200
-        census = services_of(proxy).apps["census"]
-        dataset = census.datasets.current(services_of(proxy).db)  # type: ignore[attr-defined]
+        dataset = census_on_the_wall(proxy)
         opened = 0
         for phone in range(4):
             proxy.cookies.clear()
@@ -281,12 +290,7 @@ def test_behind_a_trusted_proxy_each_phone_has_its_own_address(defaults: Setting
     proxied = defaults.model_copy(update={"trusted_proxies": [ip_network("10.0.0.2")]})
     upgrade(proxied.resolved_database_url)
     with TestClient(create_app(proxied), client=("10.0.0.2", 5000)) as proxy:
-        changed = proxy.post(
-            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(proxy)
-        )
-        assert changed.status_code == 200
-        census = services_of(proxy).apps["census"]
-        dataset = census.datasets.current(services_of(proxy).db)  # type: ignore[attr-defined]
+        dataset = census_on_the_wall(proxy)
         budget = proxied.new_visitor_actions_per_address_per_minute
         statuses = []
         for number, tract in enumerate(dataset.tracts[: budget + 4]):
