@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -68,7 +69,6 @@ class CommandsWithApps(click.Group):
 @click.group(cls=CommandsWithApps)
 def main() -> None:
     """tagwall: one interactive screen from a wall of monitors."""
-
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     redact_root_handlers()
     logging.getLogger("alembic.runtime.plugins").setLevel(logging.WARNING)  # startup noise
@@ -77,17 +77,27 @@ def main() -> None:
 @main.command()
 @click.option("--host", help="Interface to listen on (TAGWALL_HOST).")
 @click.option("--port", type=int, help="Port to listen on (TAGWALL_PORT).")
-def serve(host: str | None, port: int | None) -> None:
+@click.option(
+    "--workers",
+    type=click.IntRange(1, 256),
+    help="Server processes sharing the port (TAGWALL_WORKERS); more than one needs "
+    "TAGWALL_BUS=redis and PostgreSQL.",
+)
+def serve(host: str | None, port: int | None, workers: int | None) -> None:
     """Upgrade the database, print the wall's URLs and serve."""
-
-    settings = load_settings(host=host, port=port)
+    settings = load_settings(host=host, port=port, workers=workers)
     walls = load_configured_walls(settings)
     pick_wall(walls, None, settings)
     open_database(settings).dispose()
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
-    app = create_app(settings)
+    if settings.workers > 1:
+        # Each worker process builds its own app from the environment: hand it the
+        # command line's settings that way.
+        os.environ.update({"TAGWALL_HOST": settings.host, "TAGWALL_PORT": str(settings.port)})
     uvicorn.run(
-        app,
+        "webapp.app:create_app" if settings.workers > 1 else create_app(settings),
+        factory=settings.workers > 1,
+        workers=settings.workers,
         host=settings.host,
         port=settings.port,
         ws_max_size=settings.max_frame_bytes,

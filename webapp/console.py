@@ -28,8 +28,11 @@ def load_settings(**overrides: Any) -> Settings:
         return Settings(**given)
     except ValidationError as error:
         for problem in error.errors():
-            field = ".".join(str(part) for part in problem["loc"]) or "settings"
-            click.echo(f"error: {_setting_name(field)}: {problem['msg']}", err=True)
+            field = ".".join(str(part) for part in problem["loc"])
+            # A rule between settings (no one field) says which settings it names itself.
+            where = f"{_setting_name(field)}: " if field else ""
+            message = problem["msg"].removeprefix("Value error, ")
+            click.echo(f"error: {where}{message}", err=True)
     except SettingsError as error:  # a value that is not even JSON, before validation
         field = str(error).removeprefix('error parsing value for field "').split('"')[0]
         reason = error.__cause__ or error

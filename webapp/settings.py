@@ -56,6 +56,7 @@ class Settings(BaseSettings):
         default_factory=lambda: [CONTENT_DIR / "walls"]
     )
     default_wall: str = "demo"
+    workers: int = Field(default=1, ge=1, le=256)
     bus: Literal["memory", "redis"] = "memory"
     redis_url: str = Field(default="redis://127.0.0.1:6379/0", pattern=r"^(redis|rediss|unix)://")
     # Keys are named under the prefix, so several installations can share one Redis.
@@ -142,6 +143,21 @@ class Settings(BaseSettings):
                 raise ValueError(
                     f"TAGWALL_SECRET_KEY must be at least {MIN_SECRET_LENGTH} characters"
                 )
+        return self
+
+    @model_validator(mode="after")
+    def _share_what_several_workers_need(self) -> Settings:
+        """Several worker processes share one wall only through Redis and PostgreSQL."""
+        if self.workers > 1 and self.bus == "memory":
+            raise ValueError(
+                f"TAGWALL_WORKERS={self.workers} needs TAGWALL_BUS=redis: the memory bus "
+                "reaches the tiles of one process only"
+            )
+        if self.workers > 1 and self.resolved_database_url.startswith("sqlite"):
+            raise ValueError(
+                f"TAGWALL_WORKERS={self.workers} needs PostgreSQL (TAGWALL_DATABASE_URL): "
+                "SQLite serves one process"
+            )
         return self
 
     @property

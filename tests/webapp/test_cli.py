@@ -336,3 +336,16 @@ def test_tokens_rotate_prints_the_new_urls(env: dict[str, str]) -> None:
     code, out, _ = run(env, "tokens", "rotate", "operator")
     assert code == 0 and "new operator sign-in link: http://127.0.0.1:8111/login/operator" in out
     assert run(env, "tiles", "--wall", "kl-3x3")[1] == other_before, "other walls keep theirs"
+
+
+def test_several_workers_without_what_they_share_refuse_to_start(env: dict[str, str]) -> None:
+    """A memory bus reaches one process's tiles and SQLite serves one process: more
+    workers than that is one clear line, before anything listens."""
+    line = refused(env, "serve", "--workers", "2")
+    assert line == (
+        "error: TAGWALL_WORKERS=2 needs TAGWALL_BUS=redis: the memory bus reaches the tiles "
+        "of one process only"
+    )
+    line = refused({**env, "TAGWALL_BUS": "redis", "TAGWALL_WORKERS": "3"}, "serve")
+    assert line.startswith("error: TAGWALL_WORKERS=3 needs PostgreSQL")
+    assert refused({**env, "TAGWALL_WORKERS": "0"}, "serve").startswith("error: TAGWALL_WORKERS: ")

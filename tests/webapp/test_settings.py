@@ -102,3 +102,13 @@ def test_production_needs_a_secret_key() -> None:
     with pytest.raises(ValidationError, match="TAGWALL_SECRET_KEY is required in production"):
         Settings(env="production", secret_key="")
     assert Settings(env="production", secret_key="s" * 32).resolved_secret_key == "s" * 32
+
+
+def test_several_workers_need_redis_and_postgresql() -> None:
+    assert Settings().workers == 1
+    with pytest.raises(ValidationError, match="needs TAGWALL_BUS=redis"):
+        Settings(workers=2)
+    with pytest.raises(ValidationError, match="needs PostgreSQL"):
+        Settings(workers=2, bus="redis", database_url="sqlite:///var/x.db")
+    shared = Settings(workers=2, bus="redis", database_url="postgresql+psycopg://db/tagwall")
+    assert shared.workers == 2
