@@ -10,10 +10,12 @@ from sqlalchemy import (
     DateTime,
     Float,
     ForeignKey,
+    Index,
     Integer,
     String,
     Text,
     UniqueConstraint,
+    text,
 )
 from sqlalchemy.orm import Mapped, mapped_column
 
@@ -238,6 +240,17 @@ class CensusDataSetRecord(Base):
     """An imported census data set; the ``current`` one is what the census map shows."""
 
     __tablename__ = "census_datasets"
+    # At most one current data set, whatever races (two server processes seeding the
+    # shipped one at the same start): the database says no to the second.
+    __table_args__ = (
+        Index(
+            "ix_census_datasets_one_current",
+            "current",
+            unique=True,
+            postgresql_where=text('"current"'),
+            sqlite_where=text('"current"'),
+        ),
+    )
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     name: Mapped[str] = mapped_column(String(64), index=True, nullable=False)

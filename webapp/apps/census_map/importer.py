@@ -28,6 +28,7 @@ from pydantic import ValidationError
 from shapely import MultiPolygon, Polygon
 from shapely.errors import ShapelyError
 from shapely.geometry import mapping, shape
+from sqlalchemy.exc import IntegrityError
 
 from webapp.apps.census_map import store
 from webapp.apps.census_map.dataset import DataSetSettings, Value, default_settings
@@ -519,7 +520,14 @@ def _nothing_left(
 
 
 def seed(db: Database, path: Path = store.SHIPPED) -> int | None:
-    """Import the shipped data set when the database holds none (the demo's default)."""
+    """Import the shipped data set when the database holds none (the demo's default).
+
+    Several server processes may start at once: the one whose data set the database
+    turns away (one current data set at most) shows the one that got in.
+    """
     if store.count(db):
         return None
-    return import_files(db, shapes=path, key=store.SHIPPED_KEY).dataset_id
+    try:
+        return import_files(db, shapes=path, key=store.SHIPPED_KEY).dataset_id
+    except IntegrityError:
+        return store.current_id(db)

@@ -87,11 +87,17 @@ def make_current(db: Database, dataset_id: int) -> None:
 
 
 def _make_current(session: Any, dataset_id: int) -> None:
-    session.execute(
-        update(CensusDataSetRecord)
-        .values(current=CensusDataSetRecord.id == dataset_id)
-        .execution_options(synchronize_session=False)
-    )
+    """Two steps: the database allows one current data set at any moment of an update."""
+    for values, rows in (
+        ({"current": False}, CensusDataSetRecord.current.is_(True)),
+        ({"current": True}, CensusDataSetRecord.id == dataset_id),
+    ):
+        session.execute(
+            update(CensusDataSetRecord)
+            .where(rows)
+            .values(**values)
+            .execution_options(synchronize_session=False)
+        )
 
 
 def current_id(db: Database) -> int | None:

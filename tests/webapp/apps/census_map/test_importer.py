@@ -3,19 +3,23 @@
 from __future__ import annotations
 
 import json
+import threading
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import pytest
 import shapefile
 import shapely
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from webapp.apps.census_map import importer, store
 from webapp.apps.census_map.importer import CensusImportError, ImportReport, import_files
 from webapp.database.connection import Database
-from webapp.database.models import CensusTractRecord
+from webapp.database.models import CensusDataSetRecord, CensusTractRecord
 
 KEYS = ("06067000100", "06067000200", "06067000300")
 NAD83_UTM = (
@@ -109,6 +113,33 @@ def test_the_shipped_data_set_imports_cleanly_and_becomes_current(db: Database) 
     assert report.unmatched_shapes == report.unmatched_rows == ()
     assert report.repaired == report.skipped == ()
     assert store.current_id(db) == report.dataset_id
+
+
+def test_the_database_keeps_one_current_data_set(db: Database) -> None:
+    importer.seed(db)
+    with pytest.raises(IntegrityError), db.session() as session:
+        session.add(CensusDataSetRecord(name="second", settings={}, tract_count=0, current=True))
+
+
+def test_server_processes_seeding_at_once_leave_one_current_data_set(
+    db: Database, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Two processes starting together both find no data set and both import the
+    shipped one: neither fails, and the map shows one data set."""
+    both_looked = threading.Barrier(2, timeout=30)
+
+    def empty_after_both_looked(_: Database) -> int:
+        both_looked.wait()
+        return 0
+
+    monkeypatch.setattr(store, "count", empty_after_both_looked)
+    with ThreadPoolExecutor(2) as pool:
+        seeded = list(pool.map(lambda _: importer.seed(db), range(2)))
+    with db.session() as session:
+        current = session.scalars(
+            select(CensusDataSetRecord.id).where(CensusDataSetRecord.current.is_(True))
+        ).all()
+    assert len(current) == 1 and current[0] in seeded
 
 
 def test_a_shapefile_joins_a_csv_by_key(db: Database, tmp_path: Path) -> None:
