@@ -17,6 +17,7 @@ from fastapi.responses import JSONResponse, Response
 from fastapi.routing import APIRoute, iter_route_contexts
 from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
+from redis.exceptions import RedisError
 from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
@@ -24,6 +25,7 @@ from wall_client.config import load_walls
 from webapp.apps import static_url
 from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
+from webapp.database.redis import connect_redis
 from webapp.deps import DEPENDENCY_ERRORS
 from webapp.engine.bus import MemoryBus
 from webapp.engine.changes import open_wall
@@ -69,12 +71,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         swap_timeout_ms=settings.swap_timeout_ms,
         keep_events=settings.event_history,
     )
+    # Several processes share the walls: they count the abuse limits together in Redis.
+    redis = connect_redis(settings.redis_url) if settings.bus == "redis" else None
     services = Services(
         settings=settings,
         db=db,
         hub=hub,
         walls=load_walls(settings.wall_configs),
         apps=builtin_apps(),
+        redis=redis,
     )
 
     @asynccontextmanager
@@ -94,6 +99,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                 await task
         await run_in_threadpool(services.scan_log.flush)
         await hub.close()
+        if redis is not None:
+            await redis.aclose()
         db.dispose()
 
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
@@ -237,6 +244,16 @@ def _add_error_pages(app: FastAPI) -> None:
         url = request.app.state.services.db.url
         log.warning("%s (on %s)", database_problem(error, url), request.url.path)
         response = error_page(request, 503, "The database is not answering. Try again in a moment.")
+        response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
+        return response
+
+    @app.exception_handler(RedisError)
+    async def redis_error(request: Request, error: RedisError) -> Response:
+        """Redis (what several processes share) not answering is an outage, not a bug:
+        503 and one log line. The limits are counted before a request changes anything."""
+        log.warning("Redis did not answer: %s (on %s)", error, request.url.path)
+        detail = "The shared store is not answering. Try again in a moment."
+        response = error_page(request, 503, detail)
         response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
         return response
 

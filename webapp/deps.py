@@ -17,7 +17,7 @@ from wall_client.layout import Display, Wall
 from webapp.engine.protocol import CLOSE_UNKNOWN
 from webapp.people.addresses import address_of
 from webapp.people.person import Person, person_of
-from webapp.people.ratelimit import WallAction
+from webapp.people.ratelimit import WallAction, retry_after_s
 from webapp.people.security import csrf_token, token_matches
 from webapp.people.visitors import Visitor
 from webapp.services import Services
@@ -96,7 +96,7 @@ ClientAddressDep = Annotated[str, Depends(get_client_address)]
 
 def too_fast(wait: float) -> HTTPException:
     """The 429 for a phone that acts faster than its limits allow."""
-    seconds = int(wait) + 1
+    seconds = retry_after_s(wait)
     return HTTPException(
         status.HTTP_429_TOO_MANY_REQUESTS,
         f"That was a lot in a short time. Try again in {seconds} seconds.",
@@ -104,11 +104,11 @@ def too_fast(wait: float) -> HTTPException:
     )
 
 
-def limit_action(
+async def limit_action(
     services: Services, kind: WallAction, visitor: Visitor, address: str, wall_id: str
 ) -> None:
     """Count one ``kind`` of action on the wall; 429 when it is one too many."""
-    wait = services.action_allowed(kind, visitor, address, wall_id)
+    wait = await services.action_allowed(kind, visitor, address, wall_id)
     if wait is not None:
         raise too_fast(wait)
 

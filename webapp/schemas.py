@@ -26,7 +26,7 @@ ERROR_MEANINGS = {
     403: "Not allowed: a missing or wrong tile token or CSRF header, or a role that may not.",
     404: "No such wall, tile or other thing named in the path or query.",
     409: "Not possible in the wall's present state (another app is on the wall, say).",
-    503: "The database does not answer; try again in a moment.",
+    503: "The database (or, with several server processes, Redis) does not answer; try again.",
 }
 
 

@@ -5,11 +5,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from anyio import CapacityLimiter
+from redis.asyncio import Redis
 
 from wall_client.layout import Wall
 from webapp.apps import WallApp
 from webapp.database.connection import Database
 from webapp.engine.hub import WallHub
+from webapp.people.counters import Counters, MemoryCounters, RedisCounters
 from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
 from webapp.people.signin import SignInThrottle
 from webapp.people.tokens import Tokens
@@ -27,6 +29,9 @@ class Services:
     hub: WallHub
     walls: dict[str, Wall]
     apps: dict[str, WallApp]
+    # This process's Redis client when several processes serve the walls (TAGWALL_BUS=redis).
+    redis: Redis | None = None
+    counters: Counters = field(init=False)
     limits: ActionLimits = field(init=False)
     codes: CodeDirectory = field(init=False)
     scan_log: ScanLog = field(init=False)
@@ -40,25 +45,28 @@ class Services:
         self.codes = CodeDirectory(self.db)
         self.scan_log = ScanLog(self.db)
         self.scan_feed = ScanFeed()
-        self.limits = action_limits(self.settings)
+        self.counters = counter_store(self.redis, self.settings)
+        self.limits = action_limits(self.settings, self.counters)
         self.login_throttle = SignInThrottle(
+            self.counters,
             self.settings.login_free_attempts,
             self.settings.login_client_free_attempts,
             self.settings.login_max_delay_s,
         )
-        # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn.
+        # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn (per process:
+        # what it bounds is this process's memory).
         self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
         self.tokens = Tokens(self.secret)
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
 
-    def action_allowed(
+    async def action_allowed(
         self, kind: WallAction, visitor: Visitor, address: str, wall_id: str = ""
     ) -> float | None:
         """None when this visitor at ``address`` may do ``kind`` on the wall now, else
         the seconds to wait (counted when allowed)."""
-        return self.limits.hit(kind, Actor.of(visitor, address), wall_id)
+        return await self.limits.hit(kind, Actor.of(visitor, address), wall_id)
 
     @property
     def wall_apps(self) -> dict[str, WallApp]:
@@ -85,7 +93,16 @@ class Services:
         return tile_url(self.settings, self.tokens, wall_id, tile_id)
 
 
-def action_limits(settings: Settings) -> ActionLimits:
+def counter_store(redis: Redis | None, settings: Settings) -> Counters:
+    """Where the abuse limits and the sign-in throttle count: in Redis when several
+    processes share the walls (each would otherwise allow the whole budget), else in
+    this process."""
+    if redis is None:
+        return MemoryCounters()
+    return RedisCounters(redis, settings.redis_prefix)
+
+
+def action_limits(settings: Settings, counters: Counters) -> ActionLimits:
     """The limits on what phones do, from the settings (see docs/people.md).
 
     Scans change nothing on the wall: a phone with a cookie is limited as itself, and
@@ -112,11 +129,12 @@ def action_limits(settings: Settings) -> ActionLimits:
 
     actions = on_wall(settings.wall_action_rate_per_minute)
     return ActionLimits(
+        counters,
         {
             "scan": scans,
             "publish": on_wall(settings.publish_rate_per_minute),
             "balloon": actions,
             "toggle": actions,
             "group": actions,
-        }
+        },
     )

@@ -4,6 +4,7 @@ Retry-After (never a 500 or a traceback), and everything works again when it is 
 from __future__ import annotations
 
 import shutil
+import socket
 from collections.abc import Callable
 from pathlib import Path
 
@@ -11,10 +12,11 @@ from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
-from tests.conftest import POSTGRES_URL, operator_headers, register_student
+from tests.conftest import POSTGRES_URL, csrf_of, operator_headers, register_student, services_of
 from webapp.app import create_app
 from webapp.database.migrate import upgrade
 from webapp.settings import Settings
+from webapp.tags.registry import wall_tags
 
 
 def outage(url: str, tmp_path: Path) -> tuple[Callable[[], None], Callable[[], None]]:
@@ -64,3 +66,29 @@ def test_a_database_outage_is_503_not_500(
         assert page.headers["retry-after"] == api.headers["retry-after"] == "5"
         assert phone.get("/me").status_code == 200, "and back when the database is"
         assert phone.get("/api/walls/demo/status", headers=operator).status_code == 200
+
+
+def test_a_redis_outage_is_503_not_500(settings: Settings) -> None:
+    """With several server processes the limits count in Redis: while it does not
+    answer, what a limit guards (scans, sign-ins) gets 503 with Retry-After, never a
+    500, and the rest of the site keeps working."""
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    settings = settings.model_copy(
+        update={"bus": "redis", "redis_url": f"redis://127.0.0.1:{port}/0"}
+    )
+    upgrade(settings.resolved_database_url)
+    with TestClient(create_app(settings), raise_server_exceptions=False) as phone:
+        code = next(
+            t.code for t in wall_tags(services_of(phone).db, "demo") if t.name == "register-student"
+        )
+        scan = phone.get(f"/t/{code}")
+        form = {"username": "ines", "password": "guess", "csrf": csrf_of(phone, "/login")}
+        sign_in = phone.post("/login", data=form)
+        for answer in (scan, sign_in):
+            assert answer.status_code == 503
+            assert answer.headers["retry-after"] == "5"
+            assert "The shared store is not answering" in answer.text
+            assert "Traceback" not in answer.text
+        assert phone.get("/me").status_code == 200

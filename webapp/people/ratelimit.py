@@ -1,125 +1,29 @@
-"""Rate limits and sign-in delays, kept in memory by the process that serves the request.
+"""The limits on what phones do to a shared wall: which budgets each action meets.
 
-Every check and its count happen together, with no ``await`` between them, so
-requests that arrive at once cannot all pass a check before any of them is counted.
+The counts live in a :class:`~webapp.people.counters.Counters` store: in this process's
+memory with one server process, in Redis when several share the wall.
 """
 
 from __future__ import annotations
 
-import time
-from collections import OrderedDict, deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
+
+from webapp.people.counters import Counters, Hit, SlidingWindow
 
 if TYPE_CHECKING:
     from webapp.people.visitors import Visitor
 
 
-class RateLimiter:
-    """At most ``limit`` hits per key within ``window_s`` seconds.
+def retry_after_s(wait: float) -> int:
+    """The whole seconds a refused request is told to wait (``Retry-After``): past the
+    wait, never 0."""
+    return int(wait) + 1
 
-    Memory stays bounded: beyond ``max_keys`` the least recently seen keys are
-    forgotten (they could only have been throttled more, never less, by staying).
-    """
-
-    def __init__(self, limit: int, window_s: float = 60.0, max_keys: int = 100_000) -> None:
-        self.limit = limit
-        self.window_s = window_s
-        self.max_keys = max_keys
-        self._hits: OrderedDict[str, deque[float]] = OrderedDict()
-
-    def wait(self, key: str, now: float | None = None) -> float | None:
-        """None when ``key`` may hit now, else the seconds until it may; counts nothing."""
-        now = time.monotonic() if now is None else now
-        hits = self._hits.get(key)
-        if hits is None:
-            return None
-        self._hits.move_to_end(key)  # seen: the last to be forgotten
-        while hits and hits[0] <= now - self.window_s:
-            hits.popleft()
-        return hits[0] + self.window_s - now if len(hits) >= self.limit else None
-
-    def count(self, key: str, now: float | None = None) -> None:
-        """Count one hit, allowed or not (callers check :meth:`wait` first)."""
-        now = time.monotonic() if now is None else now
-        hits = self._hits.get(key)
-        if hits is None:
-            hits = self._hits[key] = deque()
-            if len(self._hits) > self.max_keys:
-                self._hits.popitem(last=False)
-        hits.append(now)
-
-    def hit(self, key: str, now: float | None = None) -> float | None:
-        """Count one hit; None when allowed, else the seconds to wait before retrying."""
-        now = time.monotonic() if now is None else now
-        wait = self.wait(key, now)
-        if wait is None:
-            self.count(key, now)
-        return wait
-
-
-def hit_all(limits: Sequence[tuple[RateLimiter, str]], now: float | None = None) -> float | None:
-    """One hit on every (limiter, key) when all allow it, else none and the longest wait:
-    a request refused by one limit uses up no other."""
-    now = time.monotonic() if now is None else now
-    waits = [w for limiter, key in limits if (w := limiter.wait(key, now)) is not None]
-    if waits:
-        return max(waits)
-    for limiter, key in limits:
-        limiter.count(key, now)
-    return None
-
-
-class Backoff:
-    """Growing delays after failures (sign-in attempts): ``free`` failures cost
-    nothing, each further one doubles the wait, up to ``max_s``; success forgets.
-    """
-
-    def __init__(
-        self, free: int, base_s: float = 1.0, max_s: float = 300.0, max_keys: int = 100_000
-    ) -> None:
-        self.free = free
-        self.base_s = base_s
-        self.max_s = max_s
-        self.max_keys = max_keys
-        self._failures: OrderedDict[str, tuple[int, float]] = OrderedDict()
-
-    def wait(self, key: str, now: float | None = None) -> float | None:
-        """None when ``key`` may try now, else the seconds until it may."""
-        now = time.monotonic() if now is None else now
-        count, last = self._failures.get(key, (0, now))
-        if count < self.free:
-            return None
-        delay = min(self.base_s * 2 ** (count - self.free), self.max_s)
-        remaining = last + delay - now
-        return remaining if remaining > 0 else None
-
-    def failures(self, key: str) -> int:
-        return self._failures.get(key, (0, 0.0))[0]
-
-    def failed(self, key: str, now: float | None = None) -> None:
-        now = time.monotonic() if now is None else now
-        count, _ = self._failures.pop(key, (0, now))
-        self._failures[key] = (count + 1, now)
-        if len(self._failures) > self.max_keys:
-            self._failures.popitem(last=False)
-
-    def take_back(self, key: str) -> None:
-        """Undo one failure counted in advance for an attempt that succeeded."""
-        count, last = self._failures.get(key, (0, 0.0))
-        if count <= 1:
-            self._failures.pop(key, None)
-        else:
-            self._failures[key] = (count - 1, last)
-
-    def succeeded(self, key: str) -> None:
-        self._failures.pop(key, None)
-
-
-# --- what phones do to a shared wall ---------------------------------------------------
 
 WallAction = Literal["scan", "publish", "balloon", "toggle", "group"]
+Scope = Literal["visitor", "new", "address", "wall"]
 
 
 @dataclass(frozen=True)
@@ -161,36 +65,41 @@ class ActionLimits:
     hold them together.
     """
 
-    def __init__(self, policies: Mapping[WallAction, ActionPolicy], window_s: float = 60.0):
+    def __init__(
+        self,
+        counters: Counters,
+        policies: Mapping[WallAction, ActionPolicy],
+        window_s: float = 60.0,
+    ) -> None:
+        self.counters = counters
         self.policies = dict(policies)
-        self._limiters: dict[tuple[WallAction, str], RateLimiter] = {}
+        self._windows: dict[tuple[WallAction, Scope], SlidingWindow] = {}
         for kind, policy in self.policies.items():
-            for scope, limit in (
+            scopes: tuple[tuple[Scope, int | None], ...] = (
                 ("visitor", policy.per_visitor),
                 ("new", policy.per_new_address),
                 ("address", policy.per_address),
                 ("wall", policy.per_wall),
-            ):
+            )
+            for scope, limit in scopes:
                 if limit is not None:
-                    self._limiters[kind, scope] = RateLimiter(limit, window_s)
+                    self._windows[kind, scope] = SlidingWindow(f"{kind}:{scope}", limit, window_s)
 
-    def hit(
+    async def hit(
         self, kind: WallAction, actor: Actor, wall_id: str, now: float | None = None
     ) -> float | None:
         """Count one action; None when allowed, else the seconds to wait."""
         policy = self.policies[kind]
         settled = actor.age_s is not None and actor.age_s >= policy.settle_s
-        keys = {
+        keys: dict[Scope, str | None] = {
             "visitor": actor.visitor_id,
             "new": None if settled else actor.address,
             "address": actor.address,
             "wall": wall_id,
         }
-        return hit_all(
-            [
-                (limiter, key)
-                for (action, scope), limiter in self._limiters.items()
-                if action == kind and (key := keys[scope]) is not None
-            ],
-            now,
-        )
+        hits: list[Hit] = [
+            (window, key)
+            for (action, scope), window in self._windows.items()
+            if action == kind and (key := keys[scope]) is not None
+        ]
+        return await self.counters.hit(hits, now)

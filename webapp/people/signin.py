@@ -13,18 +13,19 @@ Failures slow down who fails, not who is attacked:
   (OWASP's "device cookies"), so the real instructor's usual browser keeps working.
 
 An attempt is counted as failed *before* its password is checked and taken back
-when it succeeds: check and count happen together, so a burst of concurrent
-requests gets no more password checks than the throttle allows.
+when it succeeds: check and count happen together (one operation of the counter store),
+so a burst of concurrent requests gets no more password checks than the throttle
+allows, on one server process or across all of them (the counts then live in Redis).
 """
 
 from __future__ import annotations
 
 import secrets
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from itsdangerous import BadSignature, URLSafeSerializer
 
-from webapp.people.ratelimit import Backoff
+from webapp.people.counters import Backoff, Counters, Strike
 
 DEVICE_COOKIE = "tagwall_device"
 DEVICE_MAX_AGE_S = 365 * 24 * 3600
@@ -60,49 +61,49 @@ def device_of(secret: str, cookie: str | None, username: str) -> str | None:
     return None
 
 
-@dataclass
+@dataclass(frozen=True)
 class Attempt:
-    """A sign-in attempt counted in advance: the keys it was counted on."""
+    """A sign-in attempt counted in advance: the failures it counted, and those its
+    success forgets."""
 
-    counted: list[tuple[Backoff, str]] = field(default_factory=list)
-    forget_on_success: list[tuple[Backoff, str]] = field(default_factory=list)
+    counted: tuple[Strike, ...]
+    forget_on_success: tuple[Strike, ...]
 
 
 class SignInThrottle:
     """The delays of sign-in attempts, per account at a client, per client, per account
     from unknown browsers, and per known browser."""
 
-    def __init__(self, free: int, client_free: int, max_s: float) -> None:
-        self.per_account_at_client = Backoff(free, max_s=max_s)
-        self.per_client = Backoff(client_free, max_s=max_s)
-        self.per_account = Backoff(ACCOUNT_FREE_CLIENTS, max_s=max_s)
-        self.per_device = Backoff(free, max_s=max_s)
+    def __init__(self, counters: Counters, free: int, client_free: int, max_s: float) -> None:
+        self.counters = counters
+        self.per_account_at_client = Backoff("signin:account-at-client", free, max_s=max_s)
+        self.per_client = Backoff("signin:client", client_free, max_s=max_s)
+        self.per_account = Backoff("signin:account", ACCOUNT_FREE_CLIENTS, max_s=max_s)
+        self.per_device = Backoff("signin:device", free, max_s=max_s)
 
-    def reserve(self, account: str, address: str, device: str | None) -> Attempt | float:
+    async def reserve(
+        self, account: str, address: str, device: str | None, now: float | None = None
+    ) -> Attempt | float:
         """Count an attempt of ``account`` from ``address`` (with a device cookie of that
         account, ``device``) as failed before the password is checked; the seconds to
         wait instead when any of its limits says so."""
         account = account.strip().lower()
         if device is not None:
-            keys = [(self.per_device, f"{account}|{device}")]
+            strikes = [Strike(self.per_device, f"{account}|{device}")]
         else:
-            pair = (self.per_account_at_client, f"{account}|{address}")
-            keys = [pair, (self.per_client, address)]
-            if self.per_account_at_client.failures(pair[1]) == 0:
-                keys.append((self.per_account, account))  # each address counts once
-            elif (wait := self.per_account.wait(account)) is not None:
-                return wait
-        waits = [w for backoff, key in keys if (w := backoff.wait(key)) is not None]
-        if waits:
-            return max(waits)
-        for backoff, key in keys:
-            backoff.failed(key)
-        return Attempt(counted=keys, forget_on_success=keys[:1])
+            pair = Strike(self.per_account_at_client, f"{account}|{address}")
+            # the account counts each address once, when it first fails there
+            strikes = [
+                pair,
+                Strike(self.per_client, address),
+                Strike(self.per_account, account, once_per=pair),
+            ]
+        counted = await self.counters.fail(strikes, now)
+        if isinstance(counted, float):
+            return counted
+        return Attempt(counted=counted, forget_on_success=(strikes[0],))
 
-    def succeeded(self, attempt: Attempt) -> None:
+    async def succeeded(self, attempt: Attempt) -> None:
         """The password was right: the attempt was no failure, and the account's
         failures from this client (or browser) are forgotten."""
-        for backoff, key in attempt.counted:
-            backoff.take_back(key)
-        for backoff, key in attempt.forget_on_success:
-            backoff.succeeded(key)
+        await self.counters.forgive(attempt.counted, attempt.forget_on_success)

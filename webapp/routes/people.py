@@ -18,6 +18,7 @@ from webapp.deps import (
 from webapp.people.accounts import authenticate
 from webapp.people.audit import audit
 from webapp.people.person import GROUP_LABELS, grant, remember_person, sign_out, update_profile
+from webapp.people.ratelimit import retry_after_s
 from webapp.people.roles import USER_GROUPS
 from webapp.people.security import token_matches
 from webapp.people.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
@@ -42,7 +43,7 @@ async def login_page(
 
 
 def _too_many(request: Request, template: str, wait: float, **context: object) -> Response:
-    seconds = int(wait) + 1
+    seconds = retry_after_s(wait)
     response = render(
         request,
         template,
@@ -74,7 +75,7 @@ async def login(
     target = safe_next(next)
     name = username.strip().lower()
     device = device_of(services.secret, request.cookies.get(DEVICE_COOKIE), name)
-    attempt = services.login_throttle.reserve(name, address, device)
+    attempt = await services.login_throttle.reserve(name, address, device)
     if not isinstance(attempt, Attempt):
         return _too_many(request, "login.html", attempt, next=target)
     account = await to_thread.run_sync(
@@ -89,7 +90,7 @@ async def login(
             next=target,
             error="Wrong username or password.",
         )
-    services.login_throttle.succeeded(attempt)
+    await services.login_throttle.succeeded(attempt)
     signed_in = await run_in_threadpool(
         grant,
         services.db,
@@ -115,7 +116,7 @@ async def operator_sign_in(
 ) -> Response:
     """The link `tagwall urls` prints: signs this browser in as administrator, so a new
     installation can reach the dashboard and make the first accounts."""
-    attempt = services.login_throttle.reserve("operator", address, None)
+    attempt = await services.login_throttle.reserve("operator", address, None)
     if not isinstance(attempt, Attempt):
         return _too_many(request, "error.html", attempt)
     if not token_matches(services.operator_token, token):
@@ -127,7 +128,7 @@ async def operator_sign_in(
             status=403,
             detail="This operator link is wrong or out of date; `tagwall urls` prints it.",
         )
-    services.login_throttle.succeeded(attempt)
+    await services.login_throttle.succeeded(attempt)
     signed_in = await run_in_threadpool(
         grant, services.db, person, "admin", "operator", services.settings, address
     )

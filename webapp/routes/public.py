@@ -21,6 +21,7 @@ from webapp.deps import (
     WallDep,
 )
 from webapp.engine.wall_state import PublicPolicy, read_state
+from webapp.people.ratelimit import retry_after_s
 from webapp.publishing import PublishRefused, clear, decide, set_policy, submit, waiting
 from webapp.schemas import PublicationInfo, PublicScreenInfo, errors
 from webapp.tags.registry import find, is_live
@@ -45,17 +46,18 @@ async def publish(
     app = services.apps.get(tag.app) if tag else None
     if tag is None or wall is None or app is None or not is_live(tag):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is nothing to publish for that code.")
-    wait = services.action_allowed("publish", person.visitor, address, wall.id)
+    wait = await services.action_allowed("publish", person.visitor, address, wall.id)
     if wait is not None:
+        seconds = retry_after_s(wait)
         response = render(
             request,
             "published.html",
             status.HTTP_429_TOO_MANY_REQUESTS,
             wall=wall,
             outcome="slow",
-            wait=int(wait) + 1,
+            wait=seconds,
         )
-        response.headers["Retry-After"] = str(int(wait) + 1)
+        response.headers["Retry-After"] = str(seconds)
         return response
     scan = Scan(request, services, wall, tag, person.visitor, address, subject or None)
     publication = await app.publication(scan)

@@ -13,6 +13,7 @@ from tag_service.codes import content_hash, make_symbol, normalize_code, render_
 from webapp.apps import Scan
 from webapp.caching import IMMUTABLE
 from webapp.deps import ClientAddressDep, ServicesDep
+from webapp.people.ratelimit import retry_after_s
 from webapp.people.visitors import Visitor, visitor_of
 from webapp.tags.registry import find, payload_of
 from webapp.templating import render
@@ -46,14 +47,15 @@ async def resolve(
         response: Response = problem_page(
             request, 404, "Unknown code", "This is not one of this wall's codes."
         )
-    elif (wait := services.action_allowed("scan", visitor, address)) is not None:
+    elif (wait := await services.action_allowed("scan", visitor, address)) is not None:
+        seconds = retry_after_s(wait)
         response = problem_page(
             request,
             429,
             "Slow down",
-            f"That was a lot of scans in a short time. Try again in {int(wait) + 1} seconds.",
+            f"That was a lot of scans in a short time. Try again in {seconds} seconds.",
         )
-        response.headers["Retry-After"] = str(int(wait) + 1)
+        response.headers["Retry-After"] = str(seconds)
     else:
         response = await _resolve(request, services, normalized, visitor, address)
     return response

@@ -305,3 +305,43 @@ def test_behind_a_trusted_proxy_each_phone_has_its_own_address(defaults: Setting
                 ).status_code
             )
         assert statuses == [200] * (budget + 4)
+
+
+def test_server_processes_on_one_redis_hold_one_wall_budget(
+    defaults: Settings, redis_server: str, redis_prefix: str
+) -> None:
+    """Two server processes (two apps, each with its own Redis client) and the wall's
+    budget of 6 balloons a minute: phones taking turns between them open 6 in all, and
+    the seventh is refused on either process, as one process would refuse it."""
+    shared = defaults.model_copy(
+        update={
+            "bus": "redis",
+            "redis_url": redis_server,
+            "redis_prefix": redis_prefix,
+            "visitor_settle_s": 0,
+            "actions_per_wall_per_minute": 6,
+        }
+    )
+    upgrade(shared.resolved_database_url)
+    with (
+        TestClient(create_app(shared), client=NAT) as first,
+        TestClient(create_app(shared), client=NAT) as second,
+    ):
+        changed = first.post(
+            "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(first)
+        )
+        assert changed.status_code == 200, changed.text
+        census = services_of(second).apps["census"]
+        dataset = census.datasets.current(services_of(second).db)  # type: ignore[attr-defined]
+        statuses = []
+        for number, tract in enumerate(dataset.tracts[:8]):
+            process = (first, second)[number % 2]
+            process.cookies.clear()  # the next phone
+            answer = process.post(
+                f"/apps/census/demo/tracts/{tract.geoid}/balloon",
+                data={"csrf": csrf_of(process)},
+            )
+            statuses.append(answer.status_code)
+            if answer.status_code != 200:
+                refused_clearly(answer)
+    assert statuses == [200] * 6 + [429, 429]

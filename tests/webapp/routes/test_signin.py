@@ -16,10 +16,13 @@ from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
 from tests.conftest import TEST_PASSWORD, csrf_of, services_of
+from webapp.app import create_app
+from webapp.database.migrate import upgrade
 from webapp.database.models import AuditRecord
 from webapp.people import accounts
 from webapp.people.accounts import add_account
 from webapp.people.signin import ACCOUNT_FREE_CLIENTS
+from webapp.settings import Settings
 
 _CSRF = re.compile(r'name="csrf" value="([^"]+)"')
 
@@ -131,3 +134,24 @@ def test_a_known_browser_signs_in_while_the_account_is_guessed_from_everywhere(
         unknown_browser = TestClient(app, client=("198.51.100.77", 4000))
         assert login(unknown_browser, TEST_PASSWORD).status_code == 429
         assert login(laptop, TEST_PASSWORD).status_code == 303
+
+
+def test_failures_on_one_server_process_slow_the_guesser_on_another(
+    settings: Settings, redis_server: str, redis_prefix: str
+) -> None:
+    """Two server processes sharing Redis: a guesser who spreads the attempts over both
+    gets the free failures once, not once per process."""
+    shared = settings.model_copy(
+        update={"bus": "redis", "redis_url": redis_server, "redis_prefix": redis_prefix}
+    )
+    upgrade(shared.resolved_database_url)
+    attacker = ("203.0.113.9", 4000)
+    with (
+        TestClient(create_app(shared), client=attacker) as first,
+        TestClient(create_app(shared), client=attacker) as second,
+    ):
+        add_account(services_of(first).db, "ines", "instructor", TEST_PASSWORD, actor="test")
+        answers = [login((first, second)[n % 2], f"guess-{n}").status_code for n in range(6)]
+        free = shared.login_free_attempts
+        assert answers == [401] * free + [429] * (6 - free)
+        assert login(second, TEST_PASSWORD).status_code == 429, "the right password waits too"

@@ -489,7 +489,7 @@ async def audience_switch(
         return "instructor"
     if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
         return "quiz"
-    if services.action_allowed("group", visitor, address, wall.id) is not None:
+    if await services.action_allowed("group", visitor, address, wall.id) is not None:
         return "wait"
     cooldown = services.settings.brain_group_switch_cooldown
     if not await run_in_threadpool(claim_audience_switch, services.db, wall.id, cooldown):

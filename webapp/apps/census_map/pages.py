@@ -148,7 +148,7 @@ async def toggled(
     group = next((g for g in dataset.groups if g.id == group_id), None)
     if group is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
-    limit_action(services, "toggle", *actor, wall.id)
+    await limit_action(services, "toggle", *actor, wall.id)
     shown = await toggle_group(services, wall, group.id)
     return render(
         request,

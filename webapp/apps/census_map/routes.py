@@ -204,7 +204,7 @@ async def show_on_wall(
     app = census_app(services)
     _, dataset = await pages.shown_dataset(app, services, wall)
     tract = pages.tract_of(dataset, geoid)
-    limit_action(services, "balloon", person.visitor, address, wall.id)
+    await limit_action(services, "balloon", person.visitor, address, wall.id)
     title = dataset.tract_title(tract)
     seconds = services.settings.balloon_seconds
     try:
