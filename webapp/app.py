@@ -24,8 +24,9 @@ from wall_client.config import load_walls
 from webapp.apps import static_url
 from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
+from webapp.database.redis import connect_redis
 from webapp.deps import DEPENDENCY_ERRORS
-from webapp.engine.bus import MemoryBus
+from webapp.engine.bus import BusUnavailable, EventBus, MemoryBus, RedisBus, WallBusy
 from webapp.engine.changes import open_wall
 from webapp.engine.hub import WallHub
 from webapp.markdown import markdown_html, markdown_inline
@@ -64,7 +65,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     db = Database(settings.resolved_database_url)
     hub = WallHub(
         db,
-        MemoryBus(settings.tile_queue_size),
+        event_bus(settings),
         apply_lead_ms=settings.apply_lead_ms,
         swap_timeout_ms=settings.swap_timeout_ms,
         keep_events=settings.event_history,
@@ -131,6 +132,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     _add_error_pages(app)
     _document_errors(app, services)
     return app
+
+
+def event_bus(settings: Settings) -> EventBus:
+    """The bus of ``TAGWALL_BUS``: in memory for one process, or Redis Streams (one
+    client per process) for several processes serving one wall."""
+    if settings.bus == "redis":
+        return RedisBus(
+            connect_redis(settings.redis_url),
+            settings.redis_prefix,
+            queue_size=settings.tile_queue_size,
+            max_len=settings.event_history,
+        )
+    return MemoryBus(settings.tile_queue_size)
 
 
 def _example_names(schema: dict[str, Any], services: Services) -> None:
@@ -239,6 +253,21 @@ def _add_error_pages(app: FastAPI) -> None:
         response = error_page(request, 503, "The database is not answering. Try again in a moment.")
         response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
         return response
+
+    def try_again(request: Request, error: Exception, detail: str) -> Response:
+        """An outage or a busy wall, not a bug: 503 with Retry-After, one log line."""
+        log.warning("%s (on %s)", error, request.url.path)
+        response = error_page(request, 503, detail)
+        response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
+        return response
+
+    @app.exception_handler(BusUnavailable)
+    async def bus_unavailable(request: Request, error: BusUnavailable) -> Response:
+        return try_again(request, error, "The event bus is not answering. Try again in a moment.")
+
+    @app.exception_handler(WallBusy)
+    async def wall_busy(request: Request, error: WallBusy) -> Response:
+        return try_again(request, error, "The wall is busy with another change. Try again.")
 
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:

@@ -7,13 +7,23 @@ import shutil
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
+from starlette.websockets import WebSocketDisconnect
 
-from tests.conftest import POSTGRES_URL, operator_headers, register_student
+from tests.conftest import (
+    POSTGRES_URL,
+    TEST_SECRET,
+    RedisCable,
+    operator_headers,
+    register_student,
+)
 from webapp.app import create_app
 from webapp.database.migrate import upgrade
+from webapp.engine.protocol import CLOSE_TRY_AGAIN
+from webapp.people.security import tile_token
 from webapp.settings import Settings
 
 
@@ -64,3 +74,30 @@ def test_a_database_outage_is_503_not_500(
         assert page.headers["retry-after"] == api.headers["retry-after"] == "5"
         assert phone.get("/me").status_code == 200, "and back when the database is"
         assert phone.get("/api/walls/demo/status", headers=operator).status_code == 200
+
+
+def test_a_redis_outage_is_503_and_tiles_are_told_to_reconnect(
+    settings: Settings, redis_cable: RedisCable, redis_prefix: str
+) -> None:
+    """With TAGWALL_BUS=redis and Redis gone, a change answers 503 with Retry-After and a
+    tile's socket closes with 1013 (it reconnects); all works again when Redis is back."""
+    update = {"bus": "redis", "redis_url": redis_cable.url, "redis_prefix": redis_prefix}
+    settings = settings.model_copy(update=update)
+    upgrade(settings.resolved_database_url)
+    tile = f"/ws/wall/demo/tile/r1c1?token={tile_token(TEST_SECRET, 'demo')}"
+    with TestClient(create_app(settings), raise_server_exceptions=False) as client:
+        operator = operator_headers(client)
+        redis_cable.cut()
+        try:
+            api = client.post("/api/walls/demo/state", json={"mode": "x"}, headers=operator)
+            with client.websocket_connect(tile) as ws:
+                ws.send_json({"type": "hello"})
+                with pytest.raises(WebSocketDisconnect) as closed:
+                    ws.receive_json()
+        finally:
+            redis_cable.mend()
+        assert api.status_code == 503 and api.headers["retry-after"] == "5"
+        assert api.json() == {"detail": "The event bus is not answering. Try again in a moment."}
+        assert closed.value.code == CLOSE_TRY_AGAIN
+        again = client.post("/api/walls/demo/state", json={"mode": "y"}, headers=operator)
+        assert again.status_code == 200
