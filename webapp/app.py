@@ -17,6 +17,7 @@ from fastapi.responses import JSONResponse, Response
 from fastapi.routing import APIRoute, iter_route_contexts
 from fastapi.staticfiles import StaticFiles
 from fastapi.templating import Jinja2Templates
+from redis.asyncio import Redis
 from redis.exceptions import RedisError
 from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -27,7 +28,7 @@ from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
 from webapp.database.redis import connect_redis
 from webapp.deps import DEPENDENCY_ERRORS
-from webapp.engine.bus import MemoryBus
+from webapp.engine.bus import BusUnavailable, EventBus, MemoryBus, RedisBus, WallBusy
 from webapp.engine.changes import open_wall
 from webapp.engine.hub import WallHub
 from webapp.markdown import markdown_html, markdown_inline
@@ -64,15 +65,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     """Build the tagwall app for ``settings`` (from the environment when omitted)."""
     settings = settings or Settings()
     db = Database(settings.resolved_database_url)
+    # Several processes share the walls through one Redis: the bus and the limits' counts.
+    redis = connect_redis(settings.redis_url) if settings.bus == "redis" else None
     hub = WallHub(
         db,
-        MemoryBus(settings.tile_queue_size),
+        event_bus(settings, redis),
         apply_lead_ms=settings.apply_lead_ms,
         swap_timeout_ms=settings.swap_timeout_ms,
         keep_events=settings.event_history,
     )
-    # Several processes share the walls: they count the abuse limits together in Redis.
-    redis = connect_redis(settings.redis_url) if settings.bus == "redis" else None
     services = Services(
         settings=settings,
         db=db,
@@ -138,6 +139,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     _add_error_pages(app)
     _document_errors(app, services)
     return app
+
+
+def event_bus(settings: Settings, redis: Redis | None) -> EventBus:
+    """The bus of ``TAGWALL_BUS``: in memory for one process, or Redis Streams (on the
+    process's one Redis client) for several processes serving one wall."""
+    if redis is not None:
+        return RedisBus(
+            redis,
+            settings.redis_prefix,
+            queue_size=settings.tile_queue_size,
+            max_len=settings.event_history,
+        )
+    return MemoryBus(settings.tile_queue_size)
 
 
 def _example_names(schema: dict[str, Any], services: Services) -> None:
@@ -247,15 +261,28 @@ def _add_error_pages(app: FastAPI) -> None:
         response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
         return response
 
-    @app.exception_handler(RedisError)
-    async def redis_error(request: Request, error: RedisError) -> Response:
-        """Redis (what several processes share) not answering is an outage, not a bug:
-        503 and one log line. The limits are counted before a request changes anything."""
-        log.warning("Redis did not answer: %s (on %s)", error, request.url.path)
-        detail = "The shared store is not answering. Try again in a moment."
+    def try_again(request: Request, error: Exception, detail: str) -> Response:
+        """An outage or a busy wall, not a bug: 503 with Retry-After, one log line."""
+        log.warning("%s (on %s)", error, request.url.path)
         response = error_page(request, 503, detail)
         response.headers["Retry-After"] = str(OUTAGE_RETRY_S)
         return response
+
+    @app.exception_handler(BusUnavailable)
+    async def bus_unavailable(request: Request, error: BusUnavailable) -> Response:
+        return try_again(request, error, "The event bus is not answering. Try again in a moment.")
+
+    @app.exception_handler(WallBusy)
+    async def wall_busy(request: Request, error: WallBusy) -> Response:
+        return try_again(request, error, "The wall is busy with another change. Try again.")
+
+    @app.exception_handler(RedisError)
+    async def redis_error(request: Request, error: RedisError) -> Response:
+        """Redis not answering in a request (the limits are counted there, before the
+        request changes anything)."""
+        return try_again(
+            request, error, "The shared store is not answering. Try again in a moment."
+        )
 
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:

@@ -22,6 +22,7 @@ from webapp.app import create_app
 from webapp.apps.builtin import builtin_apps
 from webapp.console import (
     EXIT_USAGE,
+    check_bus,
     current_tokens,
     fail,
     load_configured_walls,
@@ -89,6 +90,7 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     walls = load_configured_walls(settings)
     pick_wall(walls, None, settings)
     open_database(settings).dispose()
+    check_bus(settings)
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
     if settings.workers > 1:
         # Each worker process builds its own app from the environment: hand it the

@@ -1,8 +1,10 @@
 """What every ``tagwall`` command shares, the core's and the apps': settings from the
-environment, one-line errors that exit 2, the walls, the database and the tokens."""
+environment, one-line errors that exit 2, the walls, the database, the bus and the
+tokens."""
 
 from __future__ import annotations
 
+import asyncio
 import sys
 from typing import Any, NoReturn
 
@@ -15,6 +17,7 @@ from wall_client.config import WallConfigError, load_walls
 from wall_client.layout import Wall
 from webapp.database.connection import Database, database_problem
 from webapp.database.migrate import upgrade
+from webapp.database.redis import redis_problem
 from webapp.people.tokens import Tokens, load_tokens
 from webapp.settings import Settings
 
@@ -89,6 +92,12 @@ def open_database(settings: Settings, *, migrate: bool = True) -> Database:
         return Database(url)
     except SQLAlchemyError as error:
         fail(database_problem(error, url))
+
+
+def check_bus(settings: Settings) -> None:
+    """With ``TAGWALL_BUS=redis``, exit 2 with one line when Redis does not answer."""
+    if settings.bus == "redis" and (problem := asyncio.run(redis_problem(settings.redis_url))):
+        fail(problem)
 
 
 def current_tokens(settings: Settings) -> Tokens:

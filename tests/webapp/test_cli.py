@@ -292,6 +292,19 @@ def test_an_unreachable_database_is_one_line(env: dict[str, str]) -> None:
     assert "hunter2" not in line
 
 
+def test_an_unreachable_redis_is_one_line(env: dict[str, str]) -> None:
+    redis = {"TAGWALL_BUS": "redis", "TAGWALL_REDIS_URL": "redis://:hunter2@127.0.0.1:1/0"}
+    line = refused({**env, **redis}, "serve")
+    assert "cannot use Redis at redis://:***@127.0.0.1:1/0 (TAGWALL_REDIS_URL)" in line
+    assert "hunter2" not in line
+
+
+def test_a_redis_url_that_is_not_one_is_one_line(env: dict[str, str]) -> None:
+    redis = {"TAGWALL_BUS": "redis", "TAGWALL_REDIS_URL": "redis://127.0.0.1:port/0"}
+    line = refused({**env, **redis}, "serve")
+    assert "TAGWALL_REDIS_URL redis://127.0.0.1:port/0 is not a Redis URL" in line
+
+
 @pytest.mark.parametrize("url", ["not a url", "mysqlx://somewhere/db", "sqlite+nodriver:///x"])
 def test_a_nonsense_database_url_is_one_line(env: dict[str, str], url: str) -> None:
     line = refused({**env, "TAGWALL_DATABASE_URL": url}, "serve")

@@ -4,17 +4,28 @@ Retry-After (never a 500 or a traceback), and everything works again when it is 
 from __future__ import annotations
 
 import shutil
-import socket
 from collections.abc import Callable
 from pathlib import Path
 
+import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
+from starlette.websockets import WebSocketDisconnect
 
-from tests.conftest import POSTGRES_URL, csrf_of, operator_headers, register_student, services_of
+from tests.conftest import (
+    POSTGRES_URL,
+    TEST_SECRET,
+    RedisCable,
+    csrf_of,
+    operator_headers,
+    register_student,
+    services_of,
+)
 from webapp.app import create_app
 from webapp.database.migrate import upgrade
+from webapp.engine.protocol import CLOSE_TRY_AGAIN
+from webapp.people.security import tile_token
 from webapp.settings import Settings
 from webapp.tags.registry import wall_tags
 
@@ -68,27 +79,57 @@ def test_a_database_outage_is_503_not_500(
         assert phone.get("/api/walls/demo/status", headers=operator).status_code == 200
 
 
-def test_a_redis_outage_is_503_not_500(settings: Settings) -> None:
+def test_a_redis_outage_is_503_not_500(
+    settings: Settings, redis_cable: RedisCable, redis_prefix: str
+) -> None:
     """With several server processes the limits count in Redis: while it does not
     answer, what a limit guards (scans, sign-ins) gets 503 with Retry-After, never a
     500, and the rest of the site keeps working."""
-    with socket.socket() as probe:  # a port nothing listens on
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    settings = settings.model_copy(
-        update={"bus": "redis", "redis_url": f"redis://127.0.0.1:{port}/0"}
-    )
+    update = {"bus": "redis", "redis_url": redis_cable.url, "redis_prefix": redis_prefix}
+    settings = settings.model_copy(update=update)
     upgrade(settings.resolved_database_url)
     with TestClient(create_app(settings), raise_server_exceptions=False) as phone:
         code = next(
             t.code for t in wall_tags(services_of(phone).db, "demo") if t.name == "register-student"
         )
-        scan = phone.get(f"/t/{code}")
-        form = {"username": "ines", "password": "guess", "csrf": csrf_of(phone, "/login")}
-        sign_in = phone.post("/login", data=form)
+        csrf = csrf_of(phone, "/login")
+        redis_cable.cut()
+        try:
+            scan = phone.get(f"/t/{code}")
+            sign_in = phone.post("/login", data={"username": "ines", "password": "g", "csrf": csrf})
+            me = phone.get("/me")
+        finally:
+            redis_cable.mend()
         for answer in (scan, sign_in):
             assert answer.status_code == 503
             assert answer.headers["retry-after"] == "5"
             assert "The shared store is not answering" in answer.text
             assert "Traceback" not in answer.text
-        assert phone.get("/me").status_code == 200
+        assert me.status_code == 200
+
+
+def test_a_redis_outage_is_503_and_tiles_are_told_to_reconnect(
+    settings: Settings, redis_cable: RedisCable, redis_prefix: str
+) -> None:
+    """With TAGWALL_BUS=redis and Redis gone, a change answers 503 with Retry-After and a
+    tile's socket closes with 1013 (it reconnects); all works again when Redis is back."""
+    update = {"bus": "redis", "redis_url": redis_cable.url, "redis_prefix": redis_prefix}
+    settings = settings.model_copy(update=update)
+    upgrade(settings.resolved_database_url)
+    tile = f"/ws/wall/demo/tile/r1c1?token={tile_token(TEST_SECRET, 'demo')}"
+    with TestClient(create_app(settings), raise_server_exceptions=False) as client:
+        operator = operator_headers(client)
+        redis_cable.cut()
+        try:
+            api = client.post("/api/walls/demo/state", json={"mode": "x"}, headers=operator)
+            with client.websocket_connect(tile) as ws:
+                ws.send_json({"type": "hello"})
+                with pytest.raises(WebSocketDisconnect) as closed:
+                    ws.receive_json()
+        finally:
+            redis_cable.mend()
+        assert api.status_code == 503 and api.headers["retry-after"] == "5"
+        assert api.json() == {"detail": "The event bus is not answering. Try again in a moment."}
+        assert closed.value.code == CLOSE_TRY_AGAIN
+        again = client.post("/api/walls/demo/state", json={"mode": "y"}, headers=operator)
+        assert again.status_code == 200

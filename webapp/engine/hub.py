@@ -12,13 +12,14 @@ from __future__ import annotations
 import asyncio
 import logging
 from collections.abc import Callable, Coroutine
+from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass, field
 from typing import Any
 
 from anyio import to_thread
 
 from webapp.database.connection import Database
-from webapp.engine.bus import EventBus
+from webapp.engine.bus import BusUnavailable, EventBus
 from webapp.engine.protocol import Event, Prepare, Swap
 from webapp.engine.wall_state import Change, WallState, commit_change, now_ms
 
@@ -66,46 +67,52 @@ class WallHub:
         self.apply_lead_ms = apply_lead_ms
         self.swap_timeout_ms = swap_timeout_ms
         self.keep_events = keep_events
-        self._locks: dict[str, asyncio.Lock] = {}
-        self._placing: dict[str, asyncio.Lock] = {}
         self._tiles: dict[str, dict[str, TileStatus]] = {}
         self._barriers: dict[tuple[str, int], _Barrier] = {}
         self._tasks: set[asyncio.Task[None]] = set()
 
-    def placing(self, wall_id: str) -> asyncio.Lock:
+    def placing(self, wall_id: str) -> AbstractAsyncContextManager[None]:
         """Held by the door (``webapp.engine.changes``) through a whole change, placing its
         codes included, so two changes of one wall never interleave (a layout always
-        matches its view)."""
-        return self._placing.setdefault(wall_id, asyncio.Lock())
+        matches its view) and publication order is version order. The bus holds the
+        wall: within this process, and across every process sharing the bus."""
+        return self.bus.wall_lock(wall_id)
 
     async def commit(self, wall_id: str, update: Callable[[WallState], WallState]) -> Change | None:
         """Bump the version, persist, then publish.
 
-        Only the door (``webapp.engine.changes``) calls this: it places the codes a change
-        moves before committing. The per-wall lock makes publication order equal
-        commit order, so tiles see versions one by one.
+        Only the door (``webapp.engine.changes``) calls this, holding
+        :meth:`placing`: that hold, not a lock of the hub's, makes publication order
+        equal commit order, in every process of the wall.
         """
-        lock = self._locks.setdefault(wall_id, asyncio.Lock())
-        async with lock:
-            change = await to_thread.run_sync(
-                lambda: commit_change(self.db, wall_id, update, keep_events=self.keep_events)
+        change = await to_thread.run_sync(
+            lambda: commit_change(self.db, wall_id, update, keep_events=self.keep_events)
+        )
+        if change is None:
+            return None
+        if change.heavy:
+            barrier = _Barrier(set(self.connected_tiles(wall_id)))
+            self._barriers[(wall_id, change.version)] = barrier
+            prepare = Prepare(version=change.version, changes=change.changes)
+            await self._publish(wall_id, change.version, prepare.model_dump_json())
+            self._spawn(self._swap_when_ready(wall_id, change.version, barrier))
+        else:
+            event = Event(
+                version=change.version,
+                changes=change.changes,
+                apply_at=now_ms() + self.apply_lead_ms,
             )
-            if change is None:
-                return None
-            if change.heavy:
-                barrier = _Barrier(set(self.connected_tiles(wall_id)))
-                self._barriers[(wall_id, change.version)] = barrier
-                prepare = Prepare(version=change.version, changes=change.changes)
-                await self.bus.publish(wall_id, prepare.model_dump_json())
-                self._spawn(self._swap_when_ready(wall_id, change.version, barrier))
-            else:
-                event = Event(
-                    version=change.version,
-                    changes=change.changes,
-                    apply_at=now_ms() + self.apply_lead_ms,
-                )
-                await self.bus.publish(wall_id, event.model_dump_json())
+            await self._publish(wall_id, change.version, event.model_dump_json())
         return change
+
+    async def _publish(self, wall_id: str, version: int, frame: str) -> None:
+        """Publish ``frame``; a bus that fails now does not undo the committed change.
+        Tiles that miss the frame see the gap in the next one and catch up with
+        ``hello`` from the database."""
+        try:
+            await self.bus.publish(wall_id, frame)
+        except BusUnavailable as error:
+            log.warning("wall %s v%d committed but not published: %s", wall_id, version, error)
 
     async def _swap_when_ready(self, wall_id: str, version: int, barrier: _Barrier) -> None:
         if barrier.waiting:
@@ -120,7 +127,7 @@ class WallHub:
                 )
         self._barriers.pop((wall_id, version), None)
         swap = Swap(version=version, apply_at=now_ms() + self.apply_lead_ms)
-        await self.bus.publish(wall_id, swap.model_dump_json())
+        await self._publish(wall_id, version, swap.model_dump_json())
 
     def _spawn(self, coroutine: Coroutine[Any, Any, None]) -> None:
         task = asyncio.ensure_future(coroutine)

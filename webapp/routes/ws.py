@@ -21,7 +21,7 @@ from starlette.websockets import WebSocketDisconnect, WebSocketState
 from wall_client.layout import Wall
 from webapp.database.connection import is_outage
 from webapp.deps import open_wall_socket
-from webapp.engine.bus import SubscriberTooSlow, Subscription
+from webapp.engine.bus import BusUnavailable, SubscriberTooSlow, Subscription
 from webapp.engine.protocol import (
     CLIENT_MESSAGES,
     CLOSE_POLICY,
@@ -117,6 +117,9 @@ class Connection:
             await self.close(CLOSE_POLICY, "no hello in time")
         except WebSocketDisconnect:
             pass  # the peer went away; nothing to tell it
+        except BusUnavailable as error:
+            log.warning("tile socket of %s: %s", self.wall.id, error)
+            await self.close(CLOSE_TRY_AGAIN, "the event bus is not answering: reconnect")
         except SQLAlchemyError as error:
             if not is_outage(error):
                 raise

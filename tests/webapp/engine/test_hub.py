@@ -1,13 +1,17 @@
 import asyncio
+import contextlib
 import json
 
 import pytest
+from redis.exceptions import RedisError
 
+from tests.conftest import RedisCable
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
-from webapp.engine.bus import MemoryBus
+from webapp.database.redis import connect_redis
+from webapp.engine.bus import MemoryBus, RedisBus
 from webapp.engine.hub import WallHub
-from webapp.engine.wall_state import StatePatch, View, now_ms
+from webapp.engine.wall_state import StatePatch, View, now_ms, read_state
 
 
 @pytest.fixture
@@ -84,8 +88,12 @@ async def test_disconnecting_tile_releases_the_barrier(hub: WallHub) -> None:
 
 
 async def test_concurrent_changes_are_published_in_version_order(hub: WallHub) -> None:
+    async def change(value: str) -> None:
+        async with hub.placing("demo"):  # as the door holds the wall
+            await hub.commit("demo", mode(value).apply_to)
+
     async with hub.bus.subscribe("demo") as inbox:
-        await asyncio.gather(*(hub.commit("demo", mode(f"m{i}").apply_to) for i in range(15)))
+        await asyncio.gather(*(change(f"m{i}") for i in range(15)))
         versions = [json.loads(await inbox.next())["version"] for _ in range(15)]
     assert versions == list(range(1, 16))
 
@@ -99,3 +107,26 @@ async def test_tile_status_tracks_connections_and_reports(hub: WallHub) -> None:
     assert status.connections == 1 and status.version == 4 and status.address == "10.0.0.5"
     hub.tile_disconnected("demo", "r1c1")
     assert hub.connected_tiles("demo") == []
+
+
+async def test_a_change_the_bus_cannot_publish_stays_committed(
+    database_url: str, redis_cable: RedisCable, redis_prefix: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Redis gone between holding the wall and publishing: the change is made (the
+    database is the truth) and said so in the log; tiles catch up by the version gap."""
+    upgrade(database_url)
+    bus = RedisBus(connect_redis(redis_cable.url), redis_prefix, queue_size=8, max_len=100)
+    hub = WallHub(
+        Database(database_url), bus, apply_lead_ms=0, swap_timeout_ms=300, keep_events=100
+    )
+    try:
+        async with hub.placing("demo"):
+            redis_cable.cut()
+            change = await hub.commit("demo", mode("quiz").apply_to)
+        assert change is not None and read_state(hub.db, "demo")[0] == change.version
+        assert "demo v1 committed but not published" in caplog.text
+    finally:
+        await hub.close()
+        with contextlib.suppress(RedisError, OSError):
+            await bus.redis.aclose()
+        hub.db.dispose()

@@ -10,8 +10,12 @@ from starlette.websockets import WebSocketDisconnect
 
 from tests.conftest import TEST_SECRET
 from tests.conftest import operator_headers as operator
+from webapp.app import create_app
+from webapp.database.migrate import upgrade
+from webapp.engine.bus import RedisBus
 from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
 from webapp.people.security import tile_token
+from webapp.settings import Settings
 
 TOKEN = tile_token(TEST_SECRET, "demo")
 TILE = f"/ws/wall/demo/tile/r1c1?token={TOKEN}"
@@ -213,3 +217,45 @@ def test_slow_tile_is_dropped_and_resyncs(client: TestClient) -> None:
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello"})
         assert ws.receive_json()["type"] == "snapshot"
+
+
+# --- several server processes on one Redis (TAGWALL_BUS=redis) -----------------------
+
+
+@pytest.fixture
+def redis_settings(settings: Settings, redis_server: str, redis_prefix: str) -> Settings:
+    """Settings of a server process on the test's Redis bus."""
+    update = {"bus": "redis", "redis_url": redis_server, "redis_prefix": redis_prefix}
+    return settings.model_copy(update=update)
+
+
+def test_a_tile_on_the_redis_bus_receives_changes(redis_settings: Settings) -> None:
+    upgrade(redis_settings.resolved_database_url)
+    with TestClient(create_app(redis_settings)) as client:
+        assert isinstance(client.app.state.services.hub.bus, RedisBus)  # type: ignore[attr-defined]
+        start = version_now(client)
+        with client.websocket_connect(TILE) as ws:
+            ws.send_json({"type": "hello"})
+            assert ws.receive_json()["version"] == start  # the snapshot: subscribed
+            version = change(client, mode="quiz")
+            event = ws.receive_json()
+    assert event["type"] == "event" and event["version"] == version == start + 1
+    assert event["changes"] == {"mode": "quiz"}
+
+
+def test_two_server_processes_serve_one_wall(redis_settings: Settings) -> None:
+    """A change made through one process reaches the tiles of the other, in order."""
+    upgrade(redis_settings.resolved_database_url)
+    with (
+        TestClient(create_app(redis_settings)) as one,
+        TestClient(create_app(redis_settings)) as two,
+        two.websocket_connect(TILE) as ws,
+    ):
+        start = version_now(two)
+        ws.send_json({"type": "hello"})
+        assert ws.receive_json()["version"] == start  # the snapshot: subscribed
+        versions = [change(one if index % 2 else two, mode=f"m{index}") for index in range(4)]
+        events = [ws.receive_json() for _ in range(4)]
+    assert versions == [start + 1, start + 2, start + 3, start + 4]
+    assert [e["version"] for e in events] == versions
+    assert [e["changes"]["mode"] for e in events] == ["m0", "m1", "m2", "m3"]
