@@ -592,6 +592,7 @@ def _load(
         results.append(pipe.recv())
         process.join()
     load_end = time.time()
+    machine_load_after = os.getloadavg()[0]
     load_cpu = cpu_seconds(pids) - load_cpu
     memory = memory_mb(pids)
     if profiler is not None and recording is not None:
@@ -624,7 +625,7 @@ def _load(
         "generators": scenario.generators,
         # the machine's 1-minute load average as the phones came and when they were done:
         # others' work on the same cores shows here
-        "load_average": [round(machine_load, 2), round(os.getloadavg()[0], 2)],
+        "load_average": [round(machine_load, 2), round(machine_load_after, 2)],
         "requests": requests,
         "failures": sum(s.failed for s in samples),
         "steps": step_figures(samples),
