@@ -47,7 +47,7 @@ import time
 import uuid
 from collections import Counter, defaultdict
 from collections.abc import Iterator, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -65,7 +65,6 @@ WARMUP_PHONES = 3
 STEP_PHONES = 200
 REQUEST_TIMEOUT_S = 120.0
 SECRET = "benchmark-secret-key-0123456789"
-RUNS: tuple[tuple[int, float], ...] = ((300, 60.0), (1000, 60.0))
 # Every phone comes from 127.0.0.1. Of the limits on phones, only the budget the
 # phones without a cookie share per address touches this path (registration scans,
 # 600 a minute by default); the pins are scanned with a cookie (30 a minute each) and
@@ -133,10 +132,13 @@ def step_figures(samples: Sequence[Sample]) -> dict[str, dict[str, Any]]:
 
 @dataclass(frozen=True)
 class HallCodes:
-    """What the phones scan: the registration code and the pins placed on the wall."""
+    """What the phones scan: the registration code and the pins placed on the wall;
+    and whether they follow an answer to the progress page it redirects to, as a
+    browser does (off: the register/scan/answer path alone)."""
 
     register: str
     pins: list[str]
+    follow_answers: bool = True
 
 
 async def phone(
@@ -172,7 +174,7 @@ async def phone(
                 f"/apps/brain/{PHONE_WALL}/pins/{pin}/answer",
                 data={"answer": "hippocampus", "csrf": csrf.group(1)},
             )
-            if answered is not None and answered.status_code == 303:
+            if codes.follow_answers and answered is not None and answered.status_code == 303:
                 await timed("progress", "GET", answered.headers["location"])
 
 
@@ -318,9 +320,11 @@ def tile_figures(events: Sequence[Published], tiles: int) -> dict[str, Any]:
             "max": round(max(values), 1),
         }
 
+    reached = [len(e.received) for e in events]
     return {
         "events": len(events),
         "incomplete_events": len(events) - len(complete),
+        "tiles_reached_p50": percentile(reached, 0.5) if reached else None,
         "last_tile_ms_from_request": spread(from_request),
         "last_tile_ms_from_server_stamp": spread(from_stamp),
         "operator_request_ms": spread(operator),
@@ -354,6 +358,13 @@ def cpu_seconds(pids: Sequence[int]) -> float:
             fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
             total += int(fields[11]) + int(fields[12])
     return total / os.sysconf("SC_CLK_TCK")
+
+
+def machine_busy_seconds() -> float:
+    """CPU time every core of the machine has spent busy so far (``/proc/stat``)."""
+    fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    idle = fields[3] + fields[4]  # idle, iowait
+    return (sum(fields[:8]) - idle) / os.sysconf("SC_CLK_TCK")
 
 
 def memory_mb(pids: Sequence[int]) -> dict[str, float]:
@@ -486,7 +497,17 @@ class Scenario:
     bus: str = "memory"
     redis_url: str = ""
     generators: int = 1  # load-generator processes
+    progress_pages: bool = True  # phones follow each answer to their progress page
     profile: Path | None = None  # a py-spy raw (collapsed stacks) profile of the server
+
+
+# What ``make bench`` runs: one worker on SQLite with the memory bus (a deployment's
+# first server), a hall of 300 and of 1000, and the 1000 without the progress pages.
+RUNS = (
+    Scenario(phones=300),
+    Scenario(phones=1000),
+    Scenario(phones=1000, progress_pages=False),
+)
 
 
 def server_env(scenario: Scenario) -> dict[str, str]:
@@ -536,7 +557,7 @@ def measure(scenario: Scenario) -> dict[str, Any]:
         try:
             with httpx.Client(timeout=120) as client:
                 server.change(PHONE_WALL, {"app": "brain"}, client)
-            codes = hall_codes(database_url)
+            codes = replace(hall_codes(database_url), follow_answers=scenario.progress_pages)
             asyncio.run(phones_at(server.url, codes, [time.time()] * WARMUP_PHONES))
             tile_urls = [server.tile_url(TILE_WALL, tile, scheme="ws") for tile in TILES]
             ours, theirs = context.Pipe()
@@ -586,13 +607,13 @@ def _load(
         process.start()
         generators.append((process, ours))
     load_start, load_cpu = time.time(), cpu_seconds(pids)
-    machine_load = os.getloadavg()[0]
+    machine_busy = machine_busy_seconds()
     results = []
     for process, pipe in generators:
         results.append(pipe.recv())
         process.join()
     load_end = time.time()
-    machine_load_after = os.getloadavg()[0]
+    machine_busy = machine_busy_seconds() - machine_busy
     load_cpu = cpu_seconds(pids) - load_cpu
     memory = memory_mb(pids)
     if profiler is not None and recording is not None:
@@ -623,9 +644,12 @@ def _load(
         "database": "postgresql" if scenario.database_url else "sqlite",
         "bus": scenario.bus,
         "generators": scenario.generators,
-        # the machine's 1-minute load average as the phones came and when they were done:
-        # others' work on the same cores shows here
-        "load_average": [round(machine_load, 2), round(machine_load_after, 2)],
+        "progress_pages": scenario.progress_pages,
+        # cores kept busy meanwhile by processes other than the server and the load
+        # generators (the tiles' process, py-spy, and whatever else shares the machine)
+        "other_cores_busy": round(
+            (machine_busy - load_cpu - generator_cpu) / (load_end - load_start), 2
+        ),
         "requests": requests,
         "failures": sum(s.failed for s in samples),
         "steps": step_figures(samples),
@@ -829,16 +853,20 @@ def py_spy() -> Path | None:
 
 
 def run() -> dict[str, Any]:
-    """``RUNS`` on SQLite, one worker, the memory bus; py-spy profiles the server
-    during the first (not saturated, so its mix of requests is the hall's own)."""
+    """``RUNS``; py-spy profiles the server during the first (not saturated, so its
+    mix of requests is the hall's own)."""
     runs = []
     profile: dict[str, Any] | None = None
     with tempfile.TemporaryDirectory() as scratch:
-        for index, (phones, period) in enumerate(RUNS):
-            recording = Path(scratch) / "profile.txt" if index == 0 and py_spy() else None
-            figures = measure(Scenario(phones=phones, period_s=period, profile=recording))
+        for index, scenario in enumerate(RUNS):
+            if index == 0 and py_spy():
+                scenario = replace(scenario, profile=Path(scratch) / "profile.txt")
+            figures = measure(scenario)
             if "profile" in figures:
-                profile = {"run": f"{phones} phones over {period:.0f} s", **figures.pop("profile")}
+                profile = {
+                    "run": f"{scenario.phones} phones over {scenario.period_s:.0f} s",
+                    **figures.pop("profile"),
+                }
             runs.append(figures)
     return {
         "limit_settings": LIMIT_SETTINGS,
@@ -862,8 +890,9 @@ def summary(result: dict[str, Any]) -> str:
             for name, step in figures["steps"].items()
         )
         load = figures["tiles"]["under_load"]["last_tile_ms_from_request"] or {}
+        pages = "" if figures["progress_pages"] else " (no progress pages)"
         lines.append(
-            f"   {figures['phones']} phones/{figures['period_s']:.0f} s: {steps} (p50/p99); "
+            f"   {figures['phones']} phones/{figures['period_s']:.0f} s{pages}: {steps} (p50/p99); "
             f"server {figures['server_cpu_ms_per_request']} ms CPU/request, "
             f"{figures['server_memory']['rss_mb']} MB; last tile p99 {load.get('p99')} ms"
         )
@@ -883,6 +912,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--bus", choices=("memory", "redis"), default="memory")
     parser.add_argument("--redis-url", default="")
     parser.add_argument("--generators", type=int, default=1, help="load-generator processes")
+    parser.add_argument(
+        "--no-progress-pages",
+        action="store_true",
+        help="phones do not follow an answer's redirect to their progress page",
+    )
     parser.add_argument("--profile", type=Path, help="write py-spy raw stacks of the server here")
     parser.add_argument("--output", type=Path, help="write the JSON figures here too")
     args = parser.parse_args(argv)
@@ -895,6 +929,7 @@ def main(argv: list[str] | None = None) -> int:
             bus=args.bus,
             redis_url=args.redis_url,
             generators=args.generators,
+            progress_pages=not args.no_progress_pages,
             profile=args.profile,
         )
     )
