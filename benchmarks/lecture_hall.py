@@ -62,7 +62,9 @@ PUBLISH_INTERVAL_S = 0.5
 IDLE_S = 10.0
 APPLY_LEAD_MS = 250
 WARMUP_PHONES = 3
-STEP_PHONES = 200
+STEP_PHONES = 300
+PROFILE_RATE = 100  # samples a second while the phones come
+STEP_PROFILE_RATE = 1000  # samples a second: a step alone takes a second or two
 REQUEST_TIMEOUT_S = 120.0
 SECRET = "benchmark-secret-key-0123456789"
 # Every phone comes from 127.0.0.1. Of the limits on phones, only the budget the
@@ -424,12 +426,49 @@ def hall_codes(database_url: str) -> HallCodes:
     return HallCodes(register, pins[:PINS_PER_PHONE])
 
 
+@contextlib.contextmanager
+def profiling(
+    pid: int, output: Path | None, *, subprocesses: bool = False, rate: int = 100
+) -> Iterator[None]:
+    """py-spy sampling the server (``--subprocesses``: its workers too) meanwhile, into
+    ``output`` as raw collapsed stacks (what it says goes to ``output`` + ``.log``);
+    without an output, nothing."""
+    if output is None:
+        yield
+        return
+    executable = py_spy()
+    if executable is None:
+        raise SystemExit("profiling needs py-spy: pip install py-spy (the dev extra has it)")
+    command = [str(executable), "record", "--pid", str(pid), "--format", "raw"]
+    # --gil: only the thread holding the GIL, so threads waiting for work or for the
+    # GIL are not counted (C code that releases it, as sqlite3 does, is not either)
+    command += ["--rate", str(rate), "--gil", "--nonblocking", "--nolineno"]
+    command += ["--output", str(output)]
+    if subprocesses:
+        command.append("--subprocesses")
+    with output.with_suffix(".log").open("wb") as log:
+        process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
+    try:
+        time.sleep(1.0)  # attached
+        yield
+    finally:
+        process.send_signal(signal.SIGINT)
+        process.wait(120)
+    if not output.exists():
+        said = output.with_suffix(".log").read_text()[-2000:]
+        raise RuntimeError(f"py-spy wrote no profile:\n{said}")
+
+
 def cpu_by_step(
-    base_url: str, codes: HallCodes, pids: Sequence[int], background_rate: float
-) -> dict[str, dict[str, float]]:
+    base_url: str,
+    codes: HallCodes,
+    pids: Sequence[int],
+    background_rate: float,
+    profiles: Path | None = None,
+) -> dict[str, dict[str, Any]]:
     """Each step alone: ``STEP_PHONES`` fresh phones make it one after another (so
     nothing queues), and the server's CPU over them, less the background's, is what
-    one such request costs."""
+    one such request costs; with ``profiles`` (a directory), where it goes."""
     tls = ssl.create_default_context()
     phones = [
         httpx.Client(
@@ -464,21 +503,30 @@ def cpu_by_step(
         return browser.get(progress[index])
 
     steps = {"register": register, "scan": scan, "answer": answer, "progress": progress_page}
-    figures = {}
+    figures: dict[str, dict[str, Any]] = {}
     try:
         for step, make in steps.items():
+            recording = profiles / f"{step}.txt" if profiles is not None else None
             latencies = []
-            start, cpu = time.perf_counter(), cpu_seconds(pids)
-            for index, browser in enumerate(phones):
-                began = time.perf_counter()
-                if make(browser, index).is_error:
-                    raise RuntimeError(f"{step} failed when alone")
-                latencies.append((time.perf_counter() - began) * 1000)
-            spent = cpu_seconds(pids) - cpu - background_rate * (time.perf_counter() - start)
+            with profiling(pids[0], recording, rate=STEP_PROFILE_RATE):
+                start, cpu = time.perf_counter(), cpu_seconds(pids)
+                for index, browser in enumerate(phones):
+                    began = time.perf_counter()
+                    if make(browser, index).is_error:
+                        raise RuntimeError(f"{step} failed when alone")
+                    latencies.append((time.perf_counter() - began) * 1000)
+                spent = cpu_seconds(pids) - cpu - background_rate * (time.perf_counter() - start)
+            cpu_ms = round(max(0.0, spent) / len(phones) * 1000, 2)
             figures[step] = {
-                "server_cpu_ms": round(max(0.0, spent) / len(phones) * 1000, 2),
+                "server_cpu_ms": cpu_ms,
                 "p50_ms": round(percentile(latencies, 0.5), 1),
             }
+            if recording is not None:
+                profile = summarise_profile(recording, cpu_ms, top=10)
+                figures[step]["samples_cover_cpu"] = round(
+                    profile["samples"] / STEP_PROFILE_RATE / max(spent, 1e-9), 2
+                )
+                figures[step]["profile"] = profile["by_work"]
     finally:
         for browser in phones:
             browser.close()
@@ -521,20 +569,6 @@ def server_env(scenario: Scenario) -> dict[str, str]:
         env["TAGWALL_REDIS_URL"] = scenario.redis_url
         env["TAGWALL_REDIS_PREFIX"] = f"tagwall-bench-{uuid.uuid4().hex[:8]}"
     return env
-
-
-def start_profiler(pid: int, output: Path, subprocesses: bool) -> subprocess.Popen[bytes]:
-    """py-spy sampling the server (and its workers) until interrupted; what it says
-    goes to ``output`` + ``.log``."""
-    executable = py_spy()
-    if executable is None:
-        raise SystemExit("--profile needs py-spy: pip install py-spy (the dev extra has it)")
-    command = [str(executable), "record", "--pid", str(pid), "--format", "raw", "--rate", "100"]
-    command += ["--output", str(output), "--nonblocking", "--nolineno"]
-    if subprocesses:
-        command.append("--subprocesses")
-    with output.with_suffix(".log").open("wb") as log:
-        return subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
 
 
 def measure(scenario: Scenario) -> dict[str, Any]:
@@ -590,39 +624,33 @@ def _load(
     background_rate = background_cpu / (idle_end - idle_start)
 
     recording = scenario.profile
-    profiler = None
-    if recording is not None:
-        profiler = start_profiler(server.pid, recording, scenario.workers > 1)
-        time.sleep(1.0)  # attached
-    start = time.time() + 2.0  # the generators' processes start meanwhile
-    schedule = arrivals(scenario.phones, scenario.period_s, start)
-    generators = []
-    for index in range(scenario.generators):
-        ours, theirs = context.Pipe()
-        process = context.Process(
-            target=generator_process,
-            args=(server.url, codes, schedule[index :: scenario.generators], theirs),
-            daemon=True,
-        )
-        process.start()
-        generators.append((process, ours))
-    load_start, load_cpu = time.time(), cpu_seconds(pids)
-    machine_busy = machine_busy_seconds()
-    results = []
-    for process, pipe in generators:
-        results.append(pipe.recv())
-        process.join()
-    load_end = time.time()
-    machine_busy = machine_busy_seconds() - machine_busy
-    load_cpu = cpu_seconds(pids) - load_cpu
-    memory = memory_mb(pids)
-    if profiler is not None and recording is not None:
-        profiler.send_signal(signal.SIGINT)
-        profiler.wait(120)
-        if not recording.exists():
-            log = recording.with_suffix(".log").read_text()[-2000:]
-            raise RuntimeError(f"py-spy wrote no profile:\n{log}")
-    alone = cpu_by_step(server.url, codes, pids, background_rate)
+    with profiling(server.pid, recording, subprocesses=scenario.workers > 1, rate=PROFILE_RATE):
+        start = time.time() + 2.0  # the generators' processes start meanwhile
+        schedule = arrivals(scenario.phones, scenario.period_s, start)
+        generators = []
+        for index in range(scenario.generators):
+            ours, theirs = context.Pipe()
+            process = context.Process(
+                target=generator_process,
+                args=(server.url, codes, schedule[index :: scenario.generators], theirs),
+                daemon=True,
+            )
+            process.start()
+            generators.append((process, ours))
+        load_start, load_cpu = time.time(), cpu_seconds(pids)
+        machine_busy = machine_busy_seconds()
+        results = []
+        for process, pipe in generators:
+            results.append(pipe.recv())
+            process.join()
+        load_end = time.time()
+        machine_busy = machine_busy_seconds() - machine_busy
+        load_cpu = cpu_seconds(pids) - load_cpu
+        memory = memory_mb(pids)
+    step_profiles = recording.with_name("steps") if recording is not None else None
+    if step_profiles is not None:
+        step_profiles.mkdir(exist_ok=True)
+    alone = cpu_by_step(server.url, codes, pids, background_rate, step_profiles)
     tile_pipe.send("stop")
     tile_result = tile_pipe.recv()
     tiles.join(30)
@@ -682,7 +710,11 @@ def _load(
         },
     }
     if recording is not None:
-        figures["profile"] = summarise_profile(recording, figures["server_cpu_ms_per_request"])
+        profile = summarise_profile(recording, figures["server_cpu_ms_per_request"])
+        # how much of the server's CPU the samples account for (the rest: C code
+        # without the GIL, and samples py-spy missed)
+        profile["samples_cover_cpu"] = round(profile["samples"] / PROFILE_RATE / load_cpu, 2)
+        figures["profile"] = profile
     return figures
 
 
@@ -748,7 +780,10 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("FastAPI (dependencies, validation, serialisation)", ("(fastapi/",)),
     ("Starlette (routing, requests, responses)", ("(starlette/",)),
     ("uvicorn / httptools / h11 (HTTP parsing, writes)", ("(uvicorn/", "(httptools/", "(h11/")),
-    ("thread pool hand-off (anyio, threads waking)", ("(anyio/", "(threading.py", "(queue.py")),
+    (
+        "thread hand-offs (run_in_threadpool: queue, wake-ups, call_soon_threadsafe)",
+        ("(anyio/", "(threading.py", "(queue.py"),
+    ),
     ("event loop (uvloop in C: sockets, callbacks; asyncio)", ("(asyncio/", "(uvloop/")),
 )
 LEAF_ONLY = {
@@ -762,7 +797,7 @@ OUTER = {
     "FastAPI (dependencies, validation, serialisation)",
     "Starlette (routing, requests, responses)",
     "uvicorn / httptools / h11 (HTTP parsing, writes)",
-    "thread pool hand-off (anyio, threads waking)",
+    "thread hand-offs (run_in_threadpool: queue, wake-ups, call_soon_threadsafe)",
     "event loop (uvloop in C: sockets, callbacks; asyncio)",
 }
 
@@ -917,7 +952,11 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="phones do not follow an answer's redirect to their progress page",
     )
-    parser.add_argument("--profile", type=Path, help="write py-spy raw stacks of the server here")
+    parser.add_argument(
+        "--profile",
+        type=Path,
+        help="write py-spy raw stacks of the server here (each step alone: steps/ beside it)",
+    )
     parser.add_argument("--output", type=Path, help="write the JSON figures here too")
     args = parser.parse_args(argv)
     figures = measure(
