@@ -16,15 +16,23 @@ for ``IDLE_S`` before the phones come, so the two can be compared.
 Measured per step: count, failures (a status that is not 2xx/3xx, or no answer), p50
 and p99 latency; the server's CPU per phone request (user + system of every server
 process, less what the tiles' stream costs on its own, measured while idle), its
-memory; and the generator's CPU and lateness (how late phones started against their
-schedule: whether the generator kept up).
+memory; the generator's CPU and lateness (how late phones started against their
+schedule: whether the generator kept up); and the cores other processes kept busy
+meanwhile (the machine is shared: a figure taken beside others' work says so). After
+the hall, each step alone (``STEP_PHONES`` fresh phones one after another) gives
+what one request of that step costs the server.
+
+A profile (py-spy, sampling the thread that holds the GIL) sorts the server's CPU by
+what it was doing (``WORK``), during the hall and for each step alone.
 
 Only capacity is measured: every phone comes from 127.0.0.1, so the limits per
 address are lifted (``LIMIT_SETTINGS``, recorded in the result).
 
 ``make bench`` runs ``RUNS``; ``python -m benchmarks.lecture_hall --help`` runs one
 scenario with other parameters (phones, period, workers, database, bus) and can
-record a py-spy profile of the server meanwhile.
+record a py-spy profile of the server meanwhile. Several workers need PostgreSQL and
+``--bus redis`` (the server refuses otherwise); until a Redis bus exists, the tiles
+of one worker get only the events that worker published (``incomplete_events``).
 """
 
 from __future__ import annotations
