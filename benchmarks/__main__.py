@@ -22,6 +22,7 @@ BENCHMARKS = (
     "brain",
     "signin",
     "sync",
+    "lecture_hall",
 )
 RESULTS = Path(__file__).parent / "results"
 
