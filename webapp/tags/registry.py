@@ -13,6 +13,7 @@ import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from functools import lru_cache
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -504,12 +505,20 @@ def update_tag(db: Database, code: str, update: TagUpdate) -> TagRecord:
         return tag
 
 
+@lru_cache(maxsize=16)
+def url_code_sizes(base_url: str) -> tuple[int, ...]:
+    """The widths (modules) a tag URL's symbol may take, in the order placement tries
+    them. Every code's URL has the same length, so one stands for all; encoding it is
+    milliseconds of work that pages asking "how big are codes here" would repeat."""
+    payload = url_payload(base_url, "0" * CODE_LENGTH)
+    return tuple(modules_across(symbol) for symbol in symbol_variants(payload))
+
+
 def anchored_code_side_mm(base_url: str, wall: Wall) -> float:
     """How wide a code anchored in the scene stands on this wall: the smallest symbol
     that carries a tag URL, at the walk-up distance, on a display of the stage. Apps
     size what they keep clear around their codes by it."""
-    payload = url_payload(base_url, "0" * CODE_LENGTH)
-    modules = min(modules_across(symbol) for symbol in symbol_variants(payload))
+    modules = min(url_code_sizes(base_url))
     display = wall.display(wall.stage_ids[0])
     return code_size(display, modules, min_module_mm(wall.walk_up_distance_m)).side_mm
 
@@ -521,8 +530,7 @@ def places_anchored(
     there and placed in this order, as :func:`compute_layout` places them (give the
     tags falling priorities in this order). Apps try their anchored codes so before
     declaring them, and hand what would not fit to codes that do."""
-    payload = url_payload(base_url, "0" * CODE_LENGTH)
-    sizes = tuple(modules_across(symbol) for symbol in symbol_variants(payload))
+    sizes = url_code_sizes(base_url)
     module_mm = min_module_mm(wall.walk_up_distance_m)
     requests = [
         PlacementRequest(key=key, sizes=sizes, module_mm=module_mm, anchor=anchor, caption=True)

@@ -7,7 +7,7 @@ from typing import Any
 import pytest
 from pydantic import ValidationError
 
-from tag_service.codes import ALPHABET
+from tag_service.codes import ALPHABET, CODE_LENGTH, modules_across, symbol_variants, url_payload
 from tests.conftest import tag_spec
 from wall_client.config import load_wall
 from wall_client.layout import Wall
@@ -25,6 +25,7 @@ from webapp.tags.registry import (
     payload_of,
     tag_sets,
     update_tag,
+    url_code_sizes,
     wall_tags,
 )
 
@@ -187,3 +188,15 @@ def test_changing_the_clearance_places_the_code_again_beside_its_anchor(
     assert beside["leader"] is not None and tuple(beside["leader"][1]) == (ax, ay)
     assert declared(50.0)[0] == second, "an unchanged clearance reuses the layout"
     assert declared(80.0)[0] != second
+
+
+def test_a_tag_urls_symbol_sizes_are_encoded_once_per_base_url() -> None:
+    """Pages that size their surroundings by the codes ask often; the symbols are
+    encoded once (the answer is the same as encoding them again)."""
+    base = "http://192.0.2.7:8000"
+    payload = url_payload(base, "0" * CODE_LENGTH)
+    expected = tuple(modules_across(symbol) for symbol in symbol_variants(payload))
+    hits = url_code_sizes.cache_info().hits
+    assert url_code_sizes(base) == expected
+    assert url_code_sizes(base) == expected
+    assert url_code_sizes.cache_info().hits >= hits + 1
