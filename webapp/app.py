@@ -86,6 +86,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         services.tokens = await run_in_threadpool(load_tokens, db, services.secret)
+        await hub.watch(services.walls)
         for wall in services.walls.values():
             await open_wall(services, wall)
         tasks = [
