@@ -44,7 +44,7 @@ class Services:
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db)
         self.scan_log = ScanLog(self.db)
-        self.scan_feed = ScanFeed()
+        self.scan_feed = ScanFeed(self.hub.bus)
         self.counters = counter_store(self.redis, self.settings)
         self.limits = action_limits(self.settings, self.counters)
         self.login_throttle = SignInThrottle(

@@ -19,8 +19,7 @@ import logging
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
@@ -31,6 +30,7 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.database.connection import Database
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
+from webapp.engine.bus import BusUnavailable, EventBus, Subscription
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import is_live, shown_in
 
@@ -180,21 +180,24 @@ def scans_of(db: Database, code: str) -> list[ScanRecord]:
         )
 
 
-class ScanFeed:
-    """Scans as they happen, for the dashboards connected to this process.
+SCANS = "scans"
+"""The bus channel of a wall's scans, for dashboards (see :mod:`webapp.engine.bus`)."""
 
-    Each dashboard has a bounded queue; a dashboard that does not keep up misses
-    notices rather than slowing the scan path down.
+
+class ScanFeed:
+    """Scans as they happen, for the dashboards of the wall, on any process: each scan
+    goes on the wall's ``scans`` channel of the bus.
+
+    Each dashboard has a bounded subscription; one that does not keep up is dropped
+    (its page says so) rather than slowing the scan path down.
     """
 
-    def __init__(self, maxsize: int = 100) -> None:
-        self.maxsize = maxsize
-        self._queues: dict[str, set[asyncio.Queue[ScanSeen]]] = {}
+    def __init__(self, bus: EventBus) -> None:
+        self.bus = bus
 
-    def publish(self, tag: TagRecord, visitor_id: str) -> None:
-        queues = self._queues.get(tag.wall_id)
-        if not queues:
-            return
+    async def publish(self, tag: TagRecord, visitor_id: str) -> None:
+        """Tell the wall's dashboards; a bus that does not answer loses the notice only
+        (the scan is recorded)."""
         notice = ScanSeen(
             wall=tag.wall_id,
             code=tag.code,
@@ -203,15 +206,11 @@ class ScanFeed:
             visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
             at=time.time_ns() // 1_000_000,
         )
-        for queue in queues:
-            if queue.qsize() < self.maxsize:
-                queue.put_nowait(notice)
-
-    @contextmanager
-    def subscribe(self, wall_id: str) -> Iterator[asyncio.Queue[ScanSeen]]:
-        queue: asyncio.Queue[ScanSeen] = asyncio.Queue()
-        self._queues.setdefault(wall_id, set()).add(queue)
         try:
-            yield queue
-        finally:
-            self._queues[wall_id].discard(queue)
+            await self.bus.publish(tag.wall_id, notice.model_dump_json(), SCANS)
+        except BusUnavailable as error:
+            log.warning("wall %s: a scan not shown on dashboards: %s", tag.wall_id, error)
+
+    def subscribe(self, wall_id: str) -> AbstractAsyncContextManager[Subscription]:
+        """The wall's scans as ``ScanSeen`` frames (JSON text), from any process."""
+        return self.bus.subscribe(wall_id, SCANS)
