@@ -92,6 +92,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         tasks = [
             asyncio.create_task(services.scan_log.run()),
             asyncio.create_task(_keep_tokens_fresh(services)),
+            asyncio.create_task(services.codes.follow()),
         ]
         yield
         for task in tasks:

@@ -18,7 +18,7 @@ from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.models import TagRecord, WallStateRecord
 from webapp.database.redis import connect_redis
-from webapp.engine.bus import EventBus, MemoryBus, RedisBus
+from webapp.engine.bus import EventBus, MemoryBus, RedisBus, cancel_and_wait
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import issue
 from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog, scans_of
@@ -187,3 +187,29 @@ async def test_a_scan_taken_by_one_process_shows_on_a_dashboard_of_another(
             notice = ScanSeen.model_validate_json(await dashboard.next())
     assert (notice.wall, notice.code, notice.label) == ("demo", tag.code, tag.label)
     assert notice.visitor != "visitor-1" and len(notice.visitor) == 6
+
+
+async def test_codes_forgotten_in_one_process_are_forgotten_in_another(
+    db: Database, two_buses: tuple[EventBus, EventBus]
+) -> None:
+    """The cache holds a minute here: only the word from the other process drops it."""
+    changing = CodeDirectory(db, ttl_s=60.0, bus=two_buses[0])
+    other = CodeDirectory(db, ttl_s=60.0, bus=two_buses[1])
+    opened = [asyncio.Event(), asyncio.Event()]
+    following = [
+        asyncio.create_task(codes.follow(event))
+        for codes, event in zip((changing, other), opened, strict=True)
+    ]
+    try:
+        for event in opened:
+            await event.wait()
+        tag = issue(db, "demo", tag_spec(), "test")
+        assert (await other.resolve(tag.code)).problem is None
+        switch_off(db, tag.code)
+        assert (await other.resolve(tag.code)).problem is None, "cached"
+        await asyncio.to_thread(changing.forget)  # as the door does, in a worker thread
+        async with asyncio.timeout(30):
+            while (await other.resolve(tag.code)).problem is None:
+                await asyncio.sleep(0.02)
+    finally:
+        await cancel_and_wait(*following)
