@@ -86,11 +86,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         services.tokens = await run_in_threadpool(load_tokens, db, services.secret)
+        await hub.watch(services.walls)
         for wall in services.walls.values():
             await open_wall(services, wall)
         tasks = [
             asyncio.create_task(services.scan_log.run()),
             asyncio.create_task(_keep_tokens_fresh(services)),
+            asyncio.create_task(services.codes.follow()),
         ]
         yield
         for task in tasks:

@@ -103,7 +103,7 @@ class TileStatusInfo(BaseModel):
 
     @classmethod
     def of(cls, status: TileStatus) -> TileStatusInfo:
-        return cls(connected=status.connections > 0, **vars(status))
+        return cls(connected=status.connections > 0, **status.model_dump())
 
 
 class WallStatus(BaseModel):

@@ -42,9 +42,9 @@ class Services:
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
 
     def __post_init__(self) -> None:
-        self.codes = CodeDirectory(self.db)
+        self.codes = CodeDirectory(self.db, bus=self.hub.bus)
         self.scan_log = ScanLog(self.db)
-        self.scan_feed = ScanFeed()
+        self.scan_feed = ScanFeed(self.hub.bus)
         self.counters = counter_store(self.redis, self.settings)
         self.limits = action_limits(self.settings, self.counters)
         self.login_throttle = SignInThrottle(

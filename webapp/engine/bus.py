@@ -5,6 +5,10 @@ tiles receive it. Each subscription has a bounded queue; a subscriber that falls
 behind is marked overflowed and dropped by its connection, and the tile
 resynchronises by snapshot instead of slowing everyone down.
 
+A wall has channels: ``events`` (the frames tiles receive) and others the processes
+sharing a wall tell each other on (:mod:`webapp.engine.hub`: ``tiles``; scans, codes),
+each delivered in its own publication order, by the same code on either bus.
+
 The bus also holds each wall while a change is made (:meth:`EventBus.wall_lock`):
 publication order is version order only if changes of one wall never overlap, in one
 process (:class:`MemoryBus`) or in all that share the wall (:class:`RedisBus`).
@@ -83,6 +87,10 @@ class Subscription:
         return messages
 
 
+EVENTS = "events"
+"""The channel of the frames tiles receive (``publish``/``subscribe``'s default)."""
+
+
 class EventBus(ABC):
     """Where published wall events go; implementations: memory (one process), Redis."""
 
@@ -91,15 +99,17 @@ class EventBus(ABC):
         self._process_locks: dict[str, asyncio.Lock] = {}
 
     @abstractmethod
-    async def publish(self, wall_id: str, message: str) -> None:
-        """Deliver ``message`` to every current subscriber of ``wall_id``; raises
-        ``BusUnavailable`` when it cannot."""
+    async def publish(self, wall_id: str, message: str, channel: str = EVENTS) -> None:
+        """Deliver ``message`` to every current subscriber of ``wall_id``'s ``channel``;
+        raises ``BusUnavailable`` when it cannot."""
 
     @abstractmethod
-    def subscribe(self, wall_id: str) -> AbstractAsyncContextManager[Subscription]:
-        """Context manager: a subscription that receives every message published after
-        it was entered, until the block exits; entering raises ``BusUnavailable`` when
-        the bus cannot be reached."""
+    def subscribe(
+        self, wall_id: str, channel: str = EVENTS
+    ) -> AbstractAsyncContextManager[Subscription]:
+        """Context manager: a subscription that receives every message published on
+        ``wall_id``'s ``channel`` after it was entered, until the block exits; entering
+        raises ``BusUnavailable`` when the bus cannot be reached."""
 
     @abstractmethod
     def wall_lock(self, wall_id: str) -> AbstractAsyncContextManager[None]:
@@ -119,27 +129,63 @@ class MemoryBus(EventBus):
 
     def __init__(self, queue_size: int) -> None:
         super().__init__(queue_size)
-        self._subscribers: dict[str, set[Subscription]] = {}
+        self._subscribers: dict[tuple[str, str], set[Subscription]] = {}
 
-    async def publish(self, wall_id: str, message: str) -> None:
-        for subscription in tuple(self._subscribers.get(wall_id, ())):
+    async def publish(self, wall_id: str, message: str, channel: str = EVENTS) -> None:
+        for subscription in tuple(self._subscribers.get((wall_id, channel), ())):
             subscription.offer(message)
 
     @asynccontextmanager
-    async def subscribe(self, wall_id: str) -> AsyncIterator[Subscription]:
+    async def subscribe(self, wall_id: str, channel: str = EVENTS) -> AsyncIterator[Subscription]:
         subscription = Subscription(self.queue_size)
-        subscribers = self._subscribers.setdefault(wall_id, set())
+        subscribers = self._subscribers.setdefault((wall_id, channel), set())
         subscribers.add(subscription)
         try:
             yield subscription
         finally:
             subscribers.discard(subscription)
             if not subscribers:
-                self._subscribers.pop(wall_id, None)
+                self._subscribers.pop((wall_id, channel), None)
 
     def wall_lock(self, wall_id: str) -> asyncio.Lock:
         """One process is every publisher there is: its own lock is enough."""
         return self._process_lock(wall_id)
+
+
+FOLLOW_RETRY_S = 1.0
+"""A follower whose bus did not answer subscribes again after this long."""
+
+
+async def follow(
+    bus: EventBus,
+    wall_id: str,
+    channel: str,
+    handle: Callable[[str], None],
+    opened: asyncio.Event | None = None,
+) -> None:
+    """Hand every message of ``wall_id``'s ``channel`` to ``handle`` until cancelled: how a
+    process listens to what the others say (tile presence, scans, codes). ``opened`` is
+    set once the first subscription was tried. A follower that fell behind or could not
+    subscribe subscribes again (what it missed meanwhile is lost: what it follows is
+    repeated or expires). A message ``handle`` cannot take is logged and skipped."""
+    while True:
+        try:
+            async with bus.subscribe(wall_id, channel) as inbox:
+                if opened is not None:
+                    opened.set()
+                while True:
+                    message = await inbox.next()
+                    try:
+                        handle(message)
+                    except Exception:
+                        log.exception("wall %s: could not take a %s message", wall_id, channel)
+        except SubscriberTooSlow:
+            log.warning("wall %s: fell behind on %s; following again", wall_id, channel)
+        except BusUnavailable as error:
+            if opened is not None:
+                opened.set()
+            log.warning("wall %s: cannot follow %s (%s); trying again", wall_id, channel, error)
+            await asyncio.sleep(FOLLOW_RETRY_S)
 
 
 # --- Redis Streams ----------------------------------------------------------------
@@ -164,9 +210,9 @@ WALL_LOCK_WAIT_S = 30.0
 WALL_LOCK_POLL_S = 0.02
 
 
-def stream_key(prefix: str, wall_id: str) -> str:
-    """The Redis stream holding ``wall_id``'s frames, in publication order."""
-    return redis_key(prefix, "wall", wall_id, "events")
+def stream_key(prefix: str, wall_id: str, channel: str = EVENTS) -> str:
+    """The Redis stream holding ``wall_id``'s ``channel``, in publication order."""
+    return redis_key(prefix, "wall", wall_id, channel)
 
 
 def lock_key(prefix: str, wall_id: str) -> str:
@@ -181,7 +227,7 @@ def _stream_id(raw: bytes | str) -> StreamId:
 
 
 class _WallReader:
-    """This process's reader of one wall's stream, for its local subscribers.
+    """This process's reader of one wall's channel (a stream), for its local subscribers.
 
     ``position`` is the id of the last entry delivered (or the stream's end when the
     reader started): reading resumes after it, so a dropped connection loses and
@@ -191,9 +237,13 @@ class _WallReader:
     """
 
     def __init__(
-        self, wall_id: str, start: Callable[[_WallReader], Coroutine[Any, Any, None]]
+        self,
+        wall_id: str,
+        channel: str,
+        start: Callable[[_WallReader], Coroutine[Any, Any, None]],
     ) -> None:
         self.wall_id = wall_id
+        self.channel = channel
         self.subscriptions: set[Subscription] = set()
         self.position = FIRST_ID
         self.through = 0
@@ -205,10 +255,10 @@ class _WallReader:
             subscription.offer(frame)
 
     async def stop(self) -> None:
-        await _cancel(*(task for task in (self.opening, self.reading) if task is not None))
+        await cancel_and_wait(*(task for task in (self.opening, self.reading) if task is not None))
 
 
-async def _cancel(*tasks: asyncio.Task[None]) -> None:
+async def cancel_and_wait(*tasks: asyncio.Task[None]) -> None:
     """Cancel ``tasks`` and wait for them to end, cancelling again while one carries on:
     Python 3.11's ``asyncio.wait_for`` (which redis-py sends through) drops a
     cancellation that arrives as the send completes."""
@@ -254,17 +304,17 @@ class RedisBus(EventBus):
         self.max_len = max_len
         self.lock_expiry_s = lock_expiry_s
         self.lock_wait_s = lock_wait_s
-        self._readers: dict[str, _WallReader] = {}
+        self._readers: dict[tuple[str, str], _WallReader] = {}
 
     @property
     def reading(self) -> frozenset[str]:
-        """The walls this process reads, having subscribers of them."""
-        return frozenset(self._readers)
+        """The walls whose events this process reads, having subscribers of them."""
+        return frozenset(wall for wall, channel in self._readers if channel == EVENTS)
 
-    async def publish(self, wall_id: str, message: str) -> None:
+    async def publish(self, wall_id: str, message: str, channel: str = EVENTS) -> None:
         try:
             await self.redis.xadd(
-                stream_key(self.prefix, wall_id),
+                stream_key(self.prefix, wall_id, channel),
                 {FRAME_FIELD: message},
                 maxlen=self.max_len,
                 approximate=True,
@@ -273,10 +323,11 @@ class RedisBus(EventBus):
             raise BusUnavailable(f"Redis did not take wall {wall_id}'s frame: {error}") from error
 
     @asynccontextmanager
-    async def subscribe(self, wall_id: str) -> AsyncIterator[Subscription]:
-        reader = self._readers.get(wall_id)
+    async def subscribe(self, wall_id: str, channel: str = EVENTS) -> AsyncIterator[Subscription]:
+        name = (wall_id, channel)
+        reader = self._readers.get(name)
         if reader is None:
-            reader = self._readers[wall_id] = _WallReader(wall_id, self._open)
+            reader = self._readers[name] = _WallReader(wall_id, channel, self._open)
         subscription = Subscription(self.queue_size)
         reader.subscriptions.add(subscription)
         try:
@@ -286,14 +337,14 @@ class RedisBus(EventBus):
             yield subscription
         finally:
             reader.subscriptions.discard(subscription)
-            if not reader.subscriptions and self._readers.get(wall_id) is reader:
-                del self._readers[wall_id]
+            if not reader.subscriptions and self._readers.get(name) is reader:
+                del self._readers[name]
                 await reader.stop()
 
     async def _open(self, reader: _WallReader) -> None:
         """Start ``reader`` at the stream's current end."""
         try:
-            info = await self._stream_info(reader.wall_id)
+            info = await self._stream_info(reader)
         except RedisError as error:
             raise BusUnavailable(f"Redis did not open wall {reader.wall_id}: {error}") from error
         if info is not None:
@@ -301,8 +352,8 @@ class RedisBus(EventBus):
             reader.through = int(info.get("entries-added", 0))
         reader.reading = asyncio.create_task(self._read(reader))
 
-    async def _stream_info(self, wall_id: str) -> dict[str, Any] | None:
-        key = stream_key(self.prefix, wall_id)
+    async def _stream_info(self, reader: _WallReader) -> dict[str, Any] | None:
+        key = stream_key(self.prefix, reader.wall_id, reader.channel)
         if not await self.redis.exists(key):
             return None
         info: dict[str, Any] = await self.redis.xinfo_stream(key)
@@ -311,7 +362,7 @@ class RedisBus(EventBus):
     async def _read(self, reader: _WallReader) -> None:
         """Deliver the wall's frames to the local subscribers until stopped; reconnect
         after an outage (logged once) and resume where reading stopped."""
-        key = stream_key(self.prefix, reader.wall_id)
+        key = stream_key(self.prefix, reader.wall_id, reader.channel)
         delay = RECONNECT_FIRST_S
         away = False
         while True:
@@ -354,7 +405,7 @@ class RedisBus(EventBus):
         subscribers missed: each is marked as fallen behind, so its connection closes
         and the tile comes back with ``hello(last_version)`` for the missed events from
         the database or a snapshot, and reading carries on from the stream's end."""
-        info = await self._stream_info(reader.wall_id)
+        info = await self._stream_info(reader)
         if info is None:  # the stream is gone (Redis restarted empty)
             lost = reader.through > 0
             end, added = FIRST_ID, 0
@@ -427,7 +478,7 @@ class RedisBus(EventBus):
             try:
                 yield
             finally:
-                await _cancel(renewing)
+                await cancel_and_wait(renewing)
                 await self._let_go(lock, wall_id)
         finally:
             local.release()

@@ -1,17 +1,24 @@
 """The wall hub: commits state changes, publishes them in order, keeps tiles in step.
 
-One hub per app (in ``app.state``), never a module global. It also knows which
-tiles are connected to this process, which the prepare -> ready -> swap barrier
-needs: a heavy change is swapped once every connected tile is ready, or when the
-timeout passes, whichever comes first (the web form of the MPI barrier before the
-buffer swap).
+One hub per app (in ``app.state``), never a module global. It knows which tiles are
+connected to any process serving its walls (:mod:`webapp.engine.presence`: each hub
+reports its own tiles on the wall's ``tiles`` channel and hears every process's), which
+the prepare -> ready -> swap barrier needs: a heavy change is swapped once every tile
+connected anywhere is ready, or when the timeout passes, whichever comes first (the web
+form of the MPI barrier before the buffer swap). The ``ready`` of a tile, on whichever
+process, reaches the committing hub through the channel, its own tiles' too: one path
+for one process and for many. Every hub also watches the ``prepare`` frames: should the
+committing process die before its ``swap``, another publishes it (tiles take the first
+swap of a version and ignore the rest).
 """
 
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
-from collections.abc import Callable, Coroutine
+import uuid
+from collections.abc import Callable, Iterable
 from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,24 +26,20 @@ from typing import Any
 from anyio import to_thread
 
 from webapp.database.connection import Database
-from webapp.engine.bus import BusUnavailable, EventBus
+from webapp.engine.bus import EVENTS, BusUnavailable, EventBus, cancel_and_wait, follow
+from webapp.engine.presence import TILES, Presence, TilesHeard, TileStatus
 from webapp.engine.protocol import Event, Prepare, Swap
 from webapp.engine.wall_state import Change, WallState, commit_change, now_ms
 
+__all__ = ["TileStatus", "WallHub"]
+
+HEARTBEAT_S = 2.0
+"""How often a hub re-announces its tiles; a process silent for three heartbeats is gone."""
+ORPHAN_GRACE_S = 2.0
+"""How long past the swap timeout a prepared change waits for its swap before any process
+publishes it (its committing process died)."""
+
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class TileStatus:
-    """What the hub knows of one tile's connection(s); shown on the dashboard."""
-
-    tile_id: str
-    connections: int = 0
-    connected_since: int | None = None
-    last_seen: int | None = None
-    version: int | None = None
-    applied_at: float | None = None
-    address: str | None = None
 
 
 @dataclass
@@ -48,6 +51,11 @@ class _Barrier:
         self.waiting.discard(tile_id)
         if not self.waiting:
             self.done.set()
+
+    def keep_only(self, tiles: set[str]) -> None:
+        """Stop waiting for tiles no longer connected anywhere."""
+        for tile_id in self.waiting - tiles:
+            self.discard(tile_id)
 
 
 class WallHub:
@@ -61,15 +69,38 @@ class WallHub:
         apply_lead_ms: int,
         swap_timeout_ms: int,
         keep_events: int,
+        heartbeat_s: float = HEARTBEAT_S,
+        orphan_grace_s: float = ORPHAN_GRACE_S,
     ) -> None:
         self.db = db
         self.bus = bus
         self.apply_lead_ms = apply_lead_ms
         self.swap_timeout_ms = swap_timeout_ms
         self.keep_events = keep_events
-        self._tiles: dict[str, dict[str, TileStatus]] = {}
+        self.heartbeat_s = heartbeat_s
+        self.orphan_grace_s = orphan_grace_s
+        self.process_id = uuid.uuid4().hex  # this process, in its tile reports
+        self.presence = Presence(expiry_s=3 * heartbeat_s)
+        self._tiles: dict[str, dict[str, TileStatus]] = {}  # this process's own tiles
         self._barriers: dict[tuple[str, int], _Barrier] = {}
+        self._orphans: dict[tuple[str, int], asyncio.Task[None]] = {}  # prepared, not swapped
         self._tasks: set[asyncio.Task[None]] = set()
+
+    async def watch(self, wall_ids: Iterable[str]) -> None:
+        """Follow the walls' tile reports and prepared changes, and announce this
+        process's tiles every heartbeat, until :meth:`close` (the app's lifespan);
+        returns once the channels are subscribed to."""
+        opened = []
+        for wall_id in wall_ids:
+            for channel, handle in (
+                (TILES, self._hear_tiles),
+                (EVENTS, self._hear_event),
+            ):
+                opened.append(asyncio.Event())
+                self._spawn(follow(self.bus, wall_id, channel, _bound(handle, wall_id), opened[-1]))
+            self._spawn(self._heartbeat(wall_id))
+        for event in opened:
+            await event.wait()
 
     def placing(self, wall_id: str) -> AbstractAsyncContextManager[None]:
         """Held by the door (``webapp.engine.changes``) through a whole change, placing its
@@ -126,24 +157,51 @@ class WallHub:
                     ", ".join(sorted(barrier.waiting)),
                 )
         self._barriers.pop((wall_id, version), None)
+        await self._swap(wall_id, version)
+
+    async def _swap(self, wall_id: str, version: int) -> None:
         swap = Swap(version=version, apply_at=now_ms() + self.apply_lead_ms)
         await self._publish(wall_id, version, swap.model_dump_json())
 
-    def _spawn(self, coroutine: Coroutine[Any, Any, None]) -> None:
-        task = asyncio.ensure_future(coroutine)
+    def _hear_event(self, wall_id: str, frame: str) -> None:
+        """Track prepared changes until their swap (see :meth:`_swap_orphan`)."""
+        message = json.loads(frame)
+        key = (wall_id, message.get("version"))
+        if message.get("type") == "prepare" and key not in self._orphans:
+            self._orphans[key] = self._spawn(self._swap_orphan(wall_id, message["version"]))
+        elif message.get("type") == "swap" and (watcher := self._orphans.pop(key, None)):
+            watcher.cancel()
+
+    async def _swap_orphan(self, wall_id: str, version: int) -> None:
+        """A prepared change with no swap long after the swap timeout lost its committing
+        process: swap it here, so its tiles do not wait forever. Several processes may;
+        tiles take the first swap of a version and ignore the others."""
+        await asyncio.sleep(self.swap_timeout_ms / 1000 + self.orphan_grace_s)
+        self._orphans.pop((wall_id, version), None)
+        log.warning("wall %s v%d: prepared but never swapped; swapping it", wall_id, version)
+        await self._swap(wall_id, version)
+
+    def _spawn(self, coroutine: Any) -> asyncio.Task[None]:
+        task: asyncio.Task[None] = asyncio.ensure_future(coroutine)
         self._tasks.add(task)
         task.add_done_callback(self._tasks.discard)
+        return task
 
     # --- tiles ------------------------------------------------------------------
+    # This process's own tiles are kept here and reported on the wall's tiles channel;
+    # what every process reported is heard into ``presence``, which the rest reads.
 
-    def tile_connected(self, wall_id: str, tile_id: str, address: str | None) -> None:
-        status = self._tiles.setdefault(wall_id, {}).setdefault(tile_id, TileStatus(tile_id))
+    async def tile_connected(self, wall_id: str, tile_id: str, address: str | None) -> None:
+        status = self._tiles.setdefault(wall_id, {}).setdefault(
+            tile_id, TileStatus(tile_id=tile_id)
+        )
         status.connections += 1
         status.connected_since = status.connected_since or now_ms()
         status.last_seen = now_ms()
         status.address = address
+        await self._report(wall_id, [status])
 
-    def tile_disconnected(self, wall_id: str, tile_id: str) -> None:
+    async def tile_disconnected(self, wall_id: str, tile_id: str) -> None:
         status = self._tiles.get(wall_id, {}).get(tile_id)
         if status is None:
             return
@@ -151,35 +209,77 @@ class WallHub:
         status.last_seen = now_ms()
         if status.connections == 0:
             status.connected_since = None
-            for (barrier_wall, _), barrier in tuple(self._barriers.items()):
-                if barrier_wall == wall_id:
-                    barrier.discard(tile_id)
+        await self._report(wall_id, [status])
 
-    def tile_seen(self, wall_id: str, tile_id: str) -> None:
+    async def tile_ready(self, wall_id: str, tile_id: str, version: int) -> None:
         status = self._tiles.get(wall_id, {}).get(tile_id)
         if status is not None:
             status.last_seen = now_ms()
+            await self._report(wall_id, [status], ready=version)
 
-    def tile_ready(self, wall_id: str, tile_id: str, version: int) -> None:
-        self.tile_seen(wall_id, tile_id)
-        barrier = self._barriers.get((wall_id, version))
-        if barrier is not None:
-            barrier.discard(tile_id)
-
-    def tile_applied(self, wall_id: str, tile_id: str, version: int, server_time: float) -> None:
+    async def tile_applied(
+        self, wall_id: str, tile_id: str, version: int, server_time: float
+    ) -> None:
         status = self._tiles.get(wall_id, {}).get(tile_id)
         if status is not None:
             status.version = version
             status.applied_at = server_time
             status.last_seen = now_ms()
+            await self._report(wall_id, [status])
+
+    async def _report(
+        self,
+        wall_id: str,
+        tiles: list[TileStatus],
+        *,
+        every: bool = False,
+        ready: int | None = None,
+    ) -> None:
+        """Tell every process (this one too) how this process's ``tiles`` stand; a bus
+        that does not answer loses the report until the next heartbeat."""
+        report = TilesHeard(process=self.process_id, tiles=tiles, every=every, ready=ready)
+        try:
+            await self.bus.publish(wall_id, report.model_dump_json(), TILES)
+        except BusUnavailable as error:
+            log.warning("wall %s: could not report tiles: %s", wall_id, error)
+
+    def _hear_tiles(self, wall_id: str, frame: str) -> None:
+        report = TilesHeard.model_validate_json(frame)
+        self.presence.hear(wall_id, report)
+        if report.ready is not None and (barrier := self._barriers.get((wall_id, report.ready))):
+            for status in report.tiles:
+                barrier.discard(status.tile_id)
+        self._settle(wall_id)
+
+    def _settle(self, wall_id: str) -> None:
+        """Barriers stop waiting for tiles no longer connected anywhere."""
+        barriers = [b for (wall, _), b in self._barriers.items() if wall == wall_id]
+        if barriers:
+            connected = self.presence.connected(wall_id)
+            for barrier in barriers:
+                barrier.keep_only(connected)
+
+    async def _heartbeat(self, wall_id: str) -> None:
+        """Announce every tile of this process now and then, so the others keep it (and
+        learn of it after a report they missed); settle barriers as processes go."""
+        while True:
+            if tiles := list(self._tiles.get(wall_id, {}).values()):
+                await self._report(wall_id, tiles, every=True)
+            self._settle(wall_id)
+            await asyncio.sleep(self.heartbeat_s)
 
     def connected_tiles(self, wall_id: str) -> list[str]:
-        return [t.tile_id for t in self._tiles.get(wall_id, {}).values() if t.connections]
+        """The tiles connected to any live process serving ``wall_id``."""
+        return sorted(self.presence.connected(wall_id))
 
     def tile_statuses(self, wall_id: str) -> dict[str, TileStatus]:
-        return dict(self._tiles.get(wall_id, {}))
+        """What every live process knows of ``wall_id``'s tiles."""
+        return self.presence.statuses(wall_id)
 
     async def close(self) -> None:
-        for task in tuple(self._tasks):
-            task.cancel()
+        await cancel_and_wait(*self._tasks)
         await self.bus.close()
+
+
+def _bound(handle: Callable[[str, str], None], wall_id: str) -> Callable[[str], None]:
+    return lambda frame: handle(wall_id, frame)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from typing import Annotated
 from urllib.parse import urlsplit
 
@@ -15,7 +15,8 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
 from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep, open_wall_socket
-from webapp.engine.protocol import CLOSE_POLICY, DashboardStatus, ScanSeen
+from webapp.engine.bus import BusUnavailable, SubscriberTooSlow, Subscription
+from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TRY_AGAIN, DashboardStatus
 from webapp.people.accounts import AccountError, add_account, list_accounts, remove_account
 from webapp.people.address_rules import RuleError, add_rule, list_rules, remove_rule
 from webapp.people.addresses import address_of
@@ -87,21 +88,35 @@ async def dashboard_socket(websocket: WebSocket, wall_id: str) -> None:
     if not await still_staff():
         await websocket.close(CLOSE_POLICY, "instructors only")
         return
-    with services.scan_feed.subscribe(wall.id) as scans:
-        sender = asyncio.create_task(_send_updates(websocket, services, wall.id, scans))
-        reader = asyncio.create_task(_until_closed(websocket))
-        try:
-            while not sender.done() and not reader.done():
-                await asyncio.wait({sender, reader}, timeout=AUTHORITY_CHECK_S)
-                if not reader.done() and not await still_staff():
-                    await websocket.close(CLOSE_POLICY, "signed out: sign in again")
-                    break
-        finally:
-            for task in (sender, reader):
-                task.cancel()
-            for task in (sender, reader):
-                with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
-                    await task
+    try:
+        async with services.scan_feed.subscribe(wall.id) as scans:
+            await _serve_dashboard(websocket, services, wall.id, scans, still_staff)
+    except BusUnavailable:
+        await websocket.close(CLOSE_TRY_AGAIN, "the event bus is not answering: reconnect")
+
+
+async def _serve_dashboard(
+    websocket: WebSocket,
+    services: Services,
+    wall_id: str,
+    scans: Subscription,
+    still_staff: Callable[[], Awaitable[bool]],
+) -> None:
+    """Send status and scans until the socket closes or its cookie stands for nobody."""
+    sender = asyncio.create_task(_send_updates(websocket, services, wall_id, scans))
+    reader = asyncio.create_task(_until_closed(websocket))
+    try:
+        while not sender.done() and not reader.done():
+            await asyncio.wait({sender, reader}, timeout=AUTHORITY_CHECK_S)
+            if not reader.done() and not await still_staff():
+                await websocket.close(CLOSE_POLICY, "signed out: sign in again")
+                break
+    finally:
+        for task in (sender, reader):
+            task.cancel()
+        for task in (sender, reader):
+            with contextlib.suppress(asyncio.CancelledError, WebSocketDisconnect, RuntimeError):
+                await task
 
 
 async def _until_closed(websocket: WebSocket) -> None:
@@ -118,14 +133,17 @@ def _same_origin(websocket: WebSocket) -> bool:
 
 
 async def _send_updates(
-    websocket: WebSocket, services: Services, wall_id: str, scans: asyncio.Queue[ScanSeen]
+    websocket: WebSocket, services: Services, wall_id: str, scans: Subscription
 ) -> None:
     wall = services.walls[wall_id]
     next_status = 0.0
     while True:
         try:
-            notice = await asyncio.wait_for(scans.get(), max(0.0, next_status - time.monotonic()))
-            await websocket.send_text(notice.model_dump_json())
+            notice = await asyncio.wait_for(scans.next(), max(0.0, next_status - time.monotonic()))
+            await websocket.send_text(notice)  # a ScanSeen, as published
+        except SubscriberTooSlow:
+            await websocket.close(CLOSE_TRY_AGAIN, "too slow for the scans: reconnect")
+            return
         except TimeoutError:
             status_now = await status_of(services, wall)
             queue = await run_in_threadpool(waiting, services.db, wall_id)

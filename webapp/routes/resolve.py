@@ -82,7 +82,7 @@ async def _resolve(
             request, 410, "This code is no longer in use", resolution.problem, tag.wall_id
         )
     services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
-    services.scan_feed.publish(tag, visitor.id)
+    await services.scan_feed.publish(tag, visitor.id)
     return await app.on_scan(Scan(request, services, wall, tag, visitor, address))
 
 

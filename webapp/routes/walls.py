@@ -35,7 +35,9 @@ async def status_of(services: Services, wall: Wall) -> WallStatus:
     """The wall's version and state, and what each tile last reported."""
     version, state = await run_in_threadpool(read_state, services.db, wall.id)
     statuses = services.hub.tile_statuses(wall.id)
-    tiles = [TileStatusInfo.of(statuses.get(d.id) or TileStatus(d.id)) for d in wall.displays]
+    tiles = [
+        TileStatusInfo.of(statuses.get(d.id) or TileStatus(tile_id=d.id)) for d in wall.displays
+    ]
     return WallStatus(
         wall=wall.id, version=version, state=state.model_dump(mode="json"), tiles=tiles
     )

@@ -105,12 +105,14 @@ class Connection:
             async with self.hub.bus.subscribe(self.wall.id) as subscription:
                 await self.catch_up(hello)
                 if self.tile_id:
-                    self.hub.tile_connected(self.wall.id, self.tile_id, address_of(self.websocket))
+                    await self.hub.tile_connected(
+                        self.wall.id, self.tile_id, address_of(self.websocket)
+                    )
                 try:
                     await self.pump(subscription)
                 finally:
                     if self.tile_id:
-                        self.hub.tile_disconnected(self.wall.id, self.tile_id)
+                        await self.hub.tile_disconnected(self.wall.id, self.tile_id)
         except CloseConnection as close:
             await self.close(close.code, close.reason)
         except TimeoutError:
@@ -181,9 +183,9 @@ class Connection:
             if self.tile_id is None:
                 raise CloseConnection(CLOSE_POLICY, f"viewers may not send {message.type}")
             if isinstance(message, Ready):
-                self.hub.tile_ready(self.wall.id, self.tile_id, message.version)
+                await self.hub.tile_ready(self.wall.id, self.tile_id, message.version)
             elif isinstance(message, Applied):
-                self.hub.tile_applied(
+                await self.hub.tile_applied(
                     self.wall.id, self.tile_id, message.version, message.server_time
                 )
 

@@ -2,12 +2,13 @@
 
 When a room of phones scans the wall at once, each scan should cost a dictionary
 lookup, not a database transaction. A code's tag and its wall's active tag set are
-cached for ``ttl_s`` seconds (and dropped at once when this process changes tags or
-sets); the scans are queued and written by one INSERT every ``interval_s``. The
-rules themselves (live, in the active set) stay in :mod:`webapp.tags.registry`.
+cached for ``ttl_s`` seconds (and dropped at once when any process changes tags or
+sets: it says so on the bus); the scans are queued and written by one INSERT every
+``interval_s``. The rules themselves (live, in the active set) stay in :mod:`webapp.tags.registry`.
 
 Trade-offs, documented in ``docs/codes.md``: a change made by *another* server process
-reaches this one's cache within ``ttl_s``; scans queued when the process is killed
+reaches this one's cache as soon as its word does, and within ``ttl_s`` should the word
+be lost (a bus outage); scans queued when the process is killed
 hard (not stopped) are lost, at most ``interval_s`` worth.
 """
 
@@ -18,19 +19,21 @@ import hashlib
 import logging
 import threading
 import time
+import uuid
 from collections import OrderedDict
-from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
 from fastapi.concurrency import run_in_threadpool
+from pydantic import BaseModel
 from sqlalchemy import insert, select
 from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.database.connection import Database
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
+from webapp.engine.bus import BusUnavailable, EventBus, Subscription, follow
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import is_live, shown_in
 
@@ -55,15 +58,40 @@ class _Facts:
     loaded_at: float
 
 
-class CodeDirectory:
-    """Codes as the scan path needs them, from the database, cached for ``ttl_s``."""
+CODES = "codes"
+EVERY_WALL = "*"
+"""Codes changed is said on the bus's ``codes`` channel of no wall in particular."""
 
-    def __init__(self, db: Database, ttl_s: float = 2.0, max_codes: int = 10_000) -> None:
+
+class CodesChanged(BaseModel):
+    """Between processes: ``process`` changed tags or tag sets; drop what is cached."""
+
+    process: str
+
+
+class CodeDirectory:
+    """Codes as the scan path needs them, from the database, cached for ``ttl_s``.
+
+    :meth:`forget` drops the cache here and, through ``bus``, in every process that
+    :meth:`follow` s it; ``ttl_s`` bounds how stale a look-up is when that word is lost.
+    """
+
+    def __init__(
+        self,
+        db: Database,
+        ttl_s: float = 2.0,
+        max_codes: int = 10_000,
+        bus: EventBus | None = None,
+    ) -> None:
         self.db = db
         self.ttl_s = ttl_s
         self.max_codes = max_codes
+        self.bus = bus
+        self.process = uuid.uuid4().hex
         self._facts: OrderedDict[str, _Facts] = OrderedDict()
         self._generation = 0  # bumped by forget(): loads begun before it are not kept
+        self._loop: asyncio.AbstractEventLoop | None = None  # set while following
+        self._telling: set[asyncio.Task[None]] = set()
 
     async def resolve(self, code: str) -> Resolution:
         """The tag behind ``code`` and, if it does not work now, why."""
@@ -79,9 +107,45 @@ class CodeDirectory:
         return _judge(facts)
 
     def forget(self) -> None:
-        """Drop everything cached: tags or tag sets changed in this process."""
+        """Drop everything cached: tags or tag sets changed in this process. The other
+        processes are told (callable from a worker thread too), while :meth:`follow`
+        runs."""
+        self._drop()
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._tell_others)
+
+    def _drop(self) -> None:
         self._generation += 1
         self._facts.clear()
+
+    async def follow(self, opened: asyncio.Event | None = None) -> None:
+        """Hear the other processes' :meth:`forget` until cancelled (the app's lifespan)."""
+        if self.bus is None:
+            return
+        self._loop = asyncio.get_running_loop()
+        try:
+            await follow(self.bus, EVERY_WALL, CODES, self._heard, opened)
+        finally:
+            self._loop = None
+
+    def _heard(self, frame: str) -> None:
+        if CodesChanged.model_validate_json(frame).process != self.process:
+            self._drop()
+
+    def _tell_others(self) -> None:
+        task = asyncio.ensure_future(self._publish_changed())
+        self._telling.add(task)
+        task.add_done_callback(self._telling.discard)
+
+    async def _publish_changed(self) -> None:
+        if self.bus is None:
+            return
+        try:
+            await self.bus.publish(
+                EVERY_WALL, CodesChanged(process=self.process).model_dump_json(), CODES
+            )
+        except BusUnavailable as error:
+            log.warning("could not tell the other processes that codes changed: %s", error)
 
     def _load(self, code: str) -> _Facts:
         with self.db.session() as session:
@@ -180,21 +244,24 @@ def scans_of(db: Database, code: str) -> list[ScanRecord]:
         )
 
 
-class ScanFeed:
-    """Scans as they happen, for the dashboards connected to this process.
+SCANS = "scans"
+"""The bus channel of a wall's scans, for dashboards (see :mod:`webapp.engine.bus`)."""
 
-    Each dashboard has a bounded queue; a dashboard that does not keep up misses
-    notices rather than slowing the scan path down.
+
+class ScanFeed:
+    """Scans as they happen, for the dashboards of the wall, on any process: each scan
+    goes on the wall's ``scans`` channel of the bus.
+
+    Each dashboard has a bounded subscription; one that does not keep up is dropped
+    (its page says so) rather than slowing the scan path down.
     """
 
-    def __init__(self, maxsize: int = 100) -> None:
-        self.maxsize = maxsize
-        self._queues: dict[str, set[asyncio.Queue[ScanSeen]]] = {}
+    def __init__(self, bus: EventBus) -> None:
+        self.bus = bus
 
-    def publish(self, tag: TagRecord, visitor_id: str) -> None:
-        queues = self._queues.get(tag.wall_id)
-        if not queues:
-            return
+    async def publish(self, tag: TagRecord, visitor_id: str) -> None:
+        """Tell the wall's dashboards; a bus that does not answer loses the notice only
+        (the scan is recorded)."""
         notice = ScanSeen(
             wall=tag.wall_id,
             code=tag.code,
@@ -203,15 +270,11 @@ class ScanFeed:
             visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
             at=time.time_ns() // 1_000_000,
         )
-        for queue in queues:
-            if queue.qsize() < self.maxsize:
-                queue.put_nowait(notice)
-
-    @contextmanager
-    def subscribe(self, wall_id: str) -> Iterator[asyncio.Queue[ScanSeen]]:
-        queue: asyncio.Queue[ScanSeen] = asyncio.Queue()
-        self._queues.setdefault(wall_id, set()).add(queue)
         try:
-            yield queue
-        finally:
-            self._queues[wall_id].discard(queue)
+            await self.bus.publish(tag.wall_id, notice.model_dump_json(), SCANS)
+        except BusUnavailable as error:
+            log.warning("wall %s: a scan not shown on dashboards: %s", tag.wall_id, error)
+
+    def subscribe(self, wall_id: str) -> AbstractAsyncContextManager[Subscription]:
+        """The wall's scans as ``ScanSeen`` frames (JSON text), from any process."""
+        return self.bus.subscribe(wall_id, SCANS)

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import threading
-from collections.abc import Iterator
+from collections.abc import AsyncIterator, Iterator
 from datetime import UTC, datetime, timedelta
 
 import pytest
@@ -16,8 +17,11 @@ from tests.conftest import tag_spec
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.models import TagRecord, WallStateRecord
+from webapp.database.redis import connect_redis
+from webapp.engine.bus import EventBus, MemoryBus, RedisBus, cancel_and_wait
+from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import issue
-from webapp.tags.scanning import CodeDirectory, ScanLog, scans_of
+from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog, scans_of
 
 
 def switch_off(db: Database, code: str) -> None:
@@ -150,3 +154,62 @@ def test_the_queue_is_bounded(db: Database) -> None:
     for index in range(10):
         log.record(tag, f"v{index}", "a", "ua")
     assert log.flush() == 3
+
+
+# --- what the processes of one installation tell each other through the bus -----------
+
+
+@pytest.fixture(params=["memory", "redis"])
+async def two_buses(request: pytest.FixtureRequest) -> AsyncIterator[tuple[EventBus, EventBus]]:
+    """Two processes' buses on one Redis (their own clients), or one process's bus twice."""
+    if request.param == "memory":
+        bus = MemoryBus(64)
+        yield bus, bus
+        return
+    url, prefix = request.getfixturevalue("redis_server"), request.getfixturevalue("redis_prefix")
+    buses = [RedisBus(connect_redis(url), prefix, queue_size=64, max_len=100) for _ in range(2)]
+    yield buses[0], buses[1]
+    for redis_bus in buses:
+        await redis_bus.close()
+        await redis_bus.redis.aclose()
+
+
+async def test_a_scan_taken_by_one_process_shows_on_a_dashboard_of_another(
+    db: Database, two_buses: tuple[EventBus, EventBus]
+) -> None:
+    taking, showing = ScanFeed(two_buses[0]), ScanFeed(two_buses[1])
+    tag = issue(db, "demo", tag_spec(), "test")
+    other = issue(db, "other", tag_spec(), "test")
+    async with showing.subscribe("demo") as dashboard:
+        await taking.publish(other, "visitor-2")  # another wall's: not shown here
+        await taking.publish(tag, "visitor-1")
+        async with asyncio.timeout(30):
+            notice = ScanSeen.model_validate_json(await dashboard.next())
+    assert (notice.wall, notice.code, notice.label) == ("demo", tag.code, tag.label)
+    assert notice.visitor != "visitor-1" and len(notice.visitor) == 6
+
+
+async def test_codes_forgotten_in_one_process_are_forgotten_in_another(
+    db: Database, two_buses: tuple[EventBus, EventBus]
+) -> None:
+    """The cache holds a minute here: only the word from the other process drops it."""
+    changing = CodeDirectory(db, ttl_s=60.0, bus=two_buses[0])
+    other = CodeDirectory(db, ttl_s=60.0, bus=two_buses[1])
+    opened = [asyncio.Event(), asyncio.Event()]
+    following = [
+        asyncio.create_task(codes.follow(event))
+        for codes, event in zip((changing, other), opened, strict=True)
+    ]
+    try:
+        for event in opened:
+            await event.wait()
+        tag = issue(db, "demo", tag_spec(), "test")
+        assert (await other.resolve(tag.code)).problem is None
+        switch_off(db, tag.code)
+        assert (await other.resolve(tag.code)).problem is None, "cached"
+        await asyncio.to_thread(changing.forget)  # as the door does, in a worker thread
+        async with asyncio.timeout(30):
+            while (await other.resolve(tag.code)).problem is None:
+                await asyncio.sleep(0.02)
+    finally:
+        await cancel_and_wait(*following)
