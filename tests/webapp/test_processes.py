@@ -12,6 +12,7 @@ import json
 import os
 import signal
 import sys
+import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack
 from pathlib import Path
@@ -37,6 +38,14 @@ class Tile:
         self.socket.send(json.dumps({"type": "hello", "last_version": last_version}))
         self.version = last_version
         self.frames: dict[int, str] = {}  # version -> the frame that brought it
+        self.answers_ready = True  # False: the test says ready itself (a slow tile)
+
+    def swap_of(self, version: int, timeout: float = 30) -> int:
+        """Read on to the swap of the heavy change ``version``; its ``apply_at``."""
+        while True:
+            message = json.loads(str(self.socket.recv(timeout=timeout)))
+            if message["type"] == "swap" and message["version"] == version:
+                return int(message["apply_at"])
 
     def follow(self, until: int, timeout: float = 60) -> None:
         """Read until the tile is at version ``until``; each change must come next."""
@@ -51,8 +60,11 @@ class Tile:
                 assert message["version"] == self.version + 1, (self.tile_id, raw)
                 self.version = message["version"]
                 self.frames[self.version] = raw
-                if kind == "prepare":
-                    self.socket.send(json.dumps({"type": "ready", "version": self.version}))
+                if kind == "prepare" and self.answers_ready:
+                    self.ready(self.version)
+
+    def ready(self, version: int) -> None:
+        self.socket.send(json.dumps({"type": "ready", "version": version}))
 
 
 @pytest.fixture
@@ -76,6 +88,7 @@ def start(tmp_path: Path, name: str, database_url: str, redis: dict[str, str]) -
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
             "TAGWALL_APPLY_LEAD_MS": "100",
+            "TAGWALL_SWAP_TIMEOUT_MS": "60000",  # a barrier that does not hear a tile shows
             **redis,
         },
     )
@@ -120,6 +133,21 @@ def test_tiles_on_either_process_get_every_change_in_order_and_in_step(
     for version in acknowledged:
         frames = {tile.frames[version] for tile in shown}
         assert len(frames) == 1, f"v{version}: every tile gets the same frame (one apply_at)"
+
+    # A heavy change waits for every tile's ready, on either process, then swaps them all
+    # at one instant: after the slowest tile (on the other process) said ready, and well
+    # before the (long) swap timeout, which would mean a tile went unheard.
+    slow = shown[-1]
+    slow.answers_ready = False
+    heavy = first.change("demo", {"app": "census"})
+    for tile in shown:
+        tile.follow(heavy)
+    time.sleep(1.5)
+    slow_ready_ms = time.time() * 1000
+    slow.ready(heavy)
+    swaps = {tile.swap_of(heavy, timeout=30) for tile in shown}
+    assert len(swaps) == 1, "one swap instant for the tiles of both processes"
+    assert swaps.pop() > slow_ready_ms, "the swap waited for the tile on the other process"
 
 
 def test_a_process_killed_mid_session_loses_no_acknowledged_change(
