@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -28,7 +27,14 @@ from webapp.apps.builtin import builtin_apps
 from webapp.database.connection import Database, database_problem, is_outage
 from webapp.database.redis import connect_redis
 from webapp.deps import DEPENDENCY_ERRORS
-from webapp.engine.bus import BusUnavailable, EventBus, MemoryBus, RedisBus, WallBusy
+from webapp.engine.bus import (
+    BusUnavailable,
+    EventBus,
+    MemoryBus,
+    RedisBus,
+    WallBusy,
+    cancel_and_wait,
+)
 from webapp.engine.changes import open_wall
 from webapp.engine.hub import WallHub
 from webapp.markdown import markdown_html, markdown_inline
@@ -95,11 +101,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             asyncio.create_task(services.codes.follow()),
         ]
         yield
-        for task in tasks:
-            task.cancel()
-        for task in tasks:
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await cancel_and_wait(*tasks)
         await run_in_threadpool(services.scan_log.flush)
         await hub.close()
         if redis is not None:

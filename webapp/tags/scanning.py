@@ -33,7 +33,7 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.database.connection import Database
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
-from webapp.engine.bus import BusUnavailable, EventBus, Subscription, follow
+from webapp.engine.bus import BusUnavailable, EventBus, Subscription, cancel_and_wait, follow
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import is_live, shown_in
 
@@ -127,6 +127,7 @@ class CodeDirectory:
             await follow(self.bus, EVERY_WALL, CODES, self._heard, opened)
         finally:
             self._loop = None
+            await cancel_and_wait(*self._telling)
 
     def _heard(self, frame: str) -> None:
         if CodesChanged.model_validate_json(frame).process != self.process:
