@@ -359,6 +359,13 @@ def test_several_workers_without_what_they_share_refuse_to_start(env: dict[str, 
         "error: TAGWALL_WORKERS=2 needs TAGWALL_BUS=redis: the memory bus reaches the tiles "
         "of one process only"
     )
-    line = refused({**env, "TAGWALL_BUS": "redis", "TAGWALL_WORKERS": "3"}, "serve")
+    sqlite = f"sqlite:///{env['TAGWALL_VAR_DIR']}/tagwall.db"  # whichever database the suite uses
+    on_sqlite = {
+        **env,
+        "TAGWALL_BUS": "redis",
+        "TAGWALL_WORKERS": "3",
+        "TAGWALL_DATABASE_URL": sqlite,
+    }
+    line = refused(on_sqlite, "serve")
     assert line.startswith("error: TAGWALL_WORKERS=3 needs PostgreSQL")
     assert refused({**env, "TAGWALL_WORKERS": "0"}, "serve").startswith("error: TAGWALL_WORKERS: ")
