@@ -389,28 +389,15 @@ def memory_mb(pids: Sequence[int]) -> dict[str, float]:
 
 
 @contextlib.contextmanager
-def fresh_database(base_url: str | None, scratch: Path) -> Iterator[str]:
+def bench_database(base_url: str | None, scratch: Path) -> Iterator[str]:
     """SQLite in ``scratch``, or a new PostgreSQL database on ``base_url``'s server,
-    dropped afterwards (as the tests' ``database_url`` fixture does)."""
-    if not base_url:
-        yield f"sqlite:///{scratch / 'tagwall.db'}"
-        return
-    if not base_url.startswith("postgresql"):
-        raise SystemExit(f"--database-url: a postgresql+psycopg:// URL, not {base_url}")
-    from sqlalchemy import create_engine, text
-    from sqlalchemy.engine import make_url
+    dropped afterwards."""
+    from webapp.testing import fresh_database
 
-    base = make_url(base_url)
-    name = f"tagwall_bench_{uuid.uuid4().hex[:12]}"
-    admin = create_engine(base, isolation_level="AUTOCOMMIT")
-    with admin.connect() as connection:
-        connection.execute(text(f'CREATE DATABASE "{name}"'))
-    try:
-        yield base.set(database=name).render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
+    if base_url and not base_url.startswith("postgresql"):
+        raise SystemExit(f"--database-url: a postgresql+psycopg:// URL, not {base_url}")
+    with fresh_database(base_url or "", scratch, name="tagwall_bench") as url:
+        yield url
 
 
 def hall_codes(database_url: str) -> HallCodes:
@@ -586,7 +573,7 @@ def measure(scenario: Scenario) -> dict[str, Any]:
     context = multiprocessing.get_context("spawn")
     with (
         tempfile.TemporaryDirectory(prefix="tagwall-hall-") as scratch,
-        fresh_database(scenario.database_url, Path(scratch)) as database_url,
+        bench_database(scenario.database_url, Path(scratch)) as database_url,
     ):
         upgrade(database_url)
         server = ServerProcess(

@@ -26,8 +26,6 @@ import pytest
 from fastapi import FastAPI
 from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
-from sqlalchemy import create_engine, text
-from sqlalchemy.engine import make_url
 
 from webapp.app import create_app
 from webapp.database.connection import Database
@@ -36,7 +34,7 @@ from webapp.people.accounts import add_account
 from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
 from webapp.tags.registry import TagSpec, wall_tags
-from webapp.testing import wait_until
+from webapp.testing import fresh_database, wait_until
 from webapp.volume.build import build_store, open_source
 
 TEST_SECRET = "test-secret-key-not-for-production"
@@ -215,20 +213,8 @@ def redis_cable(redis_server: str) -> Iterator[RedisCable]:
 
 @pytest.fixture
 def database_url(tmp_path: Path) -> Iterator[str]:
-    if not POSTGRES_URL:
-        yield f"sqlite:///{tmp_path / 'tagwall.db'}"
-        return
-    base = make_url(POSTGRES_URL)
-    name = f"tagwall_test_{uuid.uuid4().hex[:12]}"
-    admin = create_engine(base, isolation_level="AUTOCOMMIT")
-    with admin.connect() as connection:
-        connection.execute(text(f'CREATE DATABASE "{name}"'))
-    try:
-        yield base.set(database=name).render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
-        admin.dispose()
+    with fresh_database(POSTGRES_URL, tmp_path) as url:
+        yield url
 
 
 @pytest.fixture

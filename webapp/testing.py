@@ -11,12 +11,16 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+import uuid
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import httpx
+from sqlalchemy import create_engine, text
+from sqlalchemy.engine import make_url
 
 from webapp.people.security import operator_token, tile_token
 from webapp.urls import tile_path
@@ -167,3 +171,23 @@ def skewed_clock(skew_ms: int) -> str:
         f"(() => {{ const now = Date.now.bind(Date); const skew = {skew_ms};"
         " Date.now = () => now() + skew; })();"
     )
+
+
+@contextmanager
+def fresh_database(postgres_url: str, folder: Path, name: str = "tagwall_test") -> Iterator[str]:
+    """A database of its own: SQLite in ``folder``, or, given a PostgreSQL URL, a new
+    database on that server, dropped afterwards (tests and benchmarks never share one)."""
+    if not postgres_url:
+        yield f"sqlite:///{folder / 'tagwall.db'}"
+        return
+    base = make_url(postgres_url)
+    database = f"{name}_{uuid.uuid4().hex[:12]}"
+    admin = create_engine(base, isolation_level="AUTOCOMMIT")
+    with admin.connect() as connection:
+        connection.execute(text(f'CREATE DATABASE "{database}"'))
+    try:
+        yield base.set(database=database).render_as_string(hide_password=False)
+    finally:
+        with admin.connect() as connection:
+            connection.execute(text(f'DROP DATABASE IF EXISTS "{database}" WITH (FORCE)'))
+        admin.dispose()
