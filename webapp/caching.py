@@ -14,13 +14,18 @@ IMMUTABLE = "public, max-age=31536000, immutable"
 the name changes whenever the content would."""
 
 
+def _one(_: object) -> int:
+    return 1
+
+
 class SizedCache(Generic[T]):
     """Entries by key, least recently used dropped first once their sizes pass
-    ``max_bytes``: a reloaded tile, the overview and several viewers ask for the same
-    renders, which cost far more to make than to keep."""
+    ``max_size`` (bytes, or by default a count): a reloaded tile, the overview and
+    several viewers ask for the same renders, a class's phones for the same hints,
+    which cost far more to make than to keep. Safe to share between threads."""
 
-    def __init__(self, max_bytes: int, size: Callable[[T], int]) -> None:
-        self.max_bytes = max_bytes
+    def __init__(self, max_size: int, size: Callable[[T], int] = _one) -> None:
+        self.max_size = max_size
         self._size = size
         self._entries: OrderedDict[Hashable, T] = OrderedDict()
         self._bytes = 0
@@ -39,6 +44,6 @@ class SizedCache(Generic[T]):
                 return
             self._entries[key] = entry
             self._bytes += self._size(entry)
-            while self._bytes > self.max_bytes and self._entries:
+            while self._bytes > self.max_size and self._entries:
                 _, dropped = self._entries.popitem(last=False)
                 self._bytes -= self._size(dropped)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -34,6 +35,7 @@ from webapp.apps.brain_atlas.rules import (
     pin_tag,
 )
 from webapp.apps.brain_atlas.views import ViewPreset, load_views
+from webapp.caching import SizedCache
 from webapp.engine.wall_state import WallState
 from webapp.people.roles import UserGroup
 from webapp.publishing import Block, Publication
@@ -50,6 +52,18 @@ PIN_CLEARANCE_OF_CODE = 0.75
 """How far a pin's code stands from the point it marks, in code sides."""
 PLACED_KEPT = 64
 """Placement previews kept (views x sets x rounds x walls), for the phones' hints."""
+GUIDES_KEPT = 64
+"""Round guides kept (sets x layouts x walls): a class's phones ask for the same few."""
+
+
+@dataclass(frozen=True)
+class RoundGuide:
+    """A round's pins of one set as the phones' hints need them: each pin's code, the
+    preset views whose placement puts it on the wall, and those on the wall now."""
+
+    codes: dict[int, str]
+    views: dict[int, list[str]]
+    on_wall: frozenset[int]
 
 
 class BrainApp:
@@ -66,7 +80,8 @@ class BrainApp:
         self._keys: dict[TagSetName, AnswerKey] = {}
         self._volumes: AtlasVolumes | None = None
         self._pubmed: PubMed | None = None
-        self._placed: dict[str, set[str]] = {}  # preview digest -> tag names placed
+        self._placed: SizedCache[frozenset[str]] = SizedCache(PLACED_KEPT)
+        self._guides: SizedCache[RoundGuide] = SizedCache(GUIDES_KEPT)
         self.pin_cache = PinCache()
 
     # --- content, loaded on first use ------------------------------------------------
@@ -128,7 +143,49 @@ class BrainApp:
             return None
         return get_round(services.db, wall_id, state.quiz_round)
 
-    def pin_views(
+    def guide(
+        self,
+        services: Services,
+        wall: Wall,
+        quiz_round: Round,
+        tag_set: TagSetName,
+        state: WallState,
+    ) -> RoundGuide:
+        """Where the round's pins of ``tag_set`` are, for the phones' hints; one per
+        layout of the wall. Every change of the wall's tags (a round's pins declared, a
+        tag issued, a view turned) places them anew, so a new ``state.tag_layout``."""
+        key = (wall.id, quiz_round.number, tag_set, state.tag_layout, services.base_url)
+        found = self._guides.get(key)
+        if found is None:
+            found = self._guide(services, wall, quiz_round, tag_set, state)
+            self._guides.put(key, found)
+        return found
+
+    def _guide(
+        self,
+        services: Services,
+        wall: Wall,
+        quiz_round: Round,
+        tag_set: TagSetName,
+        state: WallState,
+    ) -> RoundGuide:
+        layout = get_layout(services.db, wall.id, state.tag_layout) if state.tag_layout else None
+        placed = {code["code"] for code in layout.placed} if layout is not None else set()
+        pins = {
+            int(tag.params["pin"]): tag.code
+            for tag in wall_tags(services.db, wall.id)
+            if tag.app == APP
+            and tag.action == "pin"
+            and tag.params.get("set") == tag_set
+            and tag.params.get("round") == quiz_round.number
+        }
+        return RoundGuide(
+            codes=pins,
+            views=self._pin_views(services, wall, quiz_round, tag_set),
+            on_wall=frozenset(number for number, code in pins.items() if code in placed),
+        )
+
+    def _pin_views(
         self, services: Services, wall: Wall, quiz_round: Round, tag_set: TagSetName
     ) -> dict[int, list[str]]:
         """Per pin number, the names of the preset views in which its code stands on
@@ -136,7 +193,7 @@ class BrainApp:
         its code). Phones send students only where they can scan the pin.
 
         Each view is placed as the wall would place it (``webapp.tags.registry.preview``), and
-        the outcome is kept by its inputs' digest, so it is computed once per round."""
+        the outcome is kept by its inputs' digest: the views of another round place alike."""
         where: dict[int, list[str]] = {}
         for preset in self.views:
             state = WallState(
@@ -149,14 +206,10 @@ class BrainApp:
             )
             specs = self.declare_tags(services, wall, state)
             planned = preview(services.db, wall, TAG_SETS[tag_set], services.base_url, APP, specs)
-            with self._lock:
-                placed = self._placed.get(planned.digest)
+            placed = self._placed.get(planned.digest)
             if placed is None:
-                placed = planned.placed_names()
-                with self._lock:
-                    if len(self._placed) >= PLACED_KEPT:
-                        self._placed.pop(next(iter(self._placed)))
-                    self._placed[planned.digest] = placed
+                placed = frozenset(planned.placed_names())
+                self._placed.put(planned.digest, placed)
             for spec in specs:
                 if (
                     spec.name in placed
@@ -165,16 +218,6 @@ class BrainApp:
                 ):
                     where.setdefault(int(spec.params["pin"]), []).append(preset.name)
         return where
-
-    def pins_on_wall(self, services: Services, wall: Wall, state: WallState) -> dict[str, set[int]]:
-        """Per set, the numbers of the pins whose codes stand on the wall now."""
-        layout = get_layout(services.db, wall.id, state.tag_layout) if state.tag_layout else None
-        placed = {code["code"] for code in layout.placed} if layout is not None else set()
-        found: dict[str, set[int]] = {}
-        for tag in wall_tags(services.db, wall.id):
-            if tag.app == APP and tag.action == "pin" and tag.code in placed:
-                found.setdefault(str(tag.params.get("set")), set()).add(int(tag.params["pin"]))
-        return found
 
     def preset(self, preset_id: str) -> ViewPreset | None:
         return next((v for v in self.views if v.id == preset_id), None)

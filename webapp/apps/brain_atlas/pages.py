@@ -39,11 +39,11 @@ from webapp.markdown import markdown_html
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.roles import USER_GROUPS, UserGroup
 from webapp.people.visitors import Visitor
-from webapp.tags.registry import find, wall_tags
+from webapp.tags.registry import find
 from webapp.templating import render
 
 if TYPE_CHECKING:
-    from webapp.apps.brain_atlas.app import BrainApp
+    from webapp.apps.brain_atlas.app import BrainApp, RoundGuide
     from webapp.services import Services
 
 SUMMARY_PARAGRAPHS = 2  # of a tutor text, on the phone; the public screen shows it all
@@ -67,6 +67,10 @@ class Pin:
 class RoundChanged(Exception):
     """The pin's code belongs to an earlier round (or the quiz has none yet)."""
 
+    def __init__(self, tag: TagRecord) -> None:
+        super().__init__(tag.code)
+        self.tag = tag
+
 
 def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
     """A brain pin of this wall by its code (switched off ones too: a pin the wall no
@@ -83,18 +87,25 @@ async def wall_state(services: Services, wall: Wall) -> WallState:
     return state
 
 
+def current_round(app: BrainApp, services: Services, wall: Wall) -> tuple[WallState, Round | None]:
+    """The wall's state and the quiz round it names (runs in a worker thread: a page
+    does its database work in one hop, each hop costs a phone's request time)."""
+    _, state = read_state(services.db, wall.id)
+    return state, app.round_on_wall(services, wall.id, state)
+
+
 async def round_now(
     app: BrainApp, services: Services, wall: Wall
 ) -> tuple[WallState, Round | None]:
-    state = await wall_state(services, wall)
-    return state, await run_in_threadpool(app.round_on_wall, services, wall.id, state)
+    return await run_in_threadpool(current_round, app, services, wall)
 
 
-async def pin_of(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Pin:
-    """What ``tag`` marks in the round on the wall; RoundChanged for an old round's."""
-    state, quiz_round = await round_now(app, services, wall)
+def pin_of(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Pin:
+    """What ``tag`` marks in the round on the wall; RoundChanged for an old round's
+    (in a worker thread)."""
+    state, quiz_round = current_round(app, services, wall)
     if quiz_round is None or tag.params.get("round") != quiz_round.number:
-        raise RoundChanged
+        raise RoundChanged(tag)
     tag_set: TagSetName = "k5" if tag.params.get("set") == "k5" else "full"
     number = int(tag.params.get("pin", 0))
     region = app.pins(quiz_round, tag_set).get(number)
@@ -119,7 +130,7 @@ async def tutor_subject(
     """The region a pin shows in tutor mode; None while a quiz round runs (then no
     pin may be named anywhere) or for an earlier round's code."""
     try:
-        pin = await pin_of(app, services, wall, tag)
+        pin = await run_in_threadpool(pin_of, app, services, wall, tag)
     except RoundChanged:
         return None
     if pin.state.app != APP or mode_of(pin.state) != "tutor" or pin.round.open:
@@ -152,27 +163,32 @@ async def pin_page(
     """A scanned pin: the quiz question, the region's tutor page, or word that a new
     round has started."""
     try:
-        pin = await pin_of(app, services, wall, tag)
+        pin, now = await run_in_threadpool(pin_and_progress, app, services, wall, tag, person)
     except RoundChanged:
         return round_changed_page(request, wall, tag)
     if mode_of(pin.state) == "tutor":
         return await tutor_page(app, request, services, wall, tag, person)
-    return await question_page(app, request, services, wall, pin, person)
+    return question_page(app, request, wall, pin, now, person)
 
 
-async def question_page(
+def pin_and_progress(
+    app: BrainApp, services: Services, wall: Wall, tag: TagRecord, person: Person
+) -> tuple[Pin, Progress]:
+    """The pin and how far the visitor is in its round (in a worker thread)."""
+    pin = pin_of(app, services, wall, tag)
+    return pin, progress(services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+
+
+def question_page(
     app: BrainApp,
     request: Request,
-    services: Services,
     wall: Wall,
     pin: Pin,
+    now: Progress,
     person: Person,
     problem: str | None = None,
     status_code: int = 200,
 ) -> Response:
-    now = await run_in_threadpool(
-        progress, services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set
-    )
     mine = now.answers.get(pin.region.id)
     shown = pin.round.names_shown(now.finished)
     return render(
@@ -206,17 +222,31 @@ async def answer(
     text: str,
 ) -> Response:
     """Store the visitor's answer, judged now, and go on to their progress."""
-    tag = await run_in_threadpool(tag_of, services, wall, code)
     try:
-        pin = await pin_of(app, services, wall, tag)
-    except RoundChanged:
-        return round_changed_page(request, wall, tag, status.HTTP_409_CONFLICT)
+        pin, refused = await run_in_threadpool(
+            store_answer, app, services, wall, code, person, text
+        )
+    except RoundChanged as changed:
+        return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
+    if refused is not None:
+        now, problem = refused
+        return question_page(
+            app, request, wall, pin, now, person, problem, status.HTTP_422_UNPROCESSABLE_CONTENT
+        )
+    return progress_redirect(wall, pin.tag_set)
+
+
+def store_answer(
+    app: BrainApp, services: Services, wall: Wall, code: str, person: Person, text: str
+) -> tuple[Pin, tuple[Progress, str] | None]:
+    """Judge and store an answer to the pin of ``code`` (in a worker thread); when the
+    quiz refuses it, the visitor's progress and why."""
+    pin = pin_of(app, services, wall, tag_of(services, wall, code))
     correct = app.answer_key(pin.tag_set).judge(pin.region.id, text[:1_000])
     try:
         if mode_of(pin.state) != "quiz":
             raise QuizError("The wall is in tutor mode: answers are taken in quiz mode only.")
-        await run_in_threadpool(
-            record_answer,
+        record_answer(
             services.db,
             wall.id,
             pin.round.number,
@@ -227,17 +257,9 @@ async def answer(
             correct,
         )
     except QuizError as error:
-        return await question_page(
-            app,
-            request,
-            services,
-            wall,
-            pin,
-            person,
-            str(error),
-            status.HTTP_422_UNPROCESSABLE_CONTENT,
-        )
-    return progress_redirect(wall, pin.tag_set)
+        now = progress(services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+        return pin, (now, str(error))
+    return pin, None
 
 
 def progress_redirect(wall: Wall, tag_set: TagSetName) -> Response:
@@ -254,12 +276,10 @@ async def revealed(
             status.HTTP_403_FORBIDDEN,
             "Only instructors see answers early: students see them when the round closes.",
         )
-    tag = await run_in_threadpool(tag_of, services, wall, code)
     try:
-        pin = await pin_of(app, services, wall, tag)
-    except RoundChanged:
-        return round_changed_page(request, wall, tag, status.HTTP_409_CONFLICT)
-    where = await run_in_threadpool(app.pin_views, services, wall, pin.round, pin.tag_set)
+        pin, guide = await run_in_threadpool(pin_and_guide, app, services, wall, code)
+    except RoundChanged as changed:
+        return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     return render(
         request,
         "brain/revealed.html",
@@ -267,8 +287,16 @@ async def revealed(
         number=pin.number,
         tag_set=pin.tag_set,
         region=pin.region,
-        views=where.get(pin.number, []),
+        views=guide.views.get(pin.number, []),
     )
+
+
+def pin_and_guide(
+    app: BrainApp, services: Services, wall: Wall, code: str
+) -> tuple[Pin, RoundGuide]:
+    """A pin by its code and its round's guide (in a worker thread)."""
+    pin = pin_of(app, services, wall, tag_of(services, wall, code))
+    return pin, app.guide(services, wall, pin.round, pin.tag_set, pin.state)
 
 
 # --- the quiz as a whole -------------------------------------------------------------
@@ -285,19 +313,14 @@ async def progress_page(
 ) -> Response:
     """How far the visitor is and where the open pins are; the correct names when
     the round's rule says so."""
-    state, quiz_round = await round_now(app, services, wall)
-    if quiz_round is None:
+    facts = await run_in_threadpool(progress_facts, app, services, wall, person, tag_set)
+    if facts is None:
         return render(request, "brain/no_round.html", wall=wall)
-    now = await run_in_threadpool(
-        progress, services.db, wall.id, quiz_round.number, person.visitor.id, tag_set
-    )
+    state, quiz_round, now, guide = facts
     shown = quiz_round.names_shown(now.finished)
-    codes = await run_in_threadpool(pin_codes, services, wall, quiz_round.number, tag_set)
-    where = await run_in_threadpool(app.pin_views, services, wall, quiz_round, tag_set)
-    on_wall_now = await run_in_threadpool(app.pins_on_wall, services, wall, state)
     numbered = app.pins(quiz_round, tag_set)
     rows = [
-        _row(now, number, region, codes.get(number), where.get(number, []), shown)
+        _row(now, number, region, guide.codes.get(number), guide.views.get(number, []), shown)
         for number, region in sorted(numbered.items())
     ]
     open_pins = [row["number"] for row in rows if row["answer"] is None]
@@ -321,23 +344,22 @@ async def progress_page(
         answered=len(now.answers),
         right=sum(1 for a in now.answers.values() if a.correct),
         total=len(numbered),
-        open_now=[n for n in open_pins if showing_set and n in on_wall_now.get(tag_set, set())],
+        open_now=[n for n in open_pins if showing_set and n in guide.on_wall],
         by_view=by_view,
         problem=problem,
     )
 
 
-def pin_codes(services: Services, wall: Wall, round_number: int, tag_set: str) -> dict[int, str]:
-    """The codes of a round's pins of a set on this wall, by pin number (the pins
-    declared so far: each got its code when a view first showed it)."""
-    return {
-        int(tag.params["pin"]): tag.code
-        for tag in wall_tags(services.db, wall.id)
-        if tag.app == APP
-        and tag.action == "pin"
-        and tag.params.get("set") == tag_set
-        and tag.params.get("round") == round_number
-    }
+def progress_facts(
+    app: BrainApp, services: Services, wall: Wall, person: Person, tag_set: TagSetName
+) -> tuple[WallState, Round, Progress, RoundGuide] | None:
+    """What the progress page shows, read in one worker-thread hop; None before the
+    quiz's first round."""
+    state, quiz_round = current_round(app, services, wall)
+    if quiz_round is None:
+        return None
+    now = progress(services.db, wall.id, quiz_round.number, person.visitor.id, tag_set)
+    return state, quiz_round, now, app.guide(services, wall, quiz_round, tag_set, state)
 
 
 def _row(

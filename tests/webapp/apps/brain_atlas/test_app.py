@@ -367,6 +367,22 @@ def test_my_quiz_sends_students_only_to_views_where_the_pin_has_a_code(
     )
 
 
+def test_my_quiz_follows_each_turn_of_the_view(on_wall: TestClient) -> None:
+    """The hints are kept per layout of the wall (a class's phones ask for the same
+    few): each turn of the view places the codes anew, and the page says so."""
+    register_student(on_wall)
+    seen = set()
+    for preset in brain(on_wall).views:
+        control(on_wall, preset=preset.id)
+        page = on_wall.get("/apps/brain/demo/quiz/full").text
+        shown = re.search(r'id="open-now">On the wall now: ([^<]+)</p>', page)
+        placed = set(pins_on_wall(on_wall, "full"))
+        now = {int(n.removeprefix("pin ")) for n in shown.group(1).split(", ")} if shown else set()
+        assert now == placed, preset.name
+        seen.add(frozenset(now))
+    assert len(seen) > 1, "the views place different pins"
+
+
 def test_a_round_starts_with_the_brain_and_pin_one_is_not_always_the_same_region(
     client: TestClient,
 ) -> None:
