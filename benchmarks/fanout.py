@@ -40,7 +40,6 @@ import asyncio
 import itertools
 import json
 import multiprocessing
-import os
 import statistics
 import sys
 import tempfile
@@ -56,6 +55,7 @@ from typing import Any
 
 import httpx
 
+from benchmarks.measuring import POSTGRES_URL, REDIS_URL, cpu_seconds, percentile, unreachable
 from webapp.testing import ServerProcess, free_port
 
 WALL = "hiperwall"
@@ -65,20 +65,9 @@ EVENTS = 300
 EVENT_INTERVAL_S = 0.02
 APPLY_LEAD_MS = 250  # the floors stamp with the same lead (benchmarks.floors)
 SECRET = "benchmark-secret-key-0123456789"
-REDIS_URL = "redis://127.0.0.1:6379/0"
-POSTGRES_URL = "postgresql+psycopg://postgres@127.0.0.1:5432/postgres"
 FLOORS = ("starlette", "websockets")
 GOALS = {"p99_ms_at_50": 5.0, "cpu_us_per_delivery": 10.0}
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def cpu_seconds(pids: Sequence[int]) -> float:
-    """User + system CPU time of the processes (Linux ``/proc``)."""
-    total = 0
-    for pid in pids:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        total += int(fields[11]) + int(fields[12])
-    return total / os.sysconf("SC_CLK_TCK")
 
 
 # --- clients -----------------------------------------------------------------------------
@@ -250,28 +239,6 @@ def tagwall_redis(scratch: Path, redis_url: str, postgres_url: str) -> Iterator[
                 redis.delete(key)
 
 
-def unreachable(redis_url: str, postgres_url: str) -> str | None:
-    """Why Redis or PostgreSQL cannot serve the two-process target here, or None."""
-    from redis import Redis, RedisError
-    from sqlalchemy import create_engine
-    from sqlalchemy.exc import DBAPIError
-
-    try:
-        with Redis.from_url(redis_url, socket_connect_timeout=3) as redis:
-            redis.ping()
-    except RedisError as error:
-        return f"Redis at {redis_url} does not answer: {error}"
-    engine = create_engine(postgres_url, connect_args={"connect_timeout": 3})
-    try:
-        with engine.connect():
-            pass
-    except DBAPIError as error:
-        return f"PostgreSQL at {postgres_url} does not answer: {' '.join(str(error.orig).split())}"
-    finally:
-        engine.dispose()
-    return None
-
-
 # --- measuring ---------------------------------------------------------------------------
 
 
@@ -286,11 +253,6 @@ def publish_stream(target: Target, events: int) -> float:
             if pause > 0:
                 time.sleep(pause)
         return cpu_seconds(target.pids) - before
-
-
-def percentile(values: list[float], fraction: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(fraction * len(ordered)))]
 
 
 def spread(values: list[float]) -> dict[str, float]:

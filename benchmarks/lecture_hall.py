@@ -31,8 +31,9 @@ address are lifted (``LIMIT_SETTINGS``, recorded in the result).
 ``make bench`` runs ``RUNS``; ``python -m benchmarks.lecture_hall --help`` runs one
 scenario with other parameters (phones, period, workers, database, bus) and can
 record a py-spy profile of the server meanwhile. Several workers need PostgreSQL and
-``--bus redis`` (the server refuses otherwise); until a Redis bus exists, the tiles
-of one worker get only the events that worker published (``incomplete_events``).
+``--bus redis`` (the server refuses otherwise); every tile then gets every event,
+whichever worker it is connected to and whichever published it (an event some tile
+never got counts in ``incomplete_events``).
 """
 
 from __future__ import annotations
@@ -41,7 +42,6 @@ import argparse
 import asyncio
 import contextlib
 import json
-import math
 import multiprocessing
 import os
 import re
@@ -61,6 +61,15 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+
+from benchmarks.measuring import (
+    POSTGRES_URL,
+    REDIS_URL,
+    cpu_seconds,
+    percentile,
+    process_tree,
+    unreachable,
+)
 
 PHONE_WALL = "demo"
 TILE_WALL = "hiperwall"
@@ -87,16 +96,6 @@ USER_AGENT = "Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X) lecture-hal
 
 
 # --- pure parts ------------------------------------------------------------------------
-
-
-def percentile(values: Sequence[float], fraction: float) -> float:
-    """The nearest-rank percentile: the smallest value with at least ``fraction`` of
-    the values at or below it (p100 is the maximum)."""
-    if not values:
-        raise ValueError("no values")
-    ordered = sorted(values)
-    rank = max(1, math.ceil(fraction * len(ordered)))
-    return ordered[rank - 1]
 
 
 def arrivals(phones: int, period_s: float, start: float) -> list[float]:
@@ -344,32 +343,6 @@ def tile_figures(events: Sequence[Published], tiles: int) -> dict[str, Any]:
 # --- the server ------------------------------------------------------------------------
 
 
-def process_tree(pid: int) -> list[int]:
-    """``pid`` and every process below it (uvicorn's workers)."""
-    children: dict[int, list[int]] = defaultdict(list)
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            with contextlib.suppress(OSError):
-                parent = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[1])
-                children[parent].append(int(entry.name))
-    tree, todo = [], [pid]
-    while todo:
-        current = todo.pop()
-        tree.append(current)
-        todo.extend(children.get(current, []))
-    return tree
-
-
-def cpu_seconds(pids: Sequence[int]) -> float:
-    """User + system CPU time of these processes, all their threads (Linux ``/proc``)."""
-    total = 0
-    for pid in pids:
-        with contextlib.suppress(OSError):
-            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-            total += int(fields[11]) + int(fields[12])
-    return total / os.sysconf("SC_CLK_TCK")
-
-
 def machine_busy_seconds() -> float:
     """CPU time every core of the machine has spent busy so far (``/proc/stat``)."""
     fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
@@ -543,13 +516,27 @@ class Scenario:
     progress_pages: bool = True  # phones follow each answer to their progress page
     profile: Path | None = None  # a py-spy raw (collapsed stacks) profile of the server
 
+    @property
+    def scaled_out(self) -> bool:
+        return self.bus == "redis"
+
 
 # What ``make bench`` runs: one worker on SQLite with the memory bus (a deployment's
-# first server), a hall of 300 and of 1000, and the 1000 without the progress pages.
+# first server), a hall of 300 and of 1000; then the 1000 on PostgreSQL and Redis with
+# one worker and with two (skipped, with the reason, where those servers do not answer).
 RUNS = (
     Scenario(phones=300),
     Scenario(phones=1000),
-    Scenario(phones=1000, progress_pages=False),
+    *(
+        Scenario(
+            phones=1000,
+            workers=workers,
+            database_url=POSTGRES_URL,
+            bus="redis",
+            redis_url=REDIS_URL,
+        )
+        for workers in (1, 2)
+    ),
 )
 
 
@@ -884,10 +871,14 @@ def py_spy() -> Path | None:
 def run() -> dict[str, Any]:
     """``RUNS``; py-spy profiles the server during the first (not saturated, so its
     mix of requests is the hall's own)."""
-    runs = []
+    runs: list[dict[str, Any]] = []
     profile: dict[str, Any] | None = None
+    missing = unreachable(REDIS_URL, POSTGRES_URL)
     with tempfile.TemporaryDirectory() as scratch:
         for index, scenario in enumerate(RUNS):
+            if scenario.scaled_out and missing:
+                runs.append({"workers": scenario.workers, "skipped": missing})
+                continue
             if index == 0 and py_spy():
                 scenario = replace(scenario, profile=Path(scratch) / "profile.txt")
             figures = measure(scenario)
@@ -913,6 +904,10 @@ def run() -> dict[str, Any]:
 def summary(result: dict[str, Any]) -> str:
     lines = []
     for figures in result["runs"]:
+        if "skipped" in figures:
+            workers = figures["workers"]
+            lines.append(f"   {workers} worker(s) on PostgreSQL and Redis: {figures['skipped']}")
+            continue
         steps = ", ".join(
             f"{name} {step['p50_ms']}/{step['p99_ms']} ms"
             + (f" ({step['failures']} failed)" if step["failures"] else "")
@@ -921,7 +916,9 @@ def summary(result: dict[str, Any]) -> str:
         load = figures["tiles"]["under_load"]["last_tile_ms_from_request"] or {}
         pages = "" if figures["progress_pages"] else " (no progress pages)"
         lines.append(
-            f"   {figures['phones']} phones/{figures['period_s']:.0f} s{pages}: {steps} (p50/p99); "
+            f"   {figures['phones']} phones/{figures['period_s']:.0f} s{pages}, "
+            f"{figures['workers']} worker(s), {figures['database']}, {figures['bus']} bus: "
+            f"{steps} (p50/p99); "
             f"server {figures['server_cpu_ms_per_request']} ms CPU/request, "
             f"{figures['server_memory']['rss_mb']} MB; last tile p99 {load.get('p99')} ms"
         )

@@ -11,22 +11,11 @@ from benchmarks.lecture_hall import (
     Published,
     Sample,
     arrivals,
-    percentile,
     step_figures,
     summarise_profile,
     tile_figures,
     work_of,
 )
-
-
-def test_percentiles_are_nearest_rank() -> None:
-    values = [float(v) for v in range(100, 0, -1)]  # 1..100, unordered
-    assert percentile(values, 0.5) == 50
-    assert percentile(values, 0.99) == 99
-    assert percentile(values, 1.0) == 100
-    assert percentile([7.0], 0.99) == 7
-    with pytest.raises(ValueError):
-        percentile([], 0.5)
 
 
 def test_phones_arrive_uniformly_over_the_period() -> None:
