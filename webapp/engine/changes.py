@@ -22,8 +22,6 @@ from __future__ import annotations
 from collections.abc import Awaitable, Callable
 from typing import TYPE_CHECKING, Any
 
-from fastapi.concurrency import run_in_threadpool
-
 from wall_client.layout import Wall
 from webapp.engine.wall_state import Change, WallState, read_state
 from webapp.tags.registry import declare, layout_for
@@ -70,13 +68,13 @@ async def plan_change(
     a balloon fits among the codes shown): ``plan`` gets the current state, with the
     wall held, and returns the update."""
     async with services.hub.placing(wall.id):
-        _, current = await run_in_threadpool(read_state, services.db, wall.id)
+        _, current = await services.hub.run_sync(read_state, services.db, wall.id)
         update = await plan(current)
         target = update(current)
         moves = any(getattr(target, f) != getattr(current, f) for f in PLACING_FIELDS)
         if not (moves or replace_codes):
             return await services.hub.commit(wall.id, update)
-        placed = await run_in_threadpool(_place_codes, services, wall, current, target)
+        placed = await services.hub.run_sync(_place_codes, services, wall, current, target)
         return await services.hub.commit(
             wall.id, lambda state: update(state).model_copy(update=placed)
         )
@@ -90,8 +88,8 @@ async def open_wall(services: Services, wall: Wall) -> Change | None:
     every server process of a wall may do this at start.
     """
     async with services.hub.placing(wall.id):
-        _, current = await run_in_threadpool(read_state, services.db, wall.id)
-        fields = await run_in_threadpool(_opening_fields, services, wall, current)
+        _, current = await services.hub.run_sync(read_state, services.db, wall.id)
+        fields = await services.hub.run_sync(_opening_fields, services, wall, current)
         return await services.hub.commit(wall.id, lambda state: state.model_copy(update=fields))
 
 

@@ -21,9 +21,9 @@ import uuid
 from collections.abc import Callable, Iterable
 from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
-from anyio import to_thread
+from anyio import CapacityLimiter, to_thread
 
 from webapp.database.connection import Database
 from webapp.engine.bus import EVENTS, BusUnavailable, EventBus, cancel_and_wait, follow
@@ -38,6 +38,10 @@ HEARTBEAT_S = 2.0
 ORPHAN_GRACE_S = 2.0
 """How long past the swap timeout a prepared change waits for its swap before any process
 publishes it (its committing process died)."""
+WALL_THREADS = 8
+"""Worker threads of the walls' own: changes and tiles' catch-ups (see :meth:`WallHub.run_sync`)."""
+
+T = TypeVar("T")
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +89,15 @@ class WallHub:
         self._barriers: dict[tuple[str, int], _Barrier] = {}
         self._orphans: dict[tuple[str, int], asyncio.Task[None]] = {}  # prepared, not swapped
         self._tasks: set[asyncio.Task[None]] = set()
+        self._threads: CapacityLimiter | None = None  # made in the event loop, on first use
+
+    async def run_sync(self, function: Callable[..., T], *args: Any) -> T:
+        """Run ``function`` in a worker thread of the walls' own. A lecture hall's phones
+        fill the shared pool with page requests; a wall's change and its tiles'
+        catch-up never queue behind them."""
+        if self._threads is None:
+            self._threads = CapacityLimiter(WALL_THREADS)
+        return await to_thread.run_sync(function, *args, limiter=self._threads)
 
     async def watch(self, wall_ids: Iterable[str]) -> None:
         """Follow the walls' tile reports and prepared changes, and announce this
@@ -116,7 +129,7 @@ class WallHub:
         :meth:`placing`: that hold, not a lock of the hub's, makes publication order
         equal commit order, in every process of the wall.
         """
-        change = await to_thread.run_sync(
+        change = await self.run_sync(
             lambda: commit_change(self.db, wall_id, update, keep_events=self.keep_events)
         )
         if change is None:

@@ -12,7 +12,6 @@ import contextlib
 import logging
 import time
 
-from anyio import to_thread
 from fastapi import APIRouter, WebSocket
 from pydantic import ValidationError
 from sqlalchemy.exc import SQLAlchemyError
@@ -132,13 +131,13 @@ class Connection:
         """Replay what the tile missed, or send a snapshot when history is too short."""
         db, wall_id = self.services.db, self.wall.id
         if hello.last_version is not None:
-            replay = await to_thread.run_sync(events_since, db, wall_id, hello.last_version)
+            replay = await self.hub.run_sync(events_since, db, wall_id, hello.last_version)
             if replay is not None:
                 for change in replay:
                     event = Event(version=change.version, changes=change.changes, apply_at=0)
                     await self.send(event.model_dump_json())
                 return
-        version, state = await to_thread.run_sync(read_state, db, wall_id)
+        version, state = await self.hub.run_sync(read_state, db, wall_id)
         viewport = ViewportInfo.of(self.wall.viewport(self.tile_id)) if self.tile_id else None
         snapshot = Snapshot(
             wall=wall_id,

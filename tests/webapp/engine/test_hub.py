@@ -1,10 +1,12 @@
 import asyncio
 import contextlib
 import json
+import threading
 from collections.abc import AsyncIterator, Callable
 from typing import Any
 
 import pytest
+from anyio import to_thread
 from redis.exceptions import RedisError
 
 from tests.conftest import RedisCable
@@ -117,6 +119,25 @@ async def test_concurrent_changes_are_published_in_version_order(hub: WallHub) -
         await asyncio.gather(*(change(f"m{i}") for i in range(15)))
         versions = [json.loads(await inbox.next())["version"] for _ in range(15)]
     assert versions == list(range(1, 16))
+
+
+async def test_a_change_does_not_queue_behind_a_full_shared_thread_pool(hub: WallHub) -> None:
+    """A lecture hall's phones can hold every thread of the shared pool; the wall's
+    change is committed and published on threads of its own meanwhile."""
+    shared = to_thread.current_default_thread_limiter()
+    release = threading.Event()
+    threads = int(shared.total_tokens)
+    blockers = [asyncio.ensure_future(to_thread.run_sync(release.wait)) for _ in range(threads)]
+    try:
+        await soon(lambda: shared.available_tokens == 0)
+        async with hub.bus.subscribe("demo") as inbox:
+            async with asyncio.timeout(BOUND_S):
+                change = await hub.commit("demo", mode("quiz").apply_to)
+                message = json.loads(await inbox.next())
+        assert change is not None and message["version"] == change.version
+    finally:
+        release.set()
+        await asyncio.gather(*blockers)
 
 
 async def test_tile_status_tracks_connections_and_reports(hub: WallHub) -> None:
