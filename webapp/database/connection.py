@@ -46,9 +46,13 @@ class Base(DeclarativeBase):
 
 
 def make_engine(url: str) -> Engine:
-    """An engine for ``url``; for SQLite, create the parent folder and enable WAL."""
+    """An engine for ``url``; for SQLite, create the parent folder and enable WAL.
+
+    A pooled connection to a server is pinged before use, so one the server dropped
+    (a restart) is replaced instead of failing a request; a SQLite file cannot drop
+    its connections, and a ping would cost every session a statement."""
     parsed = make_url(url)
-    kwargs: dict[str, Any] = {"pool_pre_ping": True}
+    kwargs: dict[str, Any] = {"pool_pre_ping": parsed.get_backend_name() != "sqlite"}
     if parsed.get_backend_name() == "sqlite":
         kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
         if parsed.database and parsed.database != ":memory:":

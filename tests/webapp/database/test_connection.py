@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
-from webapp.database.connection import Database
+from webapp.database.connection import Database, make_engine
 from webapp.database.migrate import upgrade
 
 
@@ -34,3 +36,15 @@ def test_the_postgres_run_really_uses_postgres(database_url: str) -> None:
         assert db.ping()
     finally:
         db.dispose()
+
+
+def test_only_server_connections_are_pinged_before_use(tmp_path: Path) -> None:
+    """A SQLite file cannot drop a connection: no ping statement per session there."""
+    sqlite = make_engine(f"sqlite:///{tmp_path / 'x.db'}")
+    server = make_engine("postgresql+psycopg://nobody@127.0.0.1:1/none")
+    try:
+        assert not sqlite.pool._pre_ping
+        assert server.pool._pre_ping
+    finally:
+        sqlite.dispose()
+        server.dispose()
