@@ -349,12 +349,13 @@ def best_overlap(seen: np.ndarray, expected: np.ndarray) -> float:
     )
 
 
-def test_tract_numbers_read_upright_as_the_portrait_panel_hangs(
+def test_tract_numbers_and_captions_read_upright_as_the_portrait_panel_hangs(
     browser: Browser, tmp_path: Path, database_url: str
 ) -> None:
     """The irregular wall's portrait panel is turned 90 degrees: its screenshot, turned
-    the way the panel hangs, shows each tract number as the same text written upright
-    (not sideways, not upside down)."""
+    the way the panel hangs, shows each tract number and each code's caption
+    ("Student", "Instructor", "Tract index") as the same text written upright (not
+    sideways, not upside down)."""
     server = serve(tmp_path, database_url)
     try:
         server.change("irregular", {"app": "census"})
@@ -409,6 +410,40 @@ def test_tract_numbers_read_upright_as_the_portrait_panel_hangs(
             upside_down = best_overlap(seen[::-1, ::-1], expected)
             scores.append((tract["label"], round(upright, 2), round(upside_down, 2)))
         assert len(scores) >= 5, f"tract numbers on the portrait panel: {scores}"
+        assert all(up > 0.6 and up > down + 0.2 for _, up, down in scores), scores
+
+        # the codes' captions, each as the tile's own drawCaption writes it upright
+        _, layout = fetch_layout(server.url, "irregular", operator_token(server.secret))
+        captioned = [c for c in layout.placed if c.display == "portrait" and c.caption]
+        assert {"Student", "Instructor", "Tract index"} <= {c.label for c in captioned}
+        to_pixels = (
+            load_wall(CONTENT_DIR / "walls" / "irregular.toml").viewport("portrait").to_pixels
+        )
+        framed = np.pad(hung.min(axis=2) > 200, 2)  # white text; strips reach the edges
+        scores = []
+        for code in captioned:
+            assert code.caption is not None
+            x, y, w, h = code.caption
+            (x0, y0), (x1, y1) = (apply_affine(to_pixels, *p) for p in ((x, y), (x + w, y + h)))
+            left, top = round(min(x0, x1)), round(min(y0, y1))
+            width, tall = round(max(x0, x1)) - left, round(max(y0, y1)) - top
+            # the strip as it hangs: framebuffer (x, y) hangs at (height - 1 - y, x)
+            hx, hy, hw, hh = height - top - tall, left, tall, width
+            bits = tile.evaluate(
+                """async ([text, w, h]) => {
+                  const {drawCaption} = await import("/static/js/codes.js");
+                  const ctx = new OffscreenCanvas(w, h).getContext("2d");
+                  drawCaption(ctx, text, [0, 0, w, h], 0);
+                  const data = ctx.getImageData(0, 0, w, h).data;
+                  return Array.from(data.filter((_, i) => i % 4 === 1), (g) => (g > 200 ? 1 : 0));
+                }""",
+                [code.label, hw, hh],
+            )
+            expected = np.array(bits, dtype=bool).reshape(hh, hw)
+            seen = framed[hy : hy + hh + 4, hx : hx + hw + 4]
+            upright = best_overlap(seen, expected)
+            upside_down = best_overlap(seen[::-1, ::-1], expected)
+            scores.append((code.label, round(upright, 2), round(upside_down, 2)))
         assert all(up > 0.6 and up > down + 0.2 for _, up, down in scores), scores
         tile.context.close()
     finally:

@@ -205,12 +205,19 @@ def picture_of(codes: list[bytes]) -> bytes:
 
 
 def census_pages(tour: Tour, student: Page, instructor: Page) -> str:
-    """The tract index, a tract's pages at every information class, a balloon and a
-    toggle; returns a toggle code's URL (retired when the map leaves the wall)."""
+    """The tract index, a cluster code's list, a tract's pages at every information
+    class, a balloon and a toggle; returns a toggle code's URL (retired when the map
+    leaves the wall)."""
     url = tour.server.url
-    toggle = next(payload for label, payload in tour.codes().items() if label[:1].isdigit())
+    codes = tour.codes()
+    toggle = next(payload for label, payload in codes.items() if label[:1].isdigit())
     student.goto(f"{url}/apps/census/{WALL}/tracts")
     tour.look("tract-index", student, open_details=True)
+    # the whole map's codes stand mostly over neighbourhoods of small tracts
+    cluster = next(payload for label, payload in codes.items() if label.endswith(" tracts"))
+    student.goto(cluster)
+    expect(student.locator("h1")).to_have_text(re.compile(r"\d+ tracts here"))
+    tour.look("cluster", student)
     tract = student.locator(".tract-list a").first.get_attribute("href")
     assert tract is not None
     tour.visit("tract", student, url + tract)

@@ -6,6 +6,7 @@ while the door holds the wall, so two opened at once never land on each other.
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from fastapi.concurrency import run_in_threadpool
@@ -86,9 +87,9 @@ async def open_balloon(
 
     Nothing of a balloon touches a code's symbol, quiet zone or caption: its dot marks
     the tract where no code stands (at the edge of the tract's own code, which stands
-    on the tract's label point), its box stands clear of codes, preferably where the
-    pointer from it to the dot crosses no code either (where codes crowd the map, the
-    pointer passes under them: tiles draw pointers before codes)."""
+    on the tract's label point), its box stands clear of codes beside the tract,
+    preferably where the pointer from it to the dot crosses no code either (where codes
+    crowd the map, the pointer passes under them: tiles draw pointers before codes)."""
     opened: Balloon | None = None
 
     async def place(state: WallState) -> Update:
@@ -142,17 +143,29 @@ def _place_balloon(
     keep_clear: float,
     codes: list[Rect],
 ) -> tuple[tuple[float, float], Rect]:
-    """The first target (best first) with a box whose pointer crosses no code; where
-    codes crowd the map so that none has one, the first target with the nearest box
-    (its pointer passes under codes: tiles draw pointers before codes)."""
+    """The first target (best first) with a box beside it whose pointer crosses no code
+    and no public screen (a publication covers what lies under it); where codes crowd
+    the map so that none has one, the first target with the nearest box (its pointer
+    passes under codes: tiles draw pointers before codes).
+
+    Beside means a pointer no longer than the box's longer side: a box further off,
+    on another display or across the wall, is not seen as the tract's balloon."""
+    reach = max(size)
+    sight = codes + [wall.viewport(d.id).scene_rect for d in wall.screen("public")]
     for target in targets:
-        box = place_box(wall, size, target, obstacles, keep_clear, sight=codes)
-        if box is not None:
+        box = place_box(wall, size, target, obstacles, keep_clear, sight=sight)
+        if box is not None and _pointer_length(box, target) <= reach:
             return target, box
     box = place_box(wall, size, targets[0], obstacles, keep_clear)
     if box is None:
         raise NoRoom
     return targets[0], box
+
+
+def _pointer_length(box: Rect, anchor: tuple[float, float]) -> float:
+    """How long the line from the box's nearest point to ``anchor`` is (balloons.js)."""
+    x, y = anchor
+    return math.dist((min(max(x, box.x), box.right), min(max(y, box.y), box.bottom)), anchor)
 
 
 async def switch_dataset(services: Services, dataset_id: int) -> None:

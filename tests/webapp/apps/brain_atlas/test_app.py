@@ -12,11 +12,14 @@ from fastapi.testclient import TestClient
 from markupsafe import escape
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from webapp.app import create_app
 from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import get_round
+from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import WallState, events_since, read_state
 from webapp.markdown import markdown_html
+from webapp.settings import Settings
 from webapp.tags.registry import get_layout, wall_tags
 
 
@@ -549,6 +552,38 @@ def test_a_child_on_a_full_set_pin_gets_the_childrens_text(on_wall: TestClient) 
     control(on_wall, tag_set="k5")
     _, k5_code = next(iter(pins_on_wall(on_wall, "k5").items()))
     assert "For the K-5 group" in on_wall.get(f"/t/{k5_code}").text
+
+
+def test_a_child_is_asked_in_a_childs_words(on_wall: TestClient) -> None:
+    """Issue 17: the K-5 quiz asked a child to "enter the name of the tagged region"."""
+    control(on_wall, tag_set="k5")
+    register_student(on_wall)
+    _, code = next(iter(pins_on_wall(on_wall, "k5").items()))
+
+    page = on_wall.get(f"/t/{code}").text
+
+    assert "Look at the red pin on the wall" in page
+    assert "tagged region" not in page
+
+
+def test_the_offline_reading_list_sets_journal_titles_in_italics(settings: Settings) -> None:
+    """Issue 17: journal titles showed raw Markdown asterisks in literature lists."""
+    offline = settings.model_copy(
+        update={"pubmed_url": "http://127.0.0.1:9/", "pubmed_timeout": 1.0}
+    )  # nothing listens: the atlas's own reading list
+    upgrade(offline.resolved_database_url)
+    with TestClient(create_app(offline)) as client:
+        show_brain(client)
+        control(client, mode="tutor")
+        register_student(client)
+        pages = [
+            client.get(f"/apps/brain/demo/pins/{code}/literature")
+            for code in pins_on_wall(client, "full").values()
+        ]
+        listed = [p.text.split('id="articles"')[1] for p in pages if p.status_code == 200]
+
+    assert listed and all("Offline" in p.text for p in pages if p.status_code == 200)
+    assert all("<em>" in items and "*" not in items for items in listed)
 
 
 def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(

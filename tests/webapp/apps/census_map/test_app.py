@@ -233,6 +233,40 @@ def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient
     assert_clear_of_every_code(client, together, pointers=False)
 
 
+def test_a_balloon_stands_beside_its_tract_and_no_publication_covers_its_pointer(
+    client: TestClient,
+) -> None:
+    """Zoomed in, a tract on the lower right display got its balloon on the upper left
+    one, its pointer 1.6 m long and under the public screen's publication: a person
+    finds neither the box by the tract nor the line between them. Each balloon stands
+    beside its tract (its pointer within one and a half times the box's longer side; it
+    passes under codes where they crowd the tract) and its pointer misses the public
+    screen."""
+    show_census(client)
+    change(client, {"view": {"center": [0.5, 0.5], "zoom": 2.25}})
+    codes = census_codes(client)
+    own = sorted(n.removeprefix("census:tract:") for n in codes if n.startswith("census:tract:"))
+    assert len(own) >= 8
+    wall = services_of(client).walls["demo"]
+    screens = [wall.viewport(d.id).scene_rect for d in wall.screen("public")]
+    public = [shapely.box(r.x, r.y, r.right, r.bottom) for r in screens]
+    far = []
+    with TestClient(client.app) as phone:
+        for geoid in own:
+            change(client, {"balloons": []})
+            assert open_balloon(phone, geoid).status_code == 200
+            [balloon] = state_of(client).balloons
+            assert balloon.rect is not None
+            x, y, w, h = balloon.rect
+            ax, ay = balloon.anchor
+            pointer = shapely.LineString(
+                [(min(max(ax, x), x + w), min(max(ay, y), y + h)), (ax, ay)]
+            )
+            if pointer.length > 1.5 * max(w, h) or any(pointer.intersects(p) for p in public):
+                far.append((geoid, round(pointer.length)))
+    assert not far, f"balloons away from their tracts (pointer mm): {far}"
+
+
 def test_no_room_for_a_balloon_clear_of_the_codes_is_said_not_papered_over(
     client: TestClient, monkeypatch: pytest.MonkeyPatch
 ) -> None:
