@@ -71,6 +71,7 @@ class CensusTable:
     labels: dict[str, str]  # estimate column -> the metadata's label
     records: dict[str, dict[str, Value]]  # by key: estimates and margins
     left_out: list[str]  # text columns (NAME)
+    counties: dict[str, str]  # county FIPS -> its name, as NAME gives it
 
 
 def is_census_table(path: Path) -> bool:
@@ -228,6 +229,7 @@ def _table(name: str, data: str, metadata_name: str, metadata: str, full_ids: bo
     }
     notes = {c[:-1]: c for c in header if roles[c] == "annotation" and c[:-1] in header}
     records: dict[str, dict[str, Value]] = {}
+    counties: dict[str, str] = {}
     for line, row in enumerate(body, start=3):
         if len(row) < len(header):
             raise TableError(f"{name}: row {line} has {len(row)} cells for {len(header)} columns")
@@ -239,6 +241,7 @@ def _table(name: str, data: str, metadata_name: str, metadata: str, full_ids: bo
         if tract in records:
             raise TableError(f"{name}: {KEY} {geo_id} appears twice")
         records[tract] = _values(name, geo_id, cells, notes, estimates, margins)
+        counties.update(_county(geo_id, cells.get("NAME", "")))
     return CensusTable(
         name=name,
         product=_stem(name).partition(".")[0],
@@ -248,7 +251,18 @@ def _table(name: str, data: str, metadata_name: str, metadata: str, full_ids: bo
         labels={c: labels[c] for c in estimates},
         records=records,
         left_out=[c for c in header if roles[c] == "text"],
+        counties=counties,
     )
+
+
+def _county(geo_id: str, place: str) -> dict[str, str]:
+    """A tract's (or block group's) county FIPS and name from its GEO_ID and NAME
+    ("Census Tract 1; Sacramento County; California", commas before 2023)."""
+    digits = geo_id.split("US", 1)[-1]
+    parts = [p.strip() for p in place.split(";" if ";" in place else ",")]
+    if len(digits) < 11 or not digits.isdigit() or len(parts) < 3 or not parts[-2]:
+        return {}
+    return {digits[:5]: parts[-2]}
 
 
 def _stem(name: str) -> str:

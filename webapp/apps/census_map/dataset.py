@@ -330,11 +330,13 @@ def default_settings(
     keys: Sequence[str],
     described: Mapping[str, Attribute] | None = None,
     source: str = "",
+    counties: Mapping[str, str] | None = None,
 ) -> DataSetSettings:
     """Settings for an imported table that came without any: the first four columns are
     the headline, the rest are spread over the information classes in table order.
     Columns the table itself ``described`` (a Census Bureau table's labels, kinds and
-    margins) keep that description; the others are called by their names."""
+    margins) keep that description; the others are called by their names. ``counties``
+    names counties by FIPS where the table did."""
     described = described or {}
 
     def attribute(key: str, info_class: int) -> Attribute:
@@ -345,5 +347,9 @@ def default_settings(
     attributes = [attribute(key, 1) for key in keys[:4]]
     attributes += [attribute(key, 2 + (4 * i) // len(rest)) for i, key in enumerate(rest)]
     return DataSetSettings(
-        title=title, source=source, headline=list(keys[:4]), attributes=attributes
+        title=title,
+        source=source,
+        headline=list(keys[:4]),
+        attributes=attributes,
+        counties=dict(counties or {}),
     )

@@ -158,7 +158,7 @@ def import_files(
     if not attributes:
         raise CensusImportError(f"no numeric columns to show besides {key!r}")
     chosen = chosen or default_settings(
-        table.title or shapes.stem, attributes, table.described, table.source
+        table.title or shapes.stem, attributes, table.described, table.source, table.counties
     )
     _require_known_attributes(chosen, attributes, margins, settings_file)
     source = " + ".join(p.name for p in (shapes, *tables))
@@ -189,6 +189,7 @@ class _Table:
     margins: dict[str, str] = field(default_factory=dict)  # column -> its margin's column
     described: dict[str, Attribute] = field(default_factory=dict)
     left_out: list[str] = field(default_factory=list)  # text columns the tables name
+    counties: dict[str, str] = field(default_factory=dict)  # county FIPS -> name
     title: str = ""
     source: str = ""
 
@@ -490,6 +491,7 @@ def _read_tables(paths: Sequence[Path], key: str, *, full_ids: bool) -> _Table:
             parts = [(t.name, t.estimates, t.records, [*t.margins.values()]) for t in read]
             merged.margins.update(m for t in read for m in t.margins.items())
             merged.left_out += [c for t in read for c in t.left_out if c not in merged.left_out]
+            merged.counties.update(c for t in read for c in t.counties.items())
         else:
             columns, rows = _read_table(path, key)
             parts = [(path.name, columns, rows, [])]

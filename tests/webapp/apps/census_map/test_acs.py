@@ -81,7 +81,9 @@ def test_an_acs_table_imports_with_labels_margins_and_symbols(db: Database, tmp_
         "B25077_001M",
     )
     assert settings.headline == ["B19013_001E", "B25077_001E"]
+    assert settings.counties == {"06067": "Sacramento County"}  # from NAME
     one, two, three = dataset.tracts
+    assert dataset.tract_title(one) == "Tract 1, Sacramento County"
     assert one.values == {
         "B19013_001E": 52941,
         "B19013_001M": 6123,
@@ -165,6 +167,7 @@ def test_labels_stay_readable_and_tell_alike_columns_apart() -> None:
         },
         records={},
         left_out=[],
+        counties={},
     )
     described = acs.describe([table])
     assert [a.label for a in described.values()] == [
