@@ -36,7 +36,6 @@ OLD_METADATA = "_metadata_"
 # The American Community Survey's "jam values": codes standing in for an estimate or a
 # margin that could not be made (too few samples, not applicable, ...), never numbers.
 JAM_VALUES = frozenset({-666666666, -999999999, -888888888, -222222222, -333333333, -555555555})
-OPEN_JAM = -333333333  # the margin of a median in an open-ended interval
 # The symbols the Bureau prints instead of numbers ("Explanation of Symbols" in every
 # table's notes). In an estimate: "-" too few sample observations, "N" not displayed
 # for too few cases, "(X)" not applicable; a median ending in "+" or "-" ("250,000+")
@@ -51,7 +50,8 @@ NUMBER = re.compile(r"[+-]?(?:\d{1,3}(?:,\d{3})+|\d+)(?:\.\d+)?")
 BOUND = re.compile(r"(?P<number>(?:\d{1,3}(?:,\d{3})+|\d+)(?:\.\d+)?)(?P<side>[+-])")
 STEM = re.compile(r"[A-Z0-9]+\.[A-Z0-9]+")
 PRODUCT = re.compile(r"ACS(?:DT|ST|DP|CP|SPP|SE)(?P<years>[15])Y(?P<year>\d{4})")
-LABEL_LENGTH = 120  # Attribute.label
+LABEL_LENGTH = 120  # Attribute.label, DataSetSettings.title
+SOURCE_LENGTH = 2_000  # DataSetSettings.source
 
 
 class TableError(ValueError):
@@ -377,17 +377,16 @@ def _estimate(name: str, geo_id: str, code: str, text: str) -> tuple[Value, floa
 
 
 def _margin(name: str, geo_id: str, code: str, text: str, side: float | None) -> Value:
-    """The margin; for a bound, which way the value lies; None when there is none."""
-    if text == OPEN_MARGIN or side is not None:
-        return side  # a margin beside a bound says nothing about the bound
-    if text in NO_MARGIN:
-        return None
-    if NUMBER.fullmatch(text):
+    """The margin, None when there is none; beside a bound, which way the value lies
+    (the bound has no margin to speak of)."""
+    if text in NO_MARGIN or text == OPEN_MARGIN:
+        margin = None
+    elif NUMBER.fullmatch(text):
         number = _number(text)
-        if number == OPEN_JAM:
-            return None
-        return None if number in JAM_VALUES or number < 0 else number
-    raise _not_a_number(name, geo_id, code, text)
+        margin = None if number in JAM_VALUES or number < 0 else number
+    else:
+        raise _not_a_number(name, geo_id, code, text)
+    return side if side is not None else margin
 
 
 def _number(text: str) -> float:
@@ -494,7 +493,7 @@ def source_of(tables: Iterable[CensusTable]) -> tuple[str, str]:
     title = f"{'; '.join(described)}: {ids}" if described else f"Census tables {ids}"
     files = ", ".join(f"{t.product}.{t.table}" if t.product else t.name for t in tables)
     source = f"US Census Bureau, data.census.gov: {files}. Public domain."
-    return _shortened(title), source
+    return _shortened(title), source[:SOURCE_LENGTH]
 
 
 def _product(product: str) -> str:

@@ -157,9 +157,7 @@ def import_files(
     _require_longitude_latitude(shapes.name, tracts.outlines)
     if not attributes:
         raise CensusImportError(f"no numeric columns to show besides {key!r}")
-    chosen = chosen or default_settings(
-        table.title or shapes.stem, attributes, table.described, table.source, table.counties
-    )
+    chosen = chosen or _generated_settings(table.title or shapes.stem, attributes, table)
     _require_known_attributes(chosen, attributes, margins, settings_file)
     source = " + ".join(p.name for p in (shapes, *tables))
     dataset_id = store.save(db, name, chosen, rows, source=source)
@@ -220,6 +218,21 @@ def _tracts(
         tracts.rows.append(store.TractRow(feature.key, _geojson(outline), values))
         tracts.outlines.append(outline)
     return tracts
+
+
+def _generated_settings(title: str, attributes: list[str], table: _Table) -> DataSetSettings:
+    try:
+        return default_settings(title, attributes, table.described, table.source, table.counties)
+    except ValidationError as error:
+        problems = "; ".join(
+            f"{'.'.join(str(part) for part in p['loc']) or 'settings'} "
+            f"{str(p['input'])[:40]!r}: {p['msg']}"
+            for p in error.errors()[:3]
+        )
+        raise CensusImportError(
+            f"the columns cannot become settings ({problems}); give settings of your own "
+            f"with --settings"
+        ) from error
 
 
 def _require_known_attributes(

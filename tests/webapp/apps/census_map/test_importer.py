@@ -462,3 +462,14 @@ def test_no_matching_keys_says_so(db: Database, tmp_path: Path) -> None:
     with pytest.raises(CensusImportError, match=r"no shape matched.*06067000100.*6067000100"):
         import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert store.count(db) == 0
+
+
+def test_columns_that_cannot_become_settings_are_refused_in_words(
+    db: Database, tmp_path: Path
+) -> None:
+    long = "A" * 70  # an attribute's key has at most 64 characters
+    table = write_csv(tmp_path / "t.csv", f"GEOID,{long}\n" + "".join(f"{k},1\n" for k in KEYS))
+    refusal = r"cannot become settings \(key 'AAAA.*at most 64 characters"
+    with pytest.raises(CensusImportError, match=refusal):
+        import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
+    assert store.count(db) == 0
