@@ -1,5 +1,7 @@
 """Migrations reach head on an empty database and match the models exactly."""
 
+import json
+
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
@@ -46,3 +48,37 @@ def test_rounds_from_before_0007_are_closed_their_key_was_public(database_url: s
         ).one()
     engine.dispose()
     assert row.closed_at is not None and row.reveal == "close"
+
+
+def test_a_sacramento_data_set_seeded_before_0010_gets_readable_labels(database_url: str) -> None:
+    """Seeded once, the shipped data set kept the labels of its day: the upgrade gives
+    the occupation columns words, and leaves every other label as it was."""
+    upgrade(database_url, "0009")
+    engine = make_engine(database_url)
+    settings = {
+        "title": "Sacramento MSA census tracts, 2000",
+        "headline": ["TOT_POP"],
+        "attributes": [
+            {"key": "TOT_POP", "label": "People here"},  # an instructor's own label
+            {"key": "OCC_MAN", "label": "Employed civilians: OCC_MAN occupation group"},
+        ],
+    }
+    with engine.begin() as connection:
+        connection.execute(
+            text(
+                'INSERT INTO census_datasets (name, settings, source, tract_count, "current",'
+                " created_at) VALUES ('sacramento-2000', :settings, 'sacramento-2000.geojson',"
+                " 403, true, CURRENT_TIMESTAMP)"
+            ),
+            {"settings": json.dumps(settings)},
+        )
+    upgrade(database_url)
+    with engine.connect() as connection:
+        stored = connection.execute(text("SELECT settings FROM census_datasets")).scalar_one()
+    engine.dispose()
+    stored = stored if isinstance(stored, dict) else json.loads(stored)
+    assert [a["label"] for a in stored["attributes"]] == [
+        "People here",
+        "Employed civilians in production occupations",
+    ]
+    assert stored["title"] == settings["title"]

@@ -23,7 +23,11 @@ from playwright.sync_api import Browser, BrowserContext, Page, expect
 
 from tests.browser.conftest import serve
 from tests.browser.phone_audit import PHONE_WIDTHS, SERIOUS, Fit, axe_violations, fits
+from tests.webapp.apps.census_map.test_acs import INCOME, VALUE, downloaded
+from tests.webapp.apps.census_map.test_importer import write_shapefile
+from webapp.apps.census_map.importer import import_files
 from webapp.check import fetch_layout
+from webapp.database.connection import Database
 from webapp.people.security import operator_token
 from webapp.settings import Settings
 from webapp.testing import ServerProcess
@@ -414,4 +418,53 @@ def test_every_phone_page_fits_phones_and_passes_the_accessibility_audit(tour: T
         (tour.shots / "report.json").write_text(
             json.dumps({"widths": widths, "problems": findings, "axe": tour.violations}, indent=1)
         )
+    assert not report, "\n".join(report)
+
+
+def test_tract_pages_with_margins_of_error_fit_phones_and_pass_the_audit(
+    tour: Tour, tmp_path: Path, database_url: str
+) -> None:
+    """A data set imported from data.census.gov tables: the long labels of its metadata,
+    the margins and the "uncertain" mark fit every phone at every class."""
+    server, url = tour.server, tour.server.url
+    database = Database(database_url)
+    try:
+        import_files(
+            database,
+            shapes=write_shapefile(tmp_path / "tracts"),
+            key="GEOID",
+            tables=downloaded(tmp_path, INCOME, VALUE),
+        )
+    finally:
+        database.dispose()
+    server.change(WALL, {"app": "census"})
+    tract = f"{url}/apps/census/{WALL}/tracts/06067000100/here"
+    student = tour.phone()
+    student.goto(tour.codes()["Student"])
+    instructor = tour.phone()
+    instructor.goto(httpx.post(f"{url}/api/pairing", headers=server.operator()).json()["url"])
+    submit(instructor, "Become instructor")
+    for info_class, phone, shown in [
+        (1, student, "$52,941 uncertain"),
+        (2, student, "$52,941 ± $6,123 uncertain"),
+        (5, instructor, "$52,941 ± $6,123 (12%) uncertain"),
+    ]:
+        choose(phone, url, "info_class", str(info_class))
+        phone.goto(tract)
+        cell = phone.locator("#values tr").first.locator("td")
+        assert " ".join(cell.inner_text().split()) == shown
+        expect(phone.locator("#margins")).to_be_visible()
+        tour.look(f"tract-margins-class-{info_class}", phone)
+    report = [
+        f"{name} at {width} px: {problem}"
+        for name, measured in tour.fits.items()
+        for width, fit in measured.items()
+        for problem in fit.problems
+    ]
+    report += [
+        f"{name}: axe {v['impact']} {v['id']} ({v['help']})"
+        for name, violations in tour.violations.items()
+        for v in violations
+        if v["impact"] in SERIOUS
+    ]
     assert not report, "\n".join(report)

@@ -220,7 +220,10 @@ class CensusApp:
             title=dataset.tract_title(tract),
             blocks=[
                 Block(kind="text", text=dataset.title),
-                Block(kind="facts", rows=dataset.facts(tract, person.info_class)),
+                Block(
+                    kind="facts",
+                    rows=[(f.label, f.text()) for f in dataset.facts(tract, person.info_class)],
+                ),
                 *(Block(kind="chart", svg=svg) for svg in charts),
             ],
         )

@@ -29,8 +29,12 @@ def census() -> None:
 @click.option("--key", required=True, help="The column joining shapes and table (e.g. GEOID).")
 @click.option(
     "--table",
+    "tables",
+    multiple=True,
     type=click.Path(path_type=Path, dir_okay=False),
-    help="CSV of values by key (default: the shapes' own columns).",
+    help="Values by key: a CSV, or a data.census.gov table (its -Data.csv with the "
+    "-Column-Metadata.csv beside it, or the downloaded .zip); repeat for more tables "
+    "(default: the shapes' own columns).",
 )
 @click.option(
     "--settings",
@@ -43,7 +47,7 @@ def census() -> None:
 def census_import(
     shapes: Path,
     key: str,
-    table: Path | None,
+    tables: tuple[Path, ...],
     settings_file: Path | None,
     name: str | None,
     strict: bool,
@@ -56,7 +60,7 @@ def census_import(
             database,
             shapes=shapes,
             key=key,
-            table=table,
+            tables=tables,
             settings=settings_file,
             name=name,
             strict=strict,

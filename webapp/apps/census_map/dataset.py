@@ -7,7 +7,7 @@ instructor can edit them; everything here is pure (no database, no wall).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -16,6 +16,18 @@ from shapely import MultiPolygon, Polygon
 
 InfoClass = int
 Value = float | None
+Kind = Literal["count", "money", "number", "percent"]
+
+# Margins of error (the American Community Survey publishes them at 90 % confidence).
+# Census Reporter marks an estimate whose margin is at least 10 % of it; so do we.
+LARGE_MARGIN = 0.10
+MARGINS_FROM = 2  # the lowest information class that reads the margin itself ("± 312")
+SHARES_FROM = 4  # ... and the margin as a share of the value ("8%")
+# Where the ACS gives a median in an open-ended interval ("250,000+", "2,500-"), the
+# estimate is stored as that bound and its margin slot holds which way the value lies
+# (a margin is never negative, so these cannot be mistaken for one).
+OPEN_ABOVE = -1.0
+OPEN_BELOW = -2.0
 
 
 class Attribute(BaseModel):
@@ -25,9 +37,10 @@ class Attribute(BaseModel):
 
     key: str = Field(min_length=1, max_length=64)
     label: str = Field(min_length=1, max_length=120)
-    kind: Literal["count", "money", "number"] = "count"
+    kind: Kind = "count"
     info_class: int = Field(default=1, ge=1, le=5)  # the lowest class that sees it
     missing: list[float] = Field(default_factory=list, max_length=10)  # codes for "no value"
+    margin: str | None = Field(default=None, min_length=1, max_length=64)  # its MOE's column
 
 
 class Part(BaseModel):
@@ -101,6 +114,9 @@ class DataSetSettings(BaseModel):
         keys = [a.key for a in self.attributes]
         if len(set(keys)) != len(keys):
             raise ValueError("an attribute is listed twice")
+        own = [a.key for a in self.attributes if a.margin == a.key]
+        if own:
+            raise ValueError(f"an attribute cannot be its own margin: {', '.join(own)}")
         unknown = (set(self.headline) | {k for c in self.charts for k in c.keys_used()}) - set(keys)
         if unknown:
             raise ValueError(f"unknown attributes named: {', '.join(sorted(unknown))}")
@@ -182,14 +198,57 @@ class DataSet:
 
     def headline(self, tract: Tract) -> list[tuple[str, str]]:
         """The values a balloon shows, for everyone at the wall (and in Google Earth)."""
-        return [self._fact(self.settings.attribute(key), tract) for key in self.settings.headline]
+        shown = [
+            fact(self.settings.attribute(key), tract.values, 1) for key in self.settings.headline
+        ]
+        return [(f.label, f.value) for f in shown]
 
-    def facts(self, tract: Tract, info_class: int) -> list[tuple[str, str]]:
-        """The values a reader of ``info_class`` sees: never one above that class."""
-        return [self._fact(a, tract) for a in self.settings.visible(info_class)]
+    def facts(self, tract: Tract, info_class: int) -> list[Fact]:
+        """The values a reader of ``info_class`` sees (never one above that class), with
+        their margins of error as far as that class reads them."""
+        return [fact(a, tract.values, info_class) for a in self.settings.visible(info_class)]
 
-    def _fact(self, attribute: Attribute, tract: Tract) -> tuple[str, str]:
-        return attribute.label, format_value(attribute, tract.values.get(attribute.key))
+
+@dataclass(frozen=True)
+class Fact:
+    """One value as a phone page shows it."""
+
+    label: str
+    value: str  # "$52,941", "$250,000 or more", "not available"
+    margin: str | None = None  # "± $4,310", for classes from MARGINS_FROM
+    share: str | None = None  # "8%": the margin against the value, from SHARES_FROM
+    uncertain: bool = False  # a margin of at least LARGE_MARGIN of the value (every class)
+
+    def text(self) -> str:
+        """The value, margin and mark on one line (a publication's table cell)."""
+        share = f" ({self.share})" if self.share else ""
+        margin = f" {self.margin}{share}" if self.margin else ""
+        return f"{self.value}{margin}{' (uncertain)' if self.uncertain else ''}"
+
+
+def fact(attribute: Attribute, values: dict[str, Value], info_class: int) -> Fact:
+    """``attribute`` of a tract's ``values`` for a reader of ``info_class``: the one
+    place that decides how a value, its margin and a bound read."""
+    value = values.get(attribute.key)
+    margin = values.get(attribute.margin) if attribute.margin and value is not None else None
+    if value is None or margin is None:
+        return Fact(attribute.label, format_value(attribute, value))
+    if margin in (OPEN_ABOVE, OPEN_BELOW):
+        bound = "or more" if margin == OPEN_ABOVE else "or less"
+        return Fact(attribute.label, f"{format_value(attribute, value)} {bound}")
+    uncertain = large_margin(value, margin)
+    return Fact(
+        attribute.label,
+        format_value(attribute, value),
+        margin=f"± {format_value(attribute, margin)}" if info_class >= MARGINS_FROM else None,
+        share=f"{margin / abs(value):.0%}" if info_class >= SHARES_FROM and value else None,
+        uncertain=uncertain,
+    )
+
+
+def large_margin(value: float, margin: float) -> bool:
+    """Census Reporter's rule: a margin of at least 10 % of the value asks for care."""
+    return margin >= LARGE_MARGIN * abs(value) and margin > 0
 
 
 def format_value(attribute: Attribute, value: Value) -> str:
@@ -199,7 +258,8 @@ def format_value(attribute: Attribute, value: Value) -> str:
         return f"${value:,.0f}"
     if attribute.kind == "count":
         return f"{value:,.0f}"
-    return f"{value:,.2f}".rstrip("0").rstrip(".")
+    number = f"{value:,.2f}".rstrip("0").rstrip(".")
+    return f"{number}%" if attribute.kind == "percent" else number
 
 
 def tract_label(geoid: str) -> str:
@@ -265,13 +325,31 @@ def similar_ranges(numbers: Sequence[int], count: int) -> list[tuple[int, int]]:
     return ranges
 
 
-def default_settings(title: str, keys: Sequence[str]) -> DataSetSettings:
+def default_settings(
+    title: str,
+    keys: Sequence[str],
+    described: Mapping[str, Attribute] | None = None,
+    source: str = "",
+    counties: Mapping[str, str] | None = None,
+) -> DataSetSettings:
     """Settings for an imported table that came without any: the first four columns are
-    the headline, the rest are spread over the information classes in table order."""
+    the headline, the rest are spread over the information classes in table order.
+    Columns the table itself ``described`` (a Census Bureau table's labels, kinds and
+    margins) keep that description; the others are called by their names. ``counties``
+    names counties by FIPS where the table did."""
+    described = described or {}
+
+    def attribute(key: str, info_class: int) -> Attribute:
+        known = described.get(key) or Attribute(key=key, label=key)
+        return known.model_copy(update={"info_class": info_class})
+
     rest = list(keys[4:])
-    attributes = [Attribute(key=key, label=key, info_class=1) for key in keys[:4]]
-    attributes += [
-        Attribute(key=key, label=key, info_class=2 + (4 * i) // len(rest))
-        for i, key in enumerate(rest)
-    ]
-    return DataSetSettings(title=title, headline=list(keys[:4]), attributes=attributes)
+    attributes = [attribute(key, 1) for key in keys[:4]]
+    attributes += [attribute(key, 2 + (4 * i) // len(rest)) for i, key in enumerate(rest)]
+    return DataSetSettings(
+        title=title,
+        source=source,
+        headline=list(keys[:4]),
+        attributes=attributes,
+        counties=dict(counties or {}),
+    )

@@ -1,6 +1,7 @@
 """Census data sets from files: tract outlines (a shapefile, a zipped shapefile as
-TIGER/Line ships them, or a GeoJSON FeatureCollection) joined by key to an optional
-CSV table of values, checked, repaired where possible, then stored whole.
+TIGER/Line ships them, or a GeoJSON FeatureCollection) joined by key to optional
+tables of values (CSV, or the Census Bureau's own downloads, see :mod:`acs`),
+checked, repaired where possible, then stored whole.
 
 Everything is read and checked before anything is written, so a refused import
 leaves the database as it was; the only write is :func:`store.save`'s transaction.
@@ -30,15 +31,12 @@ from shapely.errors import ShapelyError
 from shapely.geometry import mapping, shape
 from sqlalchemy.exc import IntegrityError
 
-from webapp.apps.census_map import store
-from webapp.apps.census_map.dataset import DataSetSettings, Value, default_settings
+from webapp.apps.census_map import acs, store
+from webapp.apps.census_map.dataset import Attribute, DataSetSettings, Value, default_settings
 from webapp.database.connection import Database
 
 LISTED = 20  # keys listed per kind of problem; the rest are counted
 MISSING_TEXT = frozenset({"", "na", "n/a", "-", "null"})
-# The American Community Survey's "jam values": codes standing in for an estimate
-# that could not be made (too few samples, not applicable, ...), never real numbers.
-ACS_JAM_VALUES = frozenset({-666666666, -999999999, -888888888, -222222222, -333333333, -555555555})
 INTEGER = re.compile(r"[+-]?\d+")
 PROJECTED = re.compile(r'^\s*PROJ(?:CS|CRS)\s*\[\s*"([^"]*)"', re.IGNORECASE)
 SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
@@ -63,6 +61,7 @@ class ImportReport:
     repaired: tuple[tuple[str, str], ...]  # (key, why the outline was invalid)
     skipped: tuple[tuple[str, str], ...]  # (key, why the tract was left out)
     ignored_columns: tuple[str, ...] = ()  # not numeric, so not attributes
+    margins: tuple[str, ...] = ()  # columns stored as attributes' margins of error
 
     def lines(self) -> list[str]:
         """The summary a person reads: counts first, then the keys behind each problem."""
@@ -74,6 +73,8 @@ class ImportReport:
             f"outlines repaired: {len(self.repaired)}, tracts skipped: {len(self.skipped)}",
             f"attributes: {listed(self.attributes)}",
         ]
+        if self.margins:
+            lines.append(f"margins of error: {listed(self.margins)}")
         if self.ignored_columns:
             lines.append(f"left out, not numeric: {listed(self.ignored_columns)}")
         return lines + problem_lines(
@@ -116,12 +117,12 @@ def import_files(
     *,
     shapes: Path,
     key: str,
-    table: Path | None = None,
+    tables: Sequence[Path] = (),
     settings: Path | None = None,
     name: str | None = None,
     strict: bool = False,
 ) -> ImportReport:
-    """Import ``shapes`` (joined to ``table`` by ``key`` when given) as a new data set
+    """Import ``shapes`` (joined to ``tables`` by ``key`` when given) as a new data set
     and make it current; :class:`CensusImportError` says why when it cannot."""
     name = name or shapes.stem
     if not 1 <= len(name) <= NAME_LENGTH:
@@ -130,19 +131,22 @@ def import_files(
     chosen = _read_settings(settings_file) if settings_file else None
     features = _read_shapes(shapes, key)
     _refuse_duplicates(shapes.name, [f.key for f in features])
-    records: Mapping[str, Mapping[str, Any]]
-    if table is None:
-        columns = list(dict.fromkeys(c for f in features for c in f.properties if c != key))
-        records = {f.key: f.properties for f in features}
+    if tables:
+        # Census Bureau tables name tracts by GEO_ID: 1400000US06067000100 joins the
+        # shapes' 06067000100, or the whole GEO_ID where the shapes hold those.
+        table = _read_tables(tables, key, full_ids=any("US" in f.key for f in features))
     else:
-        columns, records = _read_table(table, key)
+        columns = list(dict.fromkeys(c for f in features for c in f.properties if c != key))
+        table = _Table(columns, {f.key: f.properties for f in features})
+    records = table.records
 
     shape_keys = {f.key for f in features}
     unmatched_shapes = tuple(sorted(shape_keys - records.keys()))
     unmatched_rows = tuple(sorted(records.keys() - shape_keys))
     joined = [f for f in features if f.key in records]
-    attributes = _numeric_columns(columns, [records[f.key] for f in joined])
-    tracts = _tracts(joined, records, attributes)
+    attributes = _numeric_columns(table.columns, [records[f.key] for f in joined])
+    margins = [table.margins[a] for a in attributes if a in table.margins]
+    tracts = _tracts(joined, records, [*attributes, *margins])
     rows = tracts.rows
     repaired, skipped = tracts.repaired, tracts.skipped
     problems = problem_lines(unmatched_shapes, unmatched_rows, repaired, skipped)
@@ -153,9 +157,9 @@ def import_files(
     _require_longitude_latitude(shapes.name, tracts.outlines)
     if not attributes:
         raise CensusImportError(f"no numeric columns to show besides {key!r}")
-    chosen = chosen or default_settings(shapes.stem, attributes)
-    _require_known_attributes(chosen, attributes, settings_file)
-    source = " + ".join(p.name for p in (shapes, table) if p is not None)
+    chosen = chosen or _generated_settings(table.title or shapes.stem, attributes, table)
+    _require_known_attributes(chosen, attributes, margins, settings_file)
+    source = " + ".join(p.name for p in (shapes, *tables))
     dataset_id = store.save(db, name, chosen, rows, source=source)
     return ImportReport(
         dataset_id=dataset_id,
@@ -166,8 +170,26 @@ def import_files(
         unmatched_rows=unmatched_rows,
         repaired=tuple(repaired),
         skipped=tuple(skipped),
-        ignored_columns=tuple(c for c in columns if c not in attributes),
+        ignored_columns=tuple(
+            [*table.left_out, *(c for c in table.columns if c not in attributes)]
+        ),
+        margins=tuple(margins),
     )
+
+
+@dataclass
+class _Table:
+    """Values by key from one or more tables: the columns that may become attributes,
+    in order, and what Census Bureau tables add (margins, descriptions, a title)."""
+
+    columns: list[str]
+    records: Mapping[str, Mapping[str, Any]]
+    margins: dict[str, str] = field(default_factory=dict)  # column -> its margin's column
+    described: dict[str, Attribute] = field(default_factory=dict)
+    left_out: list[str] = field(default_factory=list)  # text columns the tables name
+    counties: dict[str, str] = field(default_factory=dict)  # county FIPS -> name
+    title: str = ""
+    source: str = ""
 
 
 @dataclass
@@ -198,14 +220,38 @@ def _tracts(
     return tracts
 
 
+def _generated_settings(title: str, attributes: list[str], table: _Table) -> DataSetSettings:
+    try:
+        return default_settings(title, attributes, table.described, table.source, table.counties)
+    except ValidationError as error:
+        problems = "; ".join(
+            f"{'.'.join(str(part) for part in p['loc']) or 'settings'} "
+            f"{str(p['input'])[:40]!r}: {p['msg']}"
+            for p in error.errors()[:3]
+        )
+        raise CensusImportError(
+            f"the columns cannot become settings ({problems}); give settings of your own "
+            f"with --settings"
+        ) from error
+
+
 def _require_known_attributes(
-    chosen: DataSetSettings, attributes: list[str], settings_file: Path | None
+    chosen: DataSetSettings, attributes: list[str], margins: list[str], settings_file: Path | None
 ) -> None:
     unknown = [a.key for a in chosen.attributes if a.key not in attributes]
     if unknown:
         raise CensusImportError(
             f"{settings_file or 'the settings'} names attributes the data lack: {listed(unknown)}"
             f" (numeric columns: {listed(attributes)})"
+        )
+    stored = {*attributes, *margins}
+    lacking = [
+        f"{a.margin} (of {a.key})" for a in chosen.attributes if a.margin not in {None, *stored}
+    ]
+    if lacking:
+        raise CensusImportError(
+            f"{settings_file or 'the settings'} names margins of error the data lack: "
+            f"{listed(lacking)}"
         )
 
 
@@ -442,6 +488,44 @@ def _require_longitude_latitude(label: str, outlines: Sequence[Any]) -> None:
 # -- table and values ------------------------------------------------------------------
 
 
+def _read_tables(paths: Sequence[Path], key: str, *, full_ids: bool) -> _Table:
+    """The tables' values merged by key: a column may come from one table only."""
+    merged = _Table([], {})
+    records: dict[str, dict[str, Any]] = {}
+    census: list[acs.CensusTable] = []
+    owner: dict[str, str] = {}
+    for path in paths:
+        if acs.is_census_table(path):
+            try:
+                read = acs.read(path, full_ids=full_ids)
+            except acs.TableError as error:
+                raise CensusImportError(str(error)) from error
+            census += read
+            parts = [(t.name, t.estimates, t.records, [*t.margins.values()]) for t in read]
+            merged.margins.update(m for t in read for m in t.margins.items())
+            merged.left_out += [c for t in read for c in t.left_out if c not in merged.left_out]
+            merged.counties.update(c for t in read for c in t.counties.items())
+        else:
+            columns, rows = _read_table(path, key)
+            parts = [(path.name, columns, rows, [])]
+        for label, columns, rows, margins in parts:
+            for column in [*columns, *margins]:
+                if column in owner:
+                    raise CensusImportError(
+                        f"column {column} is in both {owner[column]} and {label}: "
+                        f"give each column once"
+                    )
+                owner[column] = label
+            merged.columns += columns
+            for row_key, row in rows.items():
+                records.setdefault(row_key, {}).update(row)
+    merged.records = records
+    if census:
+        merged.described = acs.describe(census)
+        merged.title, merged.source = acs.source_of(census)
+    return merged
+
+
 def _read_table(path: Path, key: str) -> tuple[list[str], dict[str, dict[str, Any]]]:
     """The table's columns, and its rows by key (keys unique)."""
     try:
@@ -495,7 +579,7 @@ def _number(raw: object) -> Value:
         number: float = int(text) if INTEGER.fullmatch(text) else float(text)
     else:
         number = raw
-    return None if not math.isfinite(number) or number in ACS_JAM_VALUES else number
+    return None if not math.isfinite(number) or number in acs.JAM_VALUES else number
 
 
 def _nothing_left(

@@ -14,7 +14,7 @@ from wall_client.layout import Wall
 from webapp.apps import Scan
 from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
-from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
 from webapp.apps.census_map.rules import APP, INDEX_TAG
 from webapp.database.models import TagRecord
 from webapp.deps import limit_action
@@ -92,6 +92,8 @@ async def tract_here(
         facts=dataset.facts(tract, person.info_class),
         charts=charts_for(dataset, tract, person.info_class, app.chart_stats),
         info_class=person.info_class,
+        margins_from=MARGINS_FROM,
+        shares_from=SHARES_FROM,
         tag={"code": code} if code else None,
         subject=tract.geoid,
     )

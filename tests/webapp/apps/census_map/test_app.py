@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import re
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -11,7 +12,10 @@ import shapely
 from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from tests.webapp.apps.census_map.test_acs import INCOME, VALUE, downloaded
+from tests.webapp.apps.census_map.test_importer import write_shapefile
 from wall_client.layout import Rect
+from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.store import list_datasets
 from webapp.engine.wall_state import WallState, read_state
 from webapp.schemas import PlacedCode
@@ -344,6 +348,44 @@ def test_tract_pages_follow_the_readers_class(client: TestClient) -> None:
         sign_in(instructor, "instructor")
         everything = instructor.get(url).text
     assert len(re.findall(r"<tr>", everything)) == 27
+
+
+def test_tract_pages_show_margins_of_error_by_class(client: TestClient, tmp_path: Path) -> None:
+    """An ACS data set: class 1 reads which values are uncertain, class 2 their margins
+    too, class 4 and up each margin's share of its value; a bound reads as one."""
+    import_files(
+        services_of(client).db,
+        shapes=write_shapefile(tmp_path / "tracts"),
+        key="GEOID",
+        tables=downloaded(tmp_path, INCOME, VALUE),
+    )
+    show_census(client)
+    register_student(client)
+    url = "/apps/census/demo/tracts/06067000100/here"
+
+    def row(page: str, label: str) -> list[str]:
+        match = re.search(rf"<th scope=\"row\">{re.escape(label)}</th><td>(.*?)</td>", page)
+        assert match, f"no row {label!r}"
+        return re.sub(r"<[^>]+>", " ", match.group(1)).split()
+
+    income = "Median household income in the past 12 months (in 2022 inflation-adjusted dollars)"
+    child = client.get(url).text
+    assert row(child, income) == ["$52,941", "uncertain"]
+    assert row(child, "Median value (dollars)") == ["$412,300"]
+    assert "±" not in child and "rough figure" in child
+    client.post(
+        "/me", data={"user_group": "undergraduate", "info_class": 2, "csrf": csrf_of(client)}
+    )
+    student = client.get(url).text
+    assert row(student, income) == ["$52,941", "±", "$6,123", "uncertain"]
+    assert row(student, "Median value (dollars)") == ["$412,300", "±", "$35,120"]
+    assert "90% confidence" in student and "as Census Reporter does" in student
+    with TestClient(client.app) as instructor:
+        sign_in(instructor, "instructor")
+        expert = instructor.get(url).text
+        bound = instructor.get("/apps/census/demo/tracts/06067000200/here").text
+    assert row(expert, income) == ["$52,941", "±", "$6,123", "(12%)", "uncertain"]
+    assert row(bound, income) == ["$250,000", "or", "more"]
 
 
 def test_a_student_cannot_read_above_their_ceiling(client: TestClient) -> None:

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from tests.conftest import TEST_SECRET
+from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
 from webapp.cli import main
@@ -92,6 +93,46 @@ def test_bad_input_exits_1_with_the_message(
     args = [str(tmp_path / a) if a.endswith(".csv") else a for a in extra]
     code, out, err = run(env, "census", "import", "--shapes", str(shapes), *args)
     assert code == 1 and err.startswith("error: ") and message in err
+    assert "Traceback" not in out + err and "imported" not in out
+
+
+def test_an_acs_table_imports_with_its_labels_and_margins(
+    env: dict[str, str], tmp_path: Path, database_url: str
+) -> None:
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    tables = [str(path) for path in downloaded(tmp_path, INCOME, VALUE)]
+    code, out, err = run(
+        env, "census", "import", "--shapes", str(shapes), "--key", "GEOID",
+        "--table", tables[0], "--table", tables[1],
+    )  # fmt: skip
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0] == "imported data set 1 'tracts': 3 tracts, 2 attributes"
+    assert "margins of error: B19013_001M, B25077_001M" in lines
+    database = Database(database_url)
+    try:
+        dataset = store.load(database, 1)
+    finally:
+        database.dispose()
+    assert dataset is not None and dataset.settings.attributes[1].label == "Median value (dollars)"
+
+
+@pytest.mark.parametrize("problem", ["no metadata", "metadata of another table", "a word"])
+def test_a_broken_acs_download_exits_1_in_one_line(
+    env: dict[str, str], tmp_path: Path, problem: str
+) -> None:
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    [data] = downloaded(tmp_path, INCOME)
+    metadata = tmp_path / f"{INCOME}-Column-Metadata.csv"
+    if problem == "no metadata":
+        metadata.unlink()
+    elif problem == "metadata of another table":
+        metadata.write_bytes((TABLES / f"{VALUE}-Column-Metadata.csv").read_bytes())
+    else:
+        data.write_text(data.read_text(encoding="utf-8").replace('"52941"', '"about 53k"'))
+    args = ("--shapes", str(shapes), "--key", "GEOID", "--table", str(data))
+    code, out, err = run(env, "census", "import", *args)
+    assert code == 1 and err.startswith("error: ") and err.count("\n") == 1, err
     assert "Traceback" not in out + err and "imported" not in out
 
 

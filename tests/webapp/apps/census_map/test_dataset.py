@@ -85,7 +85,7 @@ def test_settings_naming_unknown_attributes_are_refused() -> None:
 @pytest.mark.parametrize("info_class", [1, 2, 3, 4, 5])
 def test_each_class_reads_exactly_its_values(shipped: DataSet, info_class: int) -> None:
     tract = shipped.tracts[0]
-    labels = [label for label, _ in shipped.facts(tract, info_class)]
+    labels = [f.label for f in shipped.facts(tract, info_class)]
     allowed = [a.label for a in shipped.settings.attributes if a.info_class <= info_class]
     assert sorted(labels) == sorted(allowed)
     assert labels[:4] == [label for label, _ in shipped.headline(tract)]
@@ -104,7 +104,7 @@ def test_values_are_written_for_reading(shipped: DataSet) -> None:
 
 
 def test_the_shipped_labels_are_words_not_column_codes(shipped: DataSet) -> None:
-    labels = [label for label, _ in shipped.facts(shipped.tracts[0], 5)]
+    labels = [f.label for f in shipped.facts(shipped.tracts[0], 5)]
     codes = [a.key for a in shipped.settings.attributes]
     assert not [label for label in labels if any(code in label for code in codes)]
     assert "Employed civilians in production occupations" in labels

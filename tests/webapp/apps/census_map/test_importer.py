@@ -145,7 +145,7 @@ def test_server_processes_seeding_at_once_leave_one_current_data_set(
 def test_a_shapefile_joins_a_csv_by_key(db: Database, tmp_path: Path) -> None:
     shapes = write_shapefile(tmp_path / "tracts", prj=NAD83)
     report = import_files(
-        db, shapes=shapes, key="GEOID", table=write_csv(tmp_path / "t.csv", TABLE)
+        db, shapes=shapes, key="GEOID", tables=[write_csv(tmp_path / "t.csv", TABLE)]
     )
     assert (report.name, report.tracts, report.attributes) == ("tracts", 3, ("POP", "INCOME"))
     assert report.ignored_columns == ("NAME",)
@@ -165,7 +165,7 @@ def test_geometry_is_stored_as_geojson_with_lists(db: Database, tmp_path: Path) 
         db,
         shapes=write_shapefile(tmp_path / "tracts"),
         key="GEOID",
-        table=write_csv(tmp_path / "t.csv", TABLE),
+        tables=[write_csv(tmp_path / "t.csv", TABLE)],
     )
     with db.session() as session:
         row = session.get(CensusTractRecord, (report.dataset_id, "06067000100"))
@@ -177,7 +177,7 @@ def test_a_numeric_dbf_key_becomes_its_digits(db: Database, tmp_path: Path) -> N
     keys = ("6067000100", "6067000200")
     shapes = write_shapefile(tmp_path / "tracts", keys=keys, numeric_key=True)
     table = write_csv(tmp_path / "t.csv", "GEOID,POP\n6067000100,5\n 6067000200 ,6\n")
-    report = import_files(db, shapes=shapes, key="GEOID", table=table)
+    report = import_files(db, shapes=shapes, key="GEOID", tables=[table])
     assert report.tracts == 2 and report.unmatched_shapes == report.unmatched_rows == ()
 
 
@@ -191,7 +191,7 @@ def test_a_zipped_shapefile_in_a_folder_imports(db: Database, tmp_path: Path) ->
             zipped.write(part, f"tl_2020_06_tract/{part.name}")
         zipped.writestr("__MACOSX/tl_2020_06_tract/._tl_2020_06_tract.shp", "junk")
     table = write_csv(tmp_path / "acs.csv", TABLE)
-    report = import_files(db, shapes=archive, key="GEOID", table=table)
+    report = import_files(db, shapes=archive, key="GEOID", tables=[table])
     assert (report.name, report.tracts, report.attributes) == ("california", 3, ("POP", "INCOME"))
     assert not list(Path.cwd().glob("tl_2020_06_tract*"))  # read in memory, not extracted
 
@@ -209,7 +209,7 @@ def test_keys_missing_on_either_side_are_reported(db: Database, tmp_path: Path) 
         tmp_path / "t.csv",
         "GEOID,POP\n06067000200,1\n06067000300,2\n06067999900,3\n06067999800,4\n",
     )
-    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert report.tracts == 2
     assert report.unmatched_shapes == ("06067000100",)
     assert report.unmatched_rows == ("06067999800", "06067999900")
@@ -222,7 +222,7 @@ def test_keys_missing_on_either_side_are_reported(db: Database, tmp_path: Path) 
 def test_long_problem_lists_name_twenty_and_count_the_rest(db: Database, tmp_path: Path) -> None:
     rows = "".join(f"9{n:010d},{n}\n" for n in range(25))
     table = write_csv(tmp_path / "t.csv", f"GEOID,POP\n06067000100,1\n{rows}")
-    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     line = next(x for x in report.lines() if x.startswith("table rows without a shape:"))
     assert line.count(", ") == 19 and line.endswith(" and 5 more")
 
@@ -233,7 +233,7 @@ def test_duplicated_keys_are_refused(db: Database, tmp_path: Path, side: str) ->
     shapes = write_shapefile(tmp_path / "s", keys=keys)
     table = write_csv(tmp_path / "t.csv", TABLE + ("06067000300,Again,1,2\n" * (side == "table")))
     with pytest.raises(CensusImportError, match=r"more than once: 06067000[23]00"):
-        import_files(db, shapes=shapes, key="GEOID", table=table)
+        import_files(db, shapes=shapes, key="GEOID", tables=[table])
     assert store.count(db) == 0
 
 
@@ -307,13 +307,13 @@ def test_strict_mode_refuses_any_problem_and_writes_nothing(db: Database, tmp_pa
     table = write_csv(tmp_path / "t.csv", "GEOID,POP\n06067000100,1\n06067000200,2\n")
     with pytest.raises(CensusImportError) as refused:
         import_files(
-            db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table, strict=True
+            db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table], strict=True
         )
     assert "strict" in str(refused.value)
     assert "shapes without a table row: 06067000300" in str(refused.value)
     assert store.count(db) == 0
     full = write_csv(tmp_path / "full.csv", TABLE)
-    report = import_files(db, shapes=tmp_path / "s.shp", key="GEOID", table=full, strict=True)
+    report = import_files(db, shapes=tmp_path / "s.shp", key="GEOID", tables=[full], strict=True)
     assert report.tracts == 3
 
 
@@ -397,7 +397,7 @@ def test_a_csv_with_a_bom_and_acs_jam_values(db: Database, tmp_path: Path) -> No
         "06067000300,Tract 3,NA,-888888888.0,,\n",
         bom=True,
     )
-    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert report.attributes == ("B01003_001E",)  # the others hold no number at all
     assert report.ignored_columns == ("NAME", "B19013_001E", "B25077_001E", "NOTE")
     dataset = store.load(db, report.dataset_id)
@@ -414,7 +414,7 @@ def test_jam_values_become_none_among_numbers(db: Database, tmp_path: Path) -> N
         tmp_path / "acs.csv",
         "\ufeffGEOID,INCOME\n06067000100,-222222222\n06067000200,51000\n06067000300,null\n",
     )
-    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     dataset = store.load(db, report.dataset_id)
     assert dataset is not None
     assert [t.values["INCOME"] for t in dataset.tracts] == [None, 51000, None]
@@ -427,7 +427,7 @@ def test_a_label_row_that_joins_no_shape_does_not_hide_numbers(
         tmp_path / "acs.csv",
         "GEOID,POP\nGeography,Estimate!!Total\n06067000100,1\n06067000200,2\n06067000300,3\n",
     )
-    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+    report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert report.attributes == ("POP",) and report.unmatched_rows == ("Geography",)
 
 
@@ -454,11 +454,22 @@ def test_a_missing_key_column_names_the_columns(db: Database, tmp_path: Path) ->
         import_files(db, shapes=shapes, key="FIPS")
     table = write_csv(tmp_path / "t.csv", "FIPS,POP\n1,2\n")
     with pytest.raises(CensusImportError, match=r"t.csv has no column 'GEOID'"):
-        import_files(db, shapes=shapes, key="GEOID", table=table)
+        import_files(db, shapes=shapes, key="GEOID", tables=[table])
 
 
 def test_no_matching_keys_says_so(db: Database, tmp_path: Path) -> None:
     table = write_csv(tmp_path / "t.csv", "GEOID,POP\n6067000100,1\n")  # lost its zero
     with pytest.raises(CensusImportError, match=r"no shape matched.*06067000100.*6067000100"):
-        import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", table=table)
+        import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
+    assert store.count(db) == 0
+
+
+def test_columns_that_cannot_become_settings_are_refused_in_words(
+    db: Database, tmp_path: Path
+) -> None:
+    long = "A" * 70  # an attribute's key has at most 64 characters
+    table = write_csv(tmp_path / "t.csv", f"GEOID,{long}\n" + "".join(f"{k},1\n" for k in KEYS))
+    refusal = r"cannot become settings \(key 'AAAA.*at most 64 characters"
+    with pytest.raises(CensusImportError, match=refusal):
+        import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert store.count(db) == 0
