@@ -8,6 +8,7 @@ from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
 
 from webapp.database.connection import Database
 from webapp.database.models import AccountRecord
@@ -56,6 +57,15 @@ def add_account(db: Database, username: str, role: str, password: str, actor: st
     return record
 
 
+def _find(session: Session, username: str) -> AccountRecord | None:
+    """The account called ``username`` in any case; a name no account can have (one
+    with a NUL byte, which PostgreSQL would refuse to compare) is looked up nowhere."""
+    name = username.strip().lower()
+    if not USERNAME.match(name):
+        return None
+    return session.scalar(select(AccountRecord).where(AccountRecord.username == name))
+
+
 def list_accounts(db: Database) -> list[AccountRecord]:
     with db.session() as session:
         return list(session.scalars(select(AccountRecord).order_by(AccountRecord.username)))
@@ -69,7 +79,7 @@ def remove_account(db: Database, username: str, actor: str) -> None:
     """Delete the account and demote every phone it authorised."""
     name = username.strip().lower()
     with db.session() as session:
-        record = session.scalar(select(AccountRecord).where(AccountRecord.username == name))
+        record = _find(session, name)
         if record is None:
             raise AccountError(f"there is no account called {name!r}")
         session.delete(record)
@@ -82,7 +92,7 @@ def set_password(db: Database, username: str, password: str, actor: str) -> None
     check_password(password)
     name = username.strip().lower()
     with db.session() as session:
-        record = session.scalar(select(AccountRecord).where(AccountRecord.username == name))
+        record = _find(session, name)
         if record is None:
             raise AccountError(f"there is no account called {name!r}")
         record.password_hash = _hasher().hash(password)
@@ -99,9 +109,8 @@ _DUMMY_HASH = (
 
 def authenticate(db: Database, username: str, password: str) -> AccountRecord | None:
     """The account if the password is right, else None (same cost either way)."""
-    name = username.strip().lower()
     with db.session() as session:
-        record = session.scalar(select(AccountRecord).where(AccountRecord.username == name))
+        record = _find(session, username)
         hasher = _hasher()
         try:
             hasher.verify(record.password_hash if record else _DUMMY_HASH, password)

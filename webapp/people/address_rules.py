@@ -10,7 +10,7 @@ from webapp.database.connection import Database
 from webapp.database.models import AddressRuleRecord
 from webapp.people.addresses import parse_network
 from webapp.people.audit import audit
-from webapp.people.person import revoke
+from webapp.people.person import plain_text, revoke
 from webapp.people.roles import USER_GROUPS
 
 
@@ -44,7 +44,11 @@ def add_rule(
     if info_class is not None and not 1 <= info_class <= 5:
         raise RuleError("the information class is 1 to 5")
     record = AddressRuleRecord(
-        network=parsed, role=role, user_group=user_group, info_class=info_class, note=note[:200]
+        network=parsed,
+        role=role,
+        user_group=user_group,
+        info_class=info_class,
+        note=plain_text(note)[:200],
     )
     try:
         with db.session() as session:

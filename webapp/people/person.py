@@ -50,18 +50,22 @@ GROUP_LABELS: dict[UserGroup, str] = {
 MAX_DISPLAY_NAME = 40
 
 
-def plain_name(text: str) -> str:
-    """A display name as the public screen may show it: compatibility characters
-    folded (NFKC), no control, format (bidirectional overrides, zero-width) or
-    private-use characters, runs of spaces as one, at most :data:`MAX_DISPLAY_NAME`
-    characters."""
-    folded = unicodedata.normalize("NFKC", text)
+def plain_text(text: str) -> str:
+    """Text people type as tagwall keeps it: one line, runs of spaces as one, no
+    control, format (bidirectional overrides, zero-width) or private-use characters
+    (nor a NUL byte, which PostgreSQL cannot store)."""
     kept = "".join(
         " " if char.isspace() else char
-        for char in folded
+        for char in text
         if char.isspace() or not unicodedata.category(char).startswith("C")
     )
-    return " ".join(kept.split())[:MAX_DISPLAY_NAME].strip()
+    return " ".join(kept.split())
+
+
+def plain_name(text: str) -> str:
+    """A display name as the public screen may show it: plain text with compatibility
+    characters folded (NFKC), at most :data:`MAX_DISPLAY_NAME` characters."""
+    return plain_text(unicodedata.normalize("NFKC", text))[:MAX_DISPLAY_NAME].strip()
 
 
 def rank(role: str) -> int:

@@ -14,6 +14,7 @@ from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
+from webapp.database.connection import RowId
 from webapp.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep, open_wall_socket
 from webapp.engine.bus import BusUnavailable, SubscriberTooSlow, Subscription
 from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TRY_AGAIN, DashboardStatus
@@ -252,7 +253,7 @@ def create_rule(
 
 @router.post("/dashboard/admin/rules/{rule_id}/remove", dependencies=[CsrfDep])
 def delete_rule(
-    request: Request, rule_id: int, person: AdminPageDep, services: ServicesDep
+    request: Request, rule_id: RowId, person: AdminPageDep, services: ServicesDep
 ) -> Response:
     actor = person.authority or "admin"
     return _admin_change(

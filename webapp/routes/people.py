@@ -17,7 +17,14 @@ from webapp.deps import (
 )
 from webapp.people.accounts import authenticate
 from webapp.people.audit import audit
-from webapp.people.person import GROUP_LABELS, grant, remember_person, sign_out, update_profile
+from webapp.people.person import (
+    GROUP_LABELS,
+    grant,
+    plain_text,
+    remember_person,
+    sign_out,
+    update_profile,
+)
 from webapp.people.ratelimit import retry_after_s
 from webapp.people.roles import USER_GROUPS
 from webapp.people.security import token_matches
@@ -59,7 +66,7 @@ def _too_many(request: Request, template: str, wait: float, **context: object) -
 
 def _audit_failure(services: Services, username: str, address: str) -> None:
     with services.db.session() as session:
-        audit(session, "login_failed", actor=username[:64], address=address)
+        audit(session, "login_failed", actor=plain_text(username)[:64], address=address)
 
 
 @router.post("/login", dependencies=[CsrfDep])

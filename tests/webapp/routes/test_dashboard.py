@@ -94,6 +94,22 @@ def test_bad_rule_forms_are_clear_400s(
     assert list_rules(services_of(client).db) == []
 
 
+def test_admin_forms_answer_what_the_database_cannot_hold_without_a_500(
+    client: TestClient,
+) -> None:
+    """A rule id past what the database holds failed on SQLite and PostgreSQL, a NUL
+    byte in an account's name or a rule's note on PostgreSQL: a 400 page, a plain note."""
+    sign_in(client, "admin")
+    csrf = csrf_of(client)
+    huge = client.post("/dashboard/admin/rules/99999999999999999999999/remove", data={"csrf": csrf})
+    assert huge.status_code == 400 and "malformed" in huge.text
+    nul = client.post("/dashboard/admin/accounts/admin-one%00/remove", data={"csrf": csrf})
+    assert nul.status_code == 400 and "there is no account" in nul.text
+    form = {"network": "10.0.0.0/8", "note": "lab\x00 3\u202e", "csrf": csrf}
+    assert client.post("/dashboard/admin/rules", data=form).status_code == 200
+    assert [rule.note for rule in list_rules(services_of(client).db)] == ["lab 3"]
+
+
 def test_a_duplicate_rule_is_refused(client: TestClient) -> None:
     sign_in(client, "admin")
     for _ in range(2):

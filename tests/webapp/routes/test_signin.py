@@ -54,6 +54,19 @@ def test_an_attacker_elsewhere_does_not_lock_the_instructor_out(app: FastAPI) ->
         assert signed_in.status_code == 303, signed_in.text
 
 
+def test_a_name_no_account_can_have_is_a_wrong_sign_in(app: FastAPI) -> None:
+    """A NUL byte in the name failed PostgreSQL's look-up (a 500 for anyone); the audit
+    log keeps the name tried as plain text."""
+    with TestClient(app) as browser:
+        add_account(services_of(browser).db, "ines", "instructor", TEST_PASSWORD, actor="test")
+        assert login(browser, TEST_PASSWORD, "ines\x00").status_code == 401
+    with app.state.services.db.session() as session:
+        tried = session.scalars(
+            select(AuditRecord.actor).where(AuditRecord.action == "login_failed")
+        ).all()
+    assert tried == ["ines"]
+
+
 def test_one_address_spraying_many_accounts_is_slowed(app: FastAPI) -> None:
     free = app.state.services.settings.login_client_free_attempts
     with TestClient(app, client=("203.0.113.9", 4000)) as sprayer:

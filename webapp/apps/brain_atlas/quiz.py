@@ -39,6 +39,7 @@ from webapp.database.models import (
     BrainQuizRoundRecord,
     VisitorRecord,
 )
+from webapp.people.person import plain_text
 
 COMMON_WRONG = 3  # wrong answers listed per region on the dashboard
 Reveal = Literal["close", "finish"]
@@ -132,8 +133,8 @@ def new_order(regions: Sequence[Region]) -> list[str]:
 
 
 def clean_answer(text: str) -> str:
-    """An answer as stored: one line, trimmed, bounded; empty answers are refused."""
-    cleaned = " ".join(text.split())
+    """An answer as stored: plain text, bounded; empty answers are refused."""
+    cleaned = plain_text(text)
     if not cleaned:
         raise QuizError("Please type a name before sending.")
     if len(cleaned) > MAX_ANSWER_LENGTH:

@@ -38,7 +38,7 @@ def mode_of(state: WallState) -> Mode:
 
 def reveals_answers(person: Person) -> bool:
     """The one rule for early answers: instructors (and admins) see them at once;
-    students only on their own results page, after finishing."""
+    students only when their round says so (``Round.names_shown``)."""
     return person.is_staff
 
 

@@ -77,6 +77,14 @@ def test_empty_or_overlong_answers_are_refused_and_nothing_is_stored(
     assert progress(db, WALL, R, "v1", "k5").answers == {}
 
 
+def test_answers_are_stored_as_plain_text(db: Database) -> None:
+    """A NUL byte made PostgreSQL fail the request (a 500 for any student); control and
+    format characters never reach the database, on either."""
+    record_answer(db, WALL, R, "v1", "k5", "alpha", "tha\x00la\u200bmus\u202e", False)
+
+    assert progress(db, WALL, R, "v1", "k5").answers["alpha"].text == "thalamus"
+
+
 def test_sets_visitors_and_walls_are_separate(db: Database) -> None:
     record_answer(db, WALL, R, "v1", "k5", "alpha", "alpha", True)
 
