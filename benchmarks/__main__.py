@@ -23,6 +23,7 @@ BENCHMARKS = (
     "signin",
     "sync",
     "lecture_hall",
+    "memory",
 )
 RESULTS = Path(__file__).parent / "results"
 

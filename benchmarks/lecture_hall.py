@@ -57,8 +57,9 @@ from collections import Counter, defaultdict
 from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import httpx
 
@@ -66,10 +67,14 @@ from benchmarks.measuring import (
     POSTGRES_URL,
     REDIS_URL,
     cpu_seconds,
+    memory_kb,
     percentile,
     process_tree,
     unreachable,
 )
+
+if TYPE_CHECKING:
+    from webapp.testing import ServerProcess
 
 PHONE_WALL = "demo"
 TILE_WALL = "hiperwall"
@@ -352,13 +357,11 @@ def machine_busy_seconds() -> float:
 
 def memory_mb(pids: Sequence[int]) -> dict[str, float]:
     """Resident memory now and at its peak (``VmHWM``), summed over the processes."""
-    now = peak = 0
-    for pid in pids:
-        with contextlib.suppress(OSError):
-            status = Path(f"/proc/{pid}/status").read_text()
-            now += int(re.search(r"VmRSS:\s+(\d+) kB", status).group(1))  # type: ignore[union-attr]
-            peak += int(re.search(r"VmHWM:\s+(\d+) kB", status).group(1))  # type: ignore[union-attr]
-    return {"rss_mb": round(now / 1024, 1), "peak_rss_mb": round(peak / 1024, 1)}
+    memory = memory_kb(pids)
+    return {
+        "rss_mb": round(memory["rss"] / 1024, 1),
+        "peak_rss_mb": round(memory["peak"] / 1024, 1),
+    }
 
 
 @contextlib.contextmanager
@@ -553,11 +556,13 @@ def server_env(scenario: Scenario) -> dict[str, str]:
     return env
 
 
-def measure(scenario: Scenario) -> dict[str, Any]:
+@contextlib.contextmanager
+def hall_server(scenario: Scenario) -> Iterator[tuple[ServerProcess, HallCodes]]:
+    """One ``tagwall serve`` of the scenario on a database of its own, the brain atlas on
+    the phones' wall; and what its phones scan."""
     from webapp.database.migrate import upgrade
     from webapp.testing import ServerProcess
 
-    context = multiprocessing.get_context("spawn")
     with (
         tempfile.TemporaryDirectory(prefix="tagwall-hall-") as scratch,
         bench_database(scenario.database_url, Path(scratch)) as database_url,
@@ -573,21 +578,35 @@ def measure(scenario: Scenario) -> dict[str, Any]:
         try:
             with httpx.Client(timeout=120) as client:
                 server.change(PHONE_WALL, {"app": "brain"}, client)
-            codes = replace(hall_codes(database_url), follow_answers=scenario.progress_pages)
-            asyncio.run(phones_at(server.url, codes, [time.time()] * WARMUP_PHONES))
-            tile_urls = [server.tile_url(TILE_WALL, tile, scheme="ws") for tile in TILES]
-            ours, theirs = context.Pipe()
-            tiles = context.Process(
-                target=tile_process,
-                args=(server.url, tile_urls, server.operator(), theirs),
-                daemon=True,
-            )
-            tiles.start()
-            if not ours.poll(120) or ours.recv() != "ready":
-                raise RuntimeError("the tiles did not connect")
-            return _load(scenario, server, codes, context, ours, tiles)
+            yield server, replace(hall_codes(database_url), follow_answers=scenario.progress_pages)
         finally:
             server.stop()
+
+
+def start_tiles(
+    context: Any, server: ServerProcess, tile_urls: list[str]
+) -> tuple[Connection, BaseProcess]:
+    """The tiles' process (:func:`tile_process`) once every tile is connected: its pipe
+    (send anything to stop it, then receive its figures) and the process."""
+    ours, theirs = context.Pipe()
+    tiles: BaseProcess = context.Process(
+        target=tile_process,
+        args=(server.url, tile_urls, server.operator(), theirs),
+        daemon=True,
+    )
+    tiles.start()
+    if not ours.poll(120) or ours.recv() != "ready":
+        raise RuntimeError("the tiles did not connect")
+    return ours, tiles
+
+
+def measure(scenario: Scenario) -> dict[str, Any]:
+    context = multiprocessing.get_context("spawn")
+    with hall_server(scenario) as (server, codes):
+        asyncio.run(phones_at(server.url, codes, [time.time()] * WARMUP_PHONES))
+        tile_urls = [server.tile_url(TILE_WALL, tile, scheme="ws") for tile in TILES]
+        tile_pipe, tiles = start_tiles(context, server, tile_urls)
+        return _load(scenario, server, codes, context, tile_pipe, tiles)
 
 
 def _load(

@@ -1,11 +1,13 @@
-"""What several benchmarks measure alike: percentiles, the CPU of server processes,
-and whether the machine's PostgreSQL and Redis are there for the scale-out runs."""
+"""What several benchmarks measure alike: percentiles, the CPU and memory of server
+processes, and whether the machine's PostgreSQL and Redis are there for the scale-out
+runs."""
 
 from __future__ import annotations
 
 import contextlib
 import math
 import os
+import re
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
@@ -50,6 +52,24 @@ def cpu_seconds(pids: Sequence[int]) -> float:
             fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
             total += int(fields[11]) + int(fields[12])
     return total / os.sysconf("SC_CLK_TCK")
+
+
+MEMORY_FIELDS = {"rss": "VmRSS", "anon": "RssAnon", "file": "RssFile", "peak": "VmHWM"}
+
+
+def memory_kb(pids: Sequence[int]) -> dict[str, int]:
+    """Resident memory of these processes, summed, in kB (Linux ``/proc``): all of it
+    (``rss``), its anonymous part (``anon``: the heap, where a leak grows), its part
+    backed by files (``file``: libraries, mapped files, which pages in as it is used)
+    and the peak of the whole (``peak``). A process gone meanwhile counts nothing."""
+    total = dict.fromkeys(MEMORY_FIELDS, 0)
+    for pid in pids:
+        with contextlib.suppress(OSError):
+            status = Path(f"/proc/{pid}/status").read_text()
+            for name, field in MEMORY_FIELDS.items():
+                found = re.search(rf"^{field}:\s+(\d+) kB", status, re.MULTILINE)
+                total[name] += int(found.group(1)) if found else 0
+    return total
 
 
 def unreachable(redis_url: str, postgres_url: str) -> str | None:

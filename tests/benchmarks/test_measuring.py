@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from benchmarks.measuring import cpu_seconds, percentile, process_tree
+from benchmarks.measuring import cpu_seconds, memory_kb, percentile, process_tree
 
 
 def test_percentiles_are_nearest_rank() -> None:
@@ -28,3 +28,10 @@ def test_cpu_is_counted_for_this_process_and_nothing_for_one_gone() -> None:
 
 def test_a_process_tree_starts_at_its_root() -> None:
     assert process_tree(os.getpid())[0] == os.getpid()
+
+
+def test_memory_is_read_for_this_process_and_nothing_for_one_gone() -> None:
+    memory = memory_kb([os.getpid()])
+    assert 0 < memory["anon"] < memory["rss"] <= memory["peak"]
+    assert memory["anon"] + memory["file"] <= memory["rss"]
+    assert memory_kb([2**22 + 1]) == {"rss": 0, "anon": 0, "file": 0, "peak": 0}

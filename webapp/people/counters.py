@@ -115,9 +115,11 @@ def _conditions(strikes: Sequence[Strike]) -> list[int]:
 class MemoryCounters:
     """The counters of one server process.
 
-    Memory stays bounded: beyond ``max_keys`` per window or back-off the least recently
-    seen keys are forgotten (they could only have been throttled more, never less, by
-    staying). No ``await`` comes between a check and its count.
+    Memory stays bounded: a window forgets the keys whose hits have all left it (a
+    phone that came and went counts nothing), and beyond ``max_keys`` per window or
+    back-off the least recently seen keys are forgotten (they could only have been
+    throttled more, never less, by staying). No ``await`` comes between a check and its
+    count.
     """
 
     def __init__(self, max_keys: int = 100_000) -> None:
@@ -129,6 +131,8 @@ class MemoryCounters:
 
     async def hit(self, hits: Sequence[Hit], now: float | None = None) -> float | None:
         now = time.monotonic() if now is None else now
+        for window, _ in hits:
+            self._forget_past(window, now)
         waits = [
             w for window, key in hits if (w := self._window_wait(window, key, now)) is not None
         ]
@@ -143,6 +147,18 @@ class MemoryCounters:
                     table.popitem(last=False)
             held.append(now)
         return None
+
+    def _forget_past(self, window: SlidingWindow, now: float) -> None:
+        """Forget the keys whose hits have all left the window. Keys are in the order
+        they were last seen and a key is seen whenever it is hit, so once the least
+        recently seen key still holds a hit, every key behind it was seen within the
+        window: what is kept is what was seen in the last ``window_s``."""
+        table = self._hits[window.name]
+        while table:
+            key, held = next(iter(table.items()))
+            if held and held[-1] > now - window.window_s:
+                return
+            del table[key]
 
     def _window_wait(self, window: SlidingWindow, key: str, now: float) -> float | None:
         table = self._hits[window.name]

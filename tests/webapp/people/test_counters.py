@@ -76,6 +76,19 @@ async def test_memory_is_bounded_by_forgetting_the_least_recent_keys() -> None:
     assert await hits(counters, window, "b", 3.0) == [True]
 
 
+async def test_keys_are_forgotten_once_their_hits_left_the_window() -> None:
+    """Phones that came and went leave nothing behind, however many came."""
+    counters = MemoryCounters()
+    window = SlidingWindow("w", limit=2, window_s=60.0)
+    for phone in range(1000):
+        assert await hits(counters, window, f"phone {phone}", phone / 10) == [True]
+    await counters.hit([(window, "late")], now=130.0)  # phones 0-700 hit at 70 or before
+    assert len(counters._hits["w"]) == 300  # phones 701-999 and "late"
+    assert await hits(counters, window, "phone 999", 130.0, 130.0) == [True, False]
+    await counters.hit([(window, "later")], now=1000.0)
+    assert list(counters._hits["w"]) == ["later"]
+
+
 # --- back-off: growing delays after failures ---------------------------------------
 
 
