@@ -70,6 +70,7 @@ from benchmarks.measuring import (
     memory_kb,
     percentile,
     process_tree,
+    told_to_stop,
     unreachable,
 )
 
@@ -278,14 +279,7 @@ async def tiles_and_publisher(
     listeners = [asyncio.create_task(listen(socket)) for socket in sockets]
     pipe.send("ready")
     published: list[Published] = []
-    loop = asyncio.get_running_loop()
-    stop = asyncio.Event()
-
-    def told_to_stop() -> None:
-        loop.remove_reader(pipe.fileno())
-        stop.set()
-
-    loop.add_reader(pipe.fileno(), told_to_stop)  # any message from the parent
+    stop = told_to_stop(pipe)
     async with httpx.AsyncClient(base_url=base_url, headers=operator, timeout=60) as client:
         tick = time.perf_counter()
         while not stop.is_set():
@@ -747,7 +741,7 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ),
     (
         "brain: round guide, made once per layout (codes, views, pins on the wall)",
-        ("BrainApp._guide", "BrainApp._pin_views"),
+        ("BrainApp.guide", "BrainApp._pin_views"),
     ),
     ("brain: answer stored (quiz.record_answer)", ("record_answer (",)),
     ("brain: quiz queries (progress, rounds)", ("(webapp/apps/brain_atlas/quiz.py",)),

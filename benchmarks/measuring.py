@@ -4,12 +4,14 @@ runs."""
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import math
 import os
 import re
 from collections import defaultdict
 from collections.abc import Sequence
+from multiprocessing.connection import Connection
 from pathlib import Path
 
 REDIS_URL = "redis://127.0.0.1:6379/0"
@@ -92,3 +94,17 @@ def unreachable(redis_url: str, postgres_url: str) -> str | None:
     finally:
         engine.dispose()
     return None
+
+
+def told_to_stop(pipe: Connection) -> asyncio.Event:
+    """An event set by any message from the parent process on ``pipe`` (a load
+    generator's or a tile client's signal to wrap up; call in its event loop)."""
+    loop = asyncio.get_running_loop()
+    stop = asyncio.Event()
+
+    def heard() -> None:
+        loop.remove_reader(pipe.fileno())
+        stop.set()
+
+    loop.add_reader(pipe.fileno(), heard)
+    return stop

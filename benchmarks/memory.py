@@ -75,7 +75,7 @@ from benchmarks.lecture_hall import (
     step_figures,
     tile_figures,
 )
-from benchmarks.measuring import memory_kb, percentile, process_tree
+from benchmarks.measuring import memory_kb, percentile, process_tree, told_to_stop
 
 WARMUP_PHONES = 100
 WARMUP_TILES_S = 3.0
@@ -145,14 +145,7 @@ async def churning_tiles(tile_urls: list[str], hold_s: float, pipe: Connection) 
     from websockets.asyncio.client import connect
     from websockets.exceptions import WebSocketException
 
-    loop = asyncio.get_running_loop()
-    stop = asyncio.Event()
-
-    def told_to_stop() -> None:
-        loop.remove_reader(pipe.fileno())
-        stop.set()
-
-    loop.add_reader(pipe.fileno(), told_to_stop)  # any message from the parent
+    stop = told_to_stop(pipe)
     visits = failures = 0
 
     async def stay(socket: Any) -> bool:

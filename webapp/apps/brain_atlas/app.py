@@ -156,19 +156,8 @@ class BrainApp:
         tag issued, a view turned) places them anew, so a new ``state.tag_layout``."""
         key = (wall.id, quiz_round.number, tag_set, state.tag_layout, services.base_url)
         found = self._guides.get(key)
-        if found is None:
-            found = self._guide(services, wall, quiz_round, tag_set, state)
-            self._guides.put(key, found)
-        return found
-
-    def _guide(
-        self,
-        services: Services,
-        wall: Wall,
-        quiz_round: Round,
-        tag_set: TagSetName,
-        state: WallState,
-    ) -> RoundGuide:
+        if found is not None:
+            return found
         layout = get_layout(services.db, wall.id, state.tag_layout) if state.tag_layout else None
         placed = {code["code"] for code in layout.placed} if layout is not None else set()
         pins = {
@@ -179,11 +168,13 @@ class BrainApp:
             and tag.params.get("set") == tag_set
             and tag.params.get("round") == quiz_round.number
         }
-        return RoundGuide(
+        found = RoundGuide(
             codes=pins,
             views=self._pin_views(services, wall, quiz_round, tag_set),
             on_wall=frozenset(number for number, code in pins.items() if code in placed),
         )
+        self._guides.put(key, found)
+        return found
 
     def _pin_views(
         self, services: Services, wall: Wall, quiz_round: Round, tag_set: TagSetName
