@@ -299,15 +299,16 @@ def place_box(
     obstacles: Sequence[Rect],
     clear_mm: float = 0.0,
     sight: Sequence[Rect] | None = None,
+    on: Sequence[str] | None = None,
 ) -> Rect | None:
-    """Where a box of ``size_mm`` (a description balloon) stands nearest ``anchor``:
-    wholly on one display that is not a designated screen, clear of ``obstacles``
-    (codes with their captions, other boxes) and of the square of side ``2 * clear_mm``
-    around ``anchor``. With ``sight``, its pointer (the straight line from the box's
-    nearest point to ``anchor``) also crosses none of those rectangles: the nearest
-    such spot among those flush with obstacles and display edges. None when no display
-    has room for it."""
-    designated = {d.id for role in ROLES for d in wall.screen(role)}
+    """Where a box of ``size_mm`` (a description balloon, a legend) stands nearest
+    ``anchor``: wholly on one of the displays ``on`` (by default every display that is
+    not a designated screen), clear of ``obstacles`` (codes with their captions, other
+    boxes) and of the square of side ``2 * clear_mm`` around ``anchor``. With
+    ``sight``, its pointer (the straight line from the box's nearest point to
+    ``anchor``) also crosses none of those rectangles: the nearest such spot among
+    those flush with obstacles and display edges. None when no display has room."""
+    allowed = set(on) if on is not None else {d.id for d in wall.displays} - wall.designated()
     seen = (
         None
         if sight is None
@@ -315,7 +316,7 @@ def place_box(
     )
     best: tuple[float, Rect] | None = None
     for display in wall.displays:
-        if display.id in designated:
+        if display.id not in allowed:
             continue
         canvas = _Canvas(wall, display)
         for area in obstacles:

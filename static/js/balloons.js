@@ -65,7 +65,7 @@ export function drawBalloons(ctx, state, serverNow, mm) {
   }
 }
 
-function fitText(ctx, text, x, y, room, font, weight) {
+export function fitText(ctx, text, x, y, room, font, weight) {
   ctx.font = `${weight}${font}px sans-serif`;
   const width = ctx.measureText(text).width;
   const size = width > room ? font * room / width : font;

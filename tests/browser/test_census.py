@@ -18,8 +18,9 @@ from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine
-from webapp.apps.census_map.mapview import COLOURS, contrast_ratio
+from webapp.apps.census_map.mapview import COLOURS
 from webapp.check import fetch_layout
+from webapp.choropleth.palettes import contrast_ratio
 from webapp.people.security import operator_token
 from webapp.schemas import LayoutInfo
 from webapp.settings import CONTENT_DIR

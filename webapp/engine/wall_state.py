@@ -17,6 +17,7 @@ from sqlalchemy import delete, select, update
 from sqlalchemy.exc import IntegrityError, OperationalError
 from sqlalchemy.orm import Session
 
+from webapp.choropleth.classes import Theme
 from webapp.database.connection import Database, RowId
 from webapp.database.models import WallEventRecord, WallStateRecord
 from webapp.volume.layer import VolumeLayer
@@ -91,6 +92,7 @@ class WallState(BaseModel):
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
     dataset: RowId | None = None  # the census map's data set
+    theme: Theme | None = None  # what the census map's tracts are coloured by (None: plain)
     quiz_round: RowId | None = None  # the brain quiz's round (its pin codes)
 
 
@@ -135,7 +137,7 @@ class Change(BaseModel):
     heavy: bool
 
 
-HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume", "dataset"})
+HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume", "dataset", "theme"})
 """Fields whose change makes tiles fetch something (renders, code layouts) first:
 applied by prepare -> ready -> swap."""
 

@@ -16,6 +16,8 @@ from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
 from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.theme import kept_theme
+from webapp.choropleth.classes import Theme
 from webapp.engine.changes import Update, change_wall, plan_change
 from webapp.engine.wall_state import Balloon, WallState, now_ms
 from webapp.schemas import PlacedCode
@@ -55,6 +57,27 @@ class GroupHidden(Exception):
     def __init__(self, group: Group) -> None:
         super().__init__(f"the group {group.name} is hidden on the wall")
         self.group = group
+
+
+class MapChanged(Exception):
+    """The wall stopped showing the data set a colouring was chosen for."""
+
+
+async def colour_wall(
+    services: Services, wall: Wall, dataset: DataSet, theme: Theme | None
+) -> None:
+    """Colour the wall's tracts by ``theme`` (None: one plain colour), on every tile in
+    the same frame (a heavy change: tiles load the classes before the swap). Raises
+    :class:`MapChanged` when the wall no longer shows ``dataset``."""
+
+    kept = kept_theme(dataset, theme)
+
+    async def colour(state: WallState) -> Update:
+        if state.app != APP or state.dataset != dataset.id:
+            raise MapChanged
+        return lambda current: current.model_copy(update={"theme": kept})
+
+    await plan_change(services, wall, colour)
 
 
 async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
@@ -168,13 +191,16 @@ def _pointer_length(box: Rect, anchor: tuple[float, float]) -> float:
     return math.dist((min(max(x, box.x), box.right), min(max(y, box.y), box.bottom)), anchor)
 
 
-async def switch_dataset(services: Services, dataset_id: int) -> None:
-    """Show ``dataset_id`` on every wall the census map is on (codes placed again)."""
+async def switch_dataset(app: CensusApp, services: Services, dataset_id: int) -> None:
+    """Show ``dataset_id`` on every wall the census map is on (codes placed again; the
+    colouring kept where the data set has its value)."""
+    dataset = await run_in_threadpool(app.dataset, services, dataset_id)
     for wall in services.walls.values():
 
         def show(state: WallState) -> WallState:
             if state.app != APP:
                 return state
-            return state.model_copy(update={"dataset": dataset_id})
+            theme = kept_theme(dataset, state.theme)
+            return state.model_copy(update={"dataset": dataset_id, "theme": theme})
 
         await change_wall(services, wall, show)

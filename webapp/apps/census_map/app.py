@@ -22,7 +22,9 @@ from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.store import DataSets, current_id
+from webapp.apps.census_map.theme import Shading, kept_theme, shade
 from webapp.caching import SizedCache
+from webapp.choropleth.classes import Theme
 from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing import Block, Publication
 from webapp.tags.registry import (
@@ -37,6 +39,7 @@ if TYPE_CHECKING:
 
 FOLDER = Path(__file__).parent
 KEPT_GEOMETRIES = 4
+KEPT_SHADINGS = 64  # themes tried in a session, per data set: each a few kB
 RENDER_CACHE_BYTES = 64 * 1024 * 1024
 
 
@@ -70,6 +73,7 @@ class CensusApp:
         self.datasets = DataSets()
         self.renders = SizedCache[bytes](RENDER_CACHE_BYTES, len)  # tile views, KML
         self.chart_stats = ChartStats()
+        self.shadings = SizedCache[Shading](KEPT_SHADINGS)
         self._geometries: OrderedDict[int, MapGeometry] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -91,6 +95,19 @@ class CensusApp:
                 self._geometries.popitem(last=False)
         return geometry
 
+    def shading(self, dataset: DataSet, theme: Theme | None) -> Shading | None:
+        """The tracts coloured by ``theme`` (None: the plain map), cut once per data set
+        and theme: tiles, KML and tract pages all read the same classes."""
+        theme = kept_theme(dataset, theme)
+        if theme is None:
+            return None
+        key = (dataset.id, theme)
+        found = self.shadings.get(key)
+        if found is None:
+            found = shade(dataset, theme)
+            self.shadings.put(key, found)
+        return found
+
     def shown(self, services: Services, state: WallState) -> DataSet | None:
         """The data set the wall's state names (None: the census map is not set up)."""
         return self.dataset(services, state.dataset)
@@ -104,7 +121,8 @@ class CensusApp:
         """On the wall, the map shows the current data set (the shipped one until an
         import): seeded on first use, so walls that never show the map pay nothing."""
         dataset_id = current_id(services.db) or seed(services.db)
-        return state.model_copy(update={"dataset": dataset_id})
+        theme = kept_theme(self.dataset(services, dataset_id), state.theme)
+        return state.model_copy(update={"dataset": dataset_id, "theme": theme})
 
     def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the map is on the wall: the group toggles on the menu screen, the tract

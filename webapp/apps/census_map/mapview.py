@@ -51,26 +51,6 @@ Floats = npt.NDArray[np.float64]
 Shapes = npt.NDArray[np.object_]
 
 
-def contrast_ratio(a: str | Sequence[float], b: str | Sequence[float]) -> float:
-    """WCAG 2's contrast ratio of two sRGB colours (``#rrggbb`` or 0-255 triples):
-    from 1 (the same) to 21 (black on white); non-text parts need 3."""
-
-    def luminance(colour: str | Sequence[float]) -> float:
-        rgb = (
-            [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
-            if isinstance(colour, str)
-            else list(colour)
-        )
-        linear = [
-            c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
-            for c in (v / 255 for v in rgb)
-        ]
-        return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
-
-    dark, light = sorted((luminance(a), luminance(b)))
-    return (light + 0.05) / (dark + 0.05)
-
-
 def _plane(lat0: float) -> Any:
     factor = math.cos(math.radians(lat0))
 

@@ -16,6 +16,7 @@ from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_gro
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
 from webapp.apps.census_map.rules import APP, INDEX_TAG
+from webapp.apps.census_map.theme import describe
 from webapp.database.models import TagRecord
 from webapp.deps import limit_action
 from webapp.engine.wall_state import WallState, read_state
@@ -78,10 +79,12 @@ async def tract_choice(
 async def tract_here(
     app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str, person: Person
 ) -> Response:
-    """The tract's values for this visitor's class, its charts, and Publish."""
-    _, dataset = await shown_dataset(app, services, wall)
+    """The tract's values for this visitor's class, its charts, where it stands on the
+    wall's colouring, and Publish; an instructor can colour the wall by a value here."""
+    state, dataset = await shown_dataset(app, services, wall)
     tract = tract_of(dataset, geoid)
     code = await run_in_threadpool(index_code, services, wall)
+    shading = await run_in_threadpool(app.shading, dataset, state.theme)
     return render(
         request,
         "census/here.html",
@@ -96,6 +99,10 @@ async def tract_here(
         shares_from=SHARES_FROM,
         tag={"code": code} if code else None,
         subject=tract.geoid,
+        shading=shading,
+        fill=shading.colour(tract.geoid) if shading else None,
+        standing=describe(shading, tract, person.info_class) if shading else [],
+        colourable=dataset.settings.visible(person.info_class) if person.is_staff else [],
     )
 
 

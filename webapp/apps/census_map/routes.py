@@ -16,16 +16,22 @@ from wall_client.layout import Rect, Wall
 from webapp.apps.census_map import pages
 from webapp.apps.census_map.actions import (
     GroupHidden,
+    MapChanged,
     NoRoom,
+    colour_wall,
     group_shown,
     open_balloon,
     switch_dataset,
 )
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
+from webapp.apps.census_map.legend import theme_view
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
+from webapp.apps.census_map.theme import kept_theme
+from webapp.choropleth.classes import Method, Theme
+from webapp.choropleth.palettes import SCHEMES, SchemeName, colours, kind
 from webapp.database.connection import ROW_ID_MAX, RowId
 from webapp.database.models import TagRecord
 from webapp.deps import (
@@ -34,6 +40,7 @@ from webapp.deps import (
     PersonDep,
     ServicesDep,
     StaffOnly,
+    StaffPageDep,
     TileDep,
     WallDep,
     limit_action,
@@ -158,6 +165,57 @@ def _census_tags(services: Services, codes: list[str]) -> dict[str, TagRecord]:
         return {tag.code: tag for tag in rows}
 
 
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census/theme", responses=errors(404))
+async def tile_theme(
+    wall: WallDep,
+    tile: TileDep,
+    services: ServicesDep,
+    dataset: RowId,
+    attribute: Annotated[str, Query(max_length=64)],
+    scheme: SchemeName,
+    method: Method,
+    classes: int,
+    layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
+) -> Response:
+    """The tracts' classes and the legend for the wall's theme (the state's ``theme``),
+    the same for every tile of the wall: tiles fetch it before they answer ``ready``."""
+    try:
+        theme = Theme(attribute=attribute, scheme=scheme, method=method, classes=classes)
+    except ValidationError as error:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"theme: {error.errors()[0]['msg']}"
+        ) from None
+    app = census_app(services)
+    key = ("theme", wall.id, dataset, layout, theme)
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_in_threadpool(app.dataset, services, dataset)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
+            )
+        if kept_theme(found, theme) is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"{found.title} has no value {attribute!r}."
+            )
+        body = await run_in_threadpool(_theme_body, app, services, wall, found, layout, theme)
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
+
+
+def _theme_body(
+    app: CensusApp, services: Services, wall: Wall, dataset: DataSet, layout_id: int, theme: Theme
+) -> bytes:
+    shading = app.shading(dataset, theme)
+    assert shading is not None
+    record = get_layout(services.db, wall.id, layout_id) if layout_id else None
+    codes = [
+        Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
+    ]
+    view = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes)
+    return view.model_dump_json().encode()
+
+
 # --- phones --------------------------------------------------------------------------
 
 
@@ -264,6 +322,55 @@ async def toggle_group(
     actor = (person.visitor, address)
     back = dataset.tract(tract) if tract else None
     return await pages.toggled(request, services, wall, dataset, group_id, actor, back)
+
+
+@router.post(
+    "/apps/census/{wall_id}/theme",
+    include_in_schema=False,
+    dependencies=[CsrfDep],
+)
+async def colour_from_phone(
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    person: StaffPageDep,
+    attribute: Annotated[str, Form(max_length=64)] = "",
+    tract: Annotated[str | None, Form(max_length=64)] = None,
+) -> Response:
+    """An instructor's "colour the wall by this value" from a tract page (an empty
+    ``attribute``: the plain map again); the wall's scheme, method and number of
+    classes stay as they were. The answer leads back to ``tract``'s page."""
+    app = census_app(services)
+    state, dataset = await pages.shown_dataset(app, services, wall)
+    theme = None
+    if attribute:
+        if not any(a.key == attribute for a in dataset.settings.attributes):
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {attribute!r}."
+            )
+        kept = state.theme or Theme(attribute=attribute)
+        theme = kept.model_copy(update={"attribute": attribute})
+    try:
+        await colour_wall(services, wall, dataset, theme)
+    except MapChanged:
+        raise _map_changed(wall) from None
+    back = dataset.tract(tract) if tract else None
+    shading = await run_in_threadpool(app.shading, dataset, theme)
+    return render(
+        request,
+        "census/themed.html",
+        wall=wall,
+        shading=shading,
+        back=back,
+        back_title=dataset.tract_title(back) if back else None,
+    )
+
+
+def _map_changed(wall: Wall) -> HTTPException:
+    return HTTPException(
+        status.HTTP_409_CONFLICT,
+        f"{wall.name} changed what it shows meanwhile; look at the wall and try again.",
+    )
 
 
 # --- Google Earth --------------------------------------------------------------------
@@ -391,8 +498,54 @@ async def choose_dataset(choice: DataSetChoice, services: ServicesDep) -> DataSe
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, f"There is no census data set {choice.dataset}."
         ) from None
-    await switch_dataset(services, choice.dataset)
+    await switch_dataset(census_app(services), services, choice.dataset)
     return choice
+
+
+class ThemeChoice(BaseModel):
+    """What a wall's tracts are coloured by (``null``: one plain colour)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    theme: Theme | None
+
+
+@router.post(
+    "/api/census/walls/{wall_id}/theme", dependencies=[StaffOnly], responses=errors(404, 409)
+)
+async def choose_theme(wall: WallDep, choice: ThemeChoice, services: ServicesDep) -> ThemeChoice:
+    """Colour the wall's tracts by one of the data set's values (the dashboard); every
+    tile changes in the same frame. 409 when the census map is not on the wall."""
+    _, dataset = await pages.shown_dataset(census_app(services), services, wall)
+    theme = choice.theme
+    if theme is not None and kept_theme(dataset, theme) is None:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {theme.attribute!r}."
+        )
+    try:
+        await colour_wall(services, wall, dataset, theme)
+    except MapChanged:
+        raise _map_changed(wall) from None
+    return choice
+
+
+class SchemeEntry(BaseModel):
+    name: str
+    kind: str
+    colours: list[str]  # for five classes
+
+
+@router.get("/api/census/schemes", dependencies=[StaffOnly])
+async def schemes() -> list[SchemeEntry]:
+    """The colour schemes the dashboard offers (ColorBrewer's colour-blind-safe ones)."""
+    return [
+        SchemeEntry(name=name, kind=kind(name), colours=list(colours(name, 5))) for name in SCHEMES
+    ]
+
+
+class AttributeEntry(BaseModel):
+    key: str
+    label: str
 
 
 class GroupEntry(BaseModel):
@@ -406,6 +559,7 @@ class DataSetDetail(BaseModel):
     title: str
     tracts: int
     groups: list[GroupEntry]
+    attributes: list[AttributeEntry]
 
 
 @router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
@@ -419,4 +573,5 @@ async def dataset_detail(dataset_id: RowId, services: ServicesDep) -> DataSetDet
         title=dataset.title,
         tracts=len(dataset.tracts),
         groups=[GroupEntry(id=g.id, name=g.name, tracts=len(g.geoids)) for g in dataset.groups],
+        attributes=[AttributeEntry(key=a.key, label=a.label) for a in dataset.settings.attributes],
     )

@@ -21,12 +21,12 @@ from webapp.apps.census_map.mapview import (
     SIMPLIFY_PX,
     MapGeometry,
     code_anchors,
-    contrast_ratio,
     label_mm,
     projection,
     tile_view,
     tract_codes,
 )
+from webapp.choropleth.palettes import contrast_ratio
 from webapp.engine.wall_state import View
 from webapp.settings import CONTENT_DIR
 
@@ -238,12 +238,6 @@ def test_the_tracts_of_a_code_without_a_spot_join_the_nearest_placed_cluster(
     reached = set(kept.own) | {g for c in kept.clusters for g in c.geoids}
     assert len(reached) == 403, "nobody is lost"
     assert {c.anchor for c in kept.clusters} <= {c.anchor for c in codes.clusters}
-
-
-def test_the_contrast_ratio_is_wcags() -> None:
-    assert contrast_ratio("#000000", "#ffffff") == pytest.approx(21)
-    assert contrast_ratio("#777777", "#ffffff") == pytest.approx(4.48, abs=0.01)
-    assert contrast_ratio((255, 0, 0), "#ff0000") == 1
 
 
 def test_tract_outlines_stand_out_from_the_fills_they_separate() -> None:

@@ -1,7 +1,10 @@
 // The census map on a tile: the server sends each tile its share of the map in the
 // tile's own pixels (outlines clipped and simplified, labels, groups, codes); the
-// tile draws it, hiding the groups whose layer is off, so a toggle is instant.
+// tile draws it, hiding the groups whose layer is off, so a toggle is instant. When the
+// wall's state names a theme, the tracts take their class's colour and the legend
+// stands where the server placed it (webapp/apps/census_map/legend.py).
 
+import {fitText} from "/static/js/balloons.js";
 import {angleOf, upright} from "/static/js/matrix.js";
 
 const KEEP = 4;
@@ -14,6 +17,16 @@ export class CensusViews {
   constructor(wallId, tileId) {
     this.base = `/api/walls/${wallId}/tiles/${tileId}/census`;
     this.views = new Map();
+  }
+
+  /** The query of the wall's theme (null: the plain map); the same for every tile. */
+  static themeKeyOf(state) {
+    const theme = state?.theme;
+    if (state?.app !== "census" || !state.dataset || !theme) return null;
+    return new URLSearchParams({
+      dataset: state.dataset, layout: state.tag_layout ?? 0, attribute: theme.attribute,
+      scheme: theme.scheme, method: theme.method, classes: theme.classes,
+    }).toString();
   }
 
   static keyOf(state) {
@@ -29,11 +42,22 @@ export class CensusViews {
     return this.views.get(CensusViews.keyOf(state));
   }
 
+  /** The wall's theme as loaded (null: the plain map). */
+  theme(state) {
+    return this.views.get(CensusViews.themeKeyOf(state)) ?? null;
+  }
+
   async load(state) {
-    const key = CensusViews.keyOf(state);
+    await Promise.all([
+      this.fetchInto(CensusViews.keyOf(state), ""),
+      this.fetchInto(CensusViews.themeKeyOf(state), "/theme"),
+    ]);
+  }
+
+  async fetchInto(key, path) {
     if (!key || this.views.has(key)) return;
-    const response = await fetch(`${this.base}?${key}`);
-    if (!response.ok) throw new Error(`census map: ${response.status}`);
+    const response = await fetch(`${this.base}${path}?${key}`);
+    if (!response.ok) throw new Error(`census map${path}: ${response.status}`);
     this.views.set(key, await response.json());
     while (this.views.size > KEEP) this.views.delete(this.views.keys().next().value);
   }
@@ -57,12 +81,15 @@ export class CensusViews {
 /** The tracts, in the display's native pixels (the caller's transform maps those to
  * its canvas). Colours and the outline's width come with the view
  * (webapp/apps/census_map/mapview.py keeps the outline in contrast with the fills it
- * separates, as wide as read from the seats). */
-export function drawCensus(ctx, view, state, display) {
+ * separates, as wide as read from the seats). With a `theme`, each tract takes its
+ * class's fill (stripes: no value) and an outline inside its own edge in the colour
+ * that stands out from that fill, so every border reads whatever meets there. */
+export function drawCensus(ctx, view, state, display, theme = null) {
   const colours = view.colours;
   ctx.fillStyle = colours.background;
   ctx.fillRect(0, 0, ...display.resolution);
   const shown = view.tracts.filter((tract) => groupShown(state, tract.group));
+  const stripes = theme ? stripePattern(ctx, theme.missing) : null;
   ctx.fillStyle = colours.fill;
   ctx.strokeStyle = colours.outline;
   ctx.lineWidth = view.outline_px;
@@ -74,24 +101,92 @@ export function drawCensus(ctx, view, state, display) {
       for (let i = 2; i < ring.length; i += 2) ctx.lineTo(ring[i], ring[i + 1]);
       ctx.closePath();
     }
+    if (!theme) {
+      ctx.fill("evenodd");
+      ctx.stroke();
+      continue;
+    }
+    const style = styleOf(theme, tract.id);
+    ctx.fillStyle = style.stripe ? stripes : style.fill;
     ctx.fill("evenodd");
+    ctx.save();
+    ctx.clip("evenodd");
+    ctx.strokeStyle = style.line;
+    ctx.lineWidth = 2 * view.outline_px;  // half of it lies inside the tract
     ctx.stroke();
+    ctx.restore();
   }
-  drawLabels(ctx, shown, view.label_px, colours.label, angleOf(display.to_pixels));
+  drawLabels(ctx, shown, view.label_px, angleOf(display.to_pixels),
+    (tract) => (theme ? styleOf(theme, tract.id).line : colours.label));
+}
+
+/** How a tract is drawn under `theme`: its class's row of the legend. */
+export function styleOf(theme, tractId) {
+  const index = theme.tracts[tractId] ?? -1;
+  return index >= 0 ? theme.classes[index] : theme.missing;
+}
+
+function stripePattern(ctx, missing) {
+  const tile = document.createElement("canvas");
+  tile.width = tile.height = 16;
+  const g = tile.getContext("2d");
+  g.fillStyle = missing.fill;
+  g.fillRect(0, 0, 16, 16);
+  g.strokeStyle = missing.stripe;
+  g.lineWidth = 4;
+  for (const offset of [-16, 0, 16]) {
+    g.beginPath();
+    g.moveTo(offset, 16);
+    g.lineTo(offset + 16, 0);
+    g.stroke();
+  }
+  return ctx.createPattern(tile, "repeat");
+}
+
+/** The legend, in scene mm (the caller's transform), where the server placed it clear of
+ * every code: the value's name, how it was cut, and a swatch per class with its range
+ * and how many tracts it holds. */
+export function drawLegend(ctx, legend, stripes) {
+  if (!legend.rect) return;
+  const [x, y, w, h] = legend.rect;
+  const font = legend.font_mm;
+  const pad = font / 2;
+  const line = 1.35 * font;
+  ctx.fillStyle = "#0d1b2a";
+  ctx.strokeStyle = "#f7f7f7";
+  ctx.lineWidth = font / 10;
+  ctx.fillRect(x, y, w, h);
+  ctx.strokeRect(x, y, w, h);
+  ctx.textAlign = "left";
+  ctx.textBaseline = "top";
+  ctx.fillStyle = "#f7f7f7";
+  fitText(ctx, legend.title, x + pad, y + pad, w - 2 * pad, font, "bold ");
+  ctx.fillStyle = "#c9d3e6";
+  fitText(ctx, legend.note, x + pad, y + pad + line, w - 2 * pad, font * 0.8, "");
+  legend.rows.forEach((row, i) => {
+    const top = y + pad + line * (i + 2);
+    ctx.fillStyle = row.stripe ? stripes : row.fill;
+    ctx.fillRect(x + pad, top, 2 * font, font);
+    ctx.strokeStyle = "#f7f7f7";
+    ctx.strokeRect(x + pad, top, 2 * font, font);
+    ctx.fillStyle = "#f7f7f7";
+    fitText(ctx, row.text, x + pad + 3 * font, top, w - 2 * pad - 3 * font, font, "");
+  });
 }
 
 // Tract numbers where they fit inside their tract and stay clear of every code and
 // caption (the server says which: label_clear); a tract with its own code is named by
-// the code's caption. Each is turned by `angle`, upright as the panel hangs.
-function drawLabels(ctx, tracts, size, colour, angle) {
+// the code's caption. Each is turned by `angle`, upright as the panel hangs, in
+// `colourOf(tract)`.
+function drawLabels(ctx, tracts, size, angle, colourOf) {
   ctx.font = `bold ${Math.round(size)}px sans-serif`;
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";
-  ctx.fillStyle = colour;
   for (const tract of tracts) {
     if (tract.code || !tract.label_clear) continue;  // codes' captions name their tracts
     const width = ctx.measureText(tract.label).width;
     if (width > 2 * tract.room) continue;
+    ctx.fillStyle = colourOf(tract);
     ctx.save();
     ctx.translate(tract.at[0], tract.at[1]);
     ctx.rotate(angle);
@@ -140,17 +235,28 @@ export function createLayer({wall, displays}) {
   return {
     name: "census",
     load: (state) => Promise.all([...views.values()].map((view) => view.load(state))),
-    draw(ctx, {state, display, native}) {
-      const view = views.get(display.id).get(state);
+    draw(ctx, {state, display, native, matrix}) {
+      const loaded = views.get(display.id);
+      const view = loaded.get(state);
       if (!view) return;
+      const theme = loaded.theme(state);
       ctx.setTransform(...native);
-      drawCensus(ctx, view, state, display);
+      drawCensus(ctx, view, state, display, theme);
       if (display.roles.includes("menu")) drawCaption(ctx, view, display);
+      if (theme) {
+        ctx.setTransform(...matrix);
+        drawLegend(ctx, theme.legend, stripePattern(ctx, theme.missing));
+      }
     },
     codes: (layout, {state, display}) => codesShown(layout, views.get(display.id), state),
     marks(state) {
-      const view = displays.length === 1 ? views.get(displays[0].id).get(state) : null;
-      return {census: view ? `${view.dataset} ${view.tracts.length}` : ""};
+      const loaded = displays.length === 1 ? views.get(displays[0].id) : null;
+      const view = loaded?.get(state);
+      const theme = loaded?.theme(state);
+      return {
+        census: view ? `${view.dataset} ${view.tracts.length}` : "",
+        censusTheme: theme ? `${state.theme.attribute} ${theme.classes.length}` : "",
+      };
     },
   };
 }
