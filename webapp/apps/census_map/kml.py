@@ -23,6 +23,8 @@ from shapely import LinearRing, MultiPolygon, Point, Polygon, get_coordinates
 from shapely.ops import polylabel
 
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.theme import Shading
+from webapp.choropleth.classes import MISSING_FILL, outline_for
 
 NAMESPACES = {
     "": "http://www.opengis.net/kml/2.2",  # the default namespace, as in every KML file
@@ -45,6 +47,7 @@ XML_DECLARATION = '<?xml version="1.0" encoding="UTF-8"?>\n'
 # Brown tracts (KML colours are aabbggrr): a see-through fill, a darker solid outline.
 FILL_COLOR = "9919457a"
 LINE_COLOR = "ff0f2a4a"
+CLASS_ALPHA = "e6"  # a class's fill, nearly opaque: the colour must read as on the wall
 LABEL_TOLERANCE = 1e-4  # degrees (about 10 m): a hundredth of the smallest shipped tract
 
 # simplekml keeps its id counter and the document being written in class attributes,
@@ -97,20 +100,30 @@ def census_kml(
     hidden: frozenset[str],
     open_balloons: frozenset[str],
     name: str | None = None,
+    shading: Shading | None = None,
 ) -> str:
     """The data set as one KML document: a folder per tract group (hidden groups
-    unticked), each tract a brown outline labelled with its number and a balloon with
-    its headline values; the balloons in ``open_balloons`` open in Google Earth."""
+    unticked), each tract an outline labelled with its number and a balloon with its
+    headline values; the balloons in ``open_balloons`` open in Google Earth. Tracts
+    are brown, or with ``shading`` in their class's colour (a shared style per class,
+    the legend in the document's description), as on the wall."""
     ids: dict[str, str] = {}
     with _SIMPLEKML:
         simplekml.Kml.resetidcounter()  # the same data gives the same bytes
-        kml = simplekml.Kml(name=name or dataset.title, description=_about(dataset))
+        kml = simplekml.Kml(name=name or dataset.title, description=_about(dataset, shading))
         ids[kml.document.id] = f"dataset-{dataset.id}"
         style = _tract_style()
         ids[style.id] = "style-tract"
         # Setting a style on the Document makes it a shared style, but also the
         # Document's own styleUrl, which only the tracts should have.
         kml.document.style = style
+        kml.document.styleurl = None
+        class_styles = []
+        for index, (fill, line) in enumerate(_class_colours(shading)):
+            class_style = _tract_style(fill, line)
+            ids[class_style.id] = f"style-class-{index}"
+            kml.document.style = class_style
+            class_styles.append(class_style)
         kml.document.styleurl = None
         order = {tract.geoid: index for index, tract in enumerate(dataset.tracts)}
         for group in dataset.groups:
@@ -122,7 +135,7 @@ def census_kml(
                     name=tract.label, description=_balloon(dataset, tract)
                 )
                 ids[multi.placemark.id] = f"tract-{_id_part(tract.geoid)}"
-                multi.placemark.styleurl = f"#{style.id}"
+                multi.placemark.styleurl = f"#{_style_of(tract, shading, class_styles, style).id}"
                 if geoid in open_balloons:
                     multi.gxballoonvisibility = 1
                 for polygon in _parts(tract.shape):
@@ -143,9 +156,12 @@ def census_kmz(
     hidden: frozenset[str],
     open_balloons: frozenset[str],
     name: str | None = None,
+    shading: Shading | None = None,
 ) -> bytes:
     """:func:`census_kml` zipped, as Google Earth expects a KMZ: ``doc.kml`` first."""
-    text = census_kml(dataset, hidden=hidden, open_balloons=open_balloons, name=name)
+    text = census_kml(
+        dataset, hidden=hidden, open_balloons=open_balloons, name=name, shading=shading
+    )
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as kmz:
         # A fixed timestamp keeps the archive the same for the same document.
@@ -218,10 +234,10 @@ def label_point(shape: Polygon | MultiPolygon) -> Point:
     return point
 
 
-def _tract_style() -> simplekml.Style:
+def _tract_style(fill: str = FILL_COLOR, line: str = LINE_COLOR) -> simplekml.Style:
     style = simplekml.Style()
-    style.polystyle.color = FILL_COLOR
-    style.linestyle.color = LINE_COLOR
+    style.polystyle.color = fill
+    style.linestyle.color = line
     style.linestyle.width = 1.5
     style.labelstyle.scale = 1
     style.iconstyle.scale = 0  # no pin: the label alone marks the tract
@@ -229,10 +245,44 @@ def _tract_style() -> simplekml.Style:
     return style
 
 
-def _about(dataset: DataSet) -> str:
+def _about(dataset: DataSet, shading: Shading | None) -> str:
     about = f"{len(dataset.tracts)} census tracts in {len(dataset.groups)} groups."
     source = dataset.settings.source
-    return f"{about} Source: {source}" if source else about
+    about = f"{about} Source: {source}" if source else about
+    if shading is None:
+        return about
+    rows = [
+        f"{shading.band_range(i)}: {band.count} ({band.colour})"
+        for i, band in enumerate(shading.bands)
+    ]
+    rows += [f"no value: {shading.missing} (grey)"] if shading.missing else []
+    return f"{about} Coloured by {shading.title}: {'; '.join(rows)}."
+
+
+def _class_colours(shading: Shading | None) -> list[tuple[str, str]]:
+    """KML colours (fill, line) of each class, then of "no value"; none when plain."""
+    if shading is None:
+        return []
+    colours = [(band.colour, band.line) for band in shading.bands]
+    colours.append((MISSING_FILL, outline_for(MISSING_FILL)))
+    return [(kml_colour(fill, CLASS_ALPHA), kml_colour(line, "ff")) for fill, line in colours]
+
+
+def _style_of(
+    tract: Tract,
+    shading: Shading | None,
+    class_styles: list[simplekml.Style],
+    plain: simplekml.Style,
+) -> simplekml.Style:
+    if shading is None:
+        return plain
+    band = shading.band_of.get(tract.geoid)
+    return class_styles[-1 if band is None else band]
+
+
+def kml_colour(rgb: str, alpha: str) -> str:
+    """``#rrggbb`` as KML writes colours: ``aabbggrr``."""
+    return f"{alpha}{rgb[5:7]}{rgb[3:5]}{rgb[1:3]}"
 
 
 def _balloon(dataset: DataSet, tract: Tract) -> str:

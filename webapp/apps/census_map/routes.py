@@ -29,7 +29,7 @@ from webapp.apps.census_map.legend import theme_view
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
-from webapp.apps.census_map.theme import kept_theme
+from webapp.apps.census_map.theme import Shading, kept_theme
 from webapp.choropleth.classes import Method, Theme
 from webapp.choropleth.palettes import SCHEMES, SchemeName, colours, kind
 from webapp.database.connection import ROW_ID_MAX, RowId
@@ -390,20 +390,30 @@ class _KmlInputs:
     hidden: frozenset[str]
     open_balloons: frozenset[str]
     name: str
+    shading: Shading | None
 
     def kml(self) -> bytes:
         return census_kml(
-            self.dataset, hidden=self.hidden, open_balloons=self.open_balloons, name=self.name
+            self.dataset,
+            hidden=self.hidden,
+            open_balloons=self.open_balloons,
+            name=self.name,
+            shading=self.shading,
         ).encode()
 
     def kmz(self) -> bytes:
         return census_kmz(
-            self.dataset, hidden=self.hidden, open_balloons=self.open_balloons, name=self.name
+            self.dataset,
+            hidden=self.hidden,
+            open_balloons=self.open_balloons,
+            name=self.name,
+            shading=self.shading,
         )
 
     def cached(self, app: CensusApp, kind: Literal["kml", "kmz"]) -> bytes:
         """Built once per map state: a network link asks every few seconds."""
-        key = (kind, self.dataset.id, self.hidden, self.open_balloons, self.name)
+        theme = self.shading.theme if self.shading else None
+        key = (kind, self.dataset.id, self.hidden, self.open_balloons, self.name, theme)
         body = app.renders.get(key)
         if body is None:
             body = self.kml() if kind == "kml" else self.kmz()
@@ -424,11 +434,13 @@ async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
     now = now_ms()
     hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
     balloons = frozenset(b.id.removeprefix("tract-") for b in state.balloons if b.open_at(now))
+    shading = await run_in_threadpool(app.shading, dataset, state.theme) if on_wall else None
     return _KmlInputs(
         dataset=dataset,
         hidden=hidden if on_wall else frozenset(),
         open_balloons=balloons if on_wall else frozenset(),
         name=f"{dataset.title} · {wall.name}",
+        shading=shading,
     )
 
 
@@ -564,7 +576,7 @@ class DataSetDetail(BaseModel):
 
 @router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
 async def dataset_detail(dataset_id: RowId, services: ServicesDep) -> DataSetDetail:
-    """A data set's groups, for the dashboard's toggles."""
+    """A data set's groups and values, for the dashboard's toggles and colouring."""
     dataset = await run_in_threadpool(census_app(services).dataset, services, dataset_id)
     if dataset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset_id}.")

@@ -151,7 +151,8 @@ def describe(shading: Shading, tract: Tract, info_class: int) -> list[str]:
         return [
             f"On the wall this tract is in colour group {group} of {groups}:"
             f" group 1 has the least, group {groups} the most.",
-            f"It has more than {standing.below} of the {standing.of} tracts.",
+            f"Its {label[:1].lower()}{label[1:]} is bigger than in {standing.below}"
+            f" of the {standing.of} tracts.",
         ]
     if info_class == 2:
         return [

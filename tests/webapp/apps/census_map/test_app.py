@@ -540,3 +540,192 @@ def test_a_restart_keeps_the_map_its_groups_and_its_codes(client: TestClient) ->
         assert after.layers == before.layers and after.tag_layout == before.tag_layout
         assert census_codes(restarted) == codes, "the same codes, still live"
         assert len(list_datasets(services_of(restarted).db)) == 1, "seeded once"
+
+
+# --- colouring the map ---------------------------------------------------------------
+
+INCOME_THEME = {"attribute": "HH_INC", "scheme": "YlGnBu", "method": "natural", "classes": 6}
+
+
+def colour(client: TestClient, theme: dict[str, Any] | None, **headers: str) -> Any:
+    return client.post(
+        "/api/census/walls/demo/theme",
+        json={"theme": theme},
+        headers=headers or operator_headers(client),
+    )
+
+
+def tile_theme(client: TestClient, state: WallState, tile: str = "r2c1") -> dict[str, Any]:
+    assert state.theme is not None
+    response = client.get(
+        f"/api/walls/demo/tiles/{tile}/census/theme",
+        params={"dataset": state.dataset, "layout": state.tag_layout, **state.theme.model_dump()},
+    )
+    assert response.status_code == 200, response.text
+    body: dict[str, Any] = response.json()
+    return body
+
+
+def test_the_instructor_colours_the_wall_by_a_value(client: TestClient) -> None:
+    before = show_census(client)
+    response = colour(client, INCOME_THEME)
+    assert response.status_code == 200, response.text
+    state = state_of(client)
+    assert state.theme is not None and state.theme.model_dump() == INCOME_THEME
+    assert state.tag_layout == before.tag_layout, "colour moves no code"
+    body = tile_theme(client, state)
+    assert len(body["classes"]) == 6 and len(body["tracts"]) == 403
+    assert sum(1 for band in body["tracts"].values() if band < 0) == 0
+    counts = [int(row["text"].split(" · ")[1].split()[0]) for row in body["classes"]]
+    assert sum(counts) == 403
+    legend = body["legend"]
+    assert legend["title"] == "Median household income (1999)"
+    assert legend["note"] == "6 classes by natural breaks"
+    x, y, w, h = legend["rect"]
+    wall = services_of(client).walls["demo"]
+    [display] = [d for d in wall.displays if d.rect.intersects(Rect(x, y, w, h))]
+    assert display.id not in {d.id for d in wall.screen("public")}, "never on the public screen"
+    footprints = [Rect(*PlacedCode.model_validate(p).footprint) for p in placed(client, state)]
+    assert not [f for f in footprints if f.intersects(Rect(x, y, w, h))], "clear of every code"
+    assert tile_theme(client, state, "r1c1") == body, "the same for every tile"
+
+    assert colour(client, None).status_code == 200
+    assert state_of(client).theme is None
+
+
+@pytest.mark.parametrize(
+    ("theme", "status"),
+    [
+        ({"attribute": "NOPE"}, 404),
+        ({"attribute": "HH_INC", "scheme": "Jet"}, 422),
+        ({"attribute": "HH_INC", "classes": 12}, 422),
+        ({"attribute": "HH_INC", "method": "kmeans"}, 422),
+    ],
+)
+def test_a_colouring_the_data_cannot_have_is_refused(
+    client: TestClient, theme: dict[str, Any], status: int
+) -> None:
+    show_census(client)
+    assert colour(client, theme).status_code == status
+    assert state_of(client).theme is None
+
+
+def test_colouring_needs_staff_and_the_map_on_the_wall(client: TestClient) -> None:
+    assert colour(client, INCOME_THEME).status_code == 409, "the map is not up"
+    show_census(client)
+    response = client.post("/api/census/walls/demo/theme", json={"theme": INCOME_THEME})
+    assert response.status_code == 401
+    assert (
+        client.post(
+            "/api/census/walls/nowall/theme", json={"theme": None}, headers=operator_headers(client)
+        ).status_code
+        == 404
+    )
+    schemes = client.get("/api/census/schemes", headers=operator_headers(client)).json()
+    assert {"YlGnBu", "RdBu"} <= {s["name"] for s in schemes}
+    assert all(len(s["colours"]) == 5 for s in schemes)
+
+
+@pytest.mark.parametrize(
+    "query",
+    [
+        {"attribute": "NOPE"},
+        {"dataset": 999},
+        {"scheme": "Jet"},
+        {"classes": 2},
+        {"layout": -1},
+    ],
+)
+def test_bad_tile_theme_requests(client: TestClient, query: dict[str, Any]) -> None:
+    show_census(client)
+    colour(client, INCOME_THEME)
+    state = state_of(client)
+    params = {"dataset": state.dataset, "layout": state.tag_layout, **INCOME_THEME, **query}
+    response = client.get("/api/walls/demo/tiles/r1c1/census/theme", params=params)
+    assert response.status_code in (404, 422), response.text
+    assert response.headers["content-type"].startswith("application/json")
+
+
+def test_a_tract_page_says_where_it_stands_and_an_instructor_can_colour_from_it(
+    client: TestClient,
+) -> None:
+    show_census(client)
+    register_student(client)
+    url = "/apps/census/demo/tracts/06061022001/here"
+    assert 'id="standing"' not in client.get(url).text, "nothing to say on a plain map"
+    colour(client, INCOME_THEME)
+    student = client.get(url).text
+    assert 'id="standing"' in student and "colour group" in student
+    assert 'id="colour-wall"' not in student, "only instructors colour the wall"
+    refused = client.post(
+        "/apps/census/demo/theme",
+        data={"attribute": "TOT_POP", "csrf": csrf_of(client)},
+        follow_redirects=False,
+    )
+    assert refused.status_code == 303 and refused.headers["location"].startswith("/login")
+    assert state_of(client).theme is not None and state_of(client).theme.attribute == "HH_INC"
+
+    with TestClient(client.app) as instructor:
+        sign_in(instructor, "instructor")
+        page = instructor.get(url).text
+        assert 'id="colour-wall"' in page and "Rank " in page
+        token = re.search(r'name="csrf" value="([^"]+)"', page)
+        assert token
+        answer = instructor.post(
+            "/apps/census/demo/theme",
+            data={"attribute": "TOT_POP", "tract": "06061022001", "csrf": token.group(1)},
+        )
+        assert answer.status_code == 200 and "Total population" in answer.text
+        assert answer.text.count('class="swatch"') == 6
+        assert "/apps/census/demo/tracts/06061022001/here" in answer.text
+        theme = state_of(client).theme
+        assert theme is not None and theme.attribute == "TOT_POP"
+        assert (theme.scheme, theme.method, theme.classes) == ("YlGnBu", "natural", 6), "kept"
+        missing = instructor.post(
+            "/apps/census/demo/theme", data={"attribute": "NOPE", "csrf": token.group(1)}
+        )
+        assert missing.status_code == 404
+        plain = instructor.post("/apps/census/demo/theme", data={"csrf": token.group(1)})
+        assert plain.status_code == 200 and "One plain colour" in plain.text
+    assert state_of(client).theme is None
+
+
+def test_google_earth_gets_the_wall_s_colours(client: TestClient) -> None:
+    from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
+
+    show_census(client)
+    colour(client, {**INCOME_THEME, "attribute": "HSG_VAL"})
+    kml = client.get("/apps/census/census.kml?wall=demo")
+    assert_valid_kml(kml.content)
+    styles = re.findall(r"<styleUrl>#(style-[a-z0-9-]+)</styleUrl>", kml.text)
+    assert len(styles) == 403 and "style-tract" not in styles
+    assert styles.count("style-class-6") == 3, "the three tracts without a value: grey"
+    assert len(set(styles)) == 7
+    assert "Coloured by Median housing value" in kml.text
+    colour(client, None)
+    plain = client.get("/apps/census/census.kml?wall=demo").text
+    assert plain.count("<styleUrl>#style-tract</styleUrl>") == 403
+
+
+def test_a_colouring_survives_a_restart_and_leaves_with_a_data_set_without_its_value(
+    client: TestClient, tmp_path: Path
+) -> None:
+    from webapp.app import create_app
+
+    show_census(client)
+    colour(client, INCOME_THEME)
+    with TestClient(create_app(services_of(client).settings)) as restarted:
+        theme = state_of(restarted).theme
+        assert theme is not None and theme.model_dump() == INCOME_THEME
+    new_id = import_files(
+        services_of(client).db,
+        shapes=write_shapefile(tmp_path / "tracts"),
+        key="GEOID",
+        tables=downloaded(tmp_path, INCOME, VALUE),
+    ).dataset_id
+    response = client.post(
+        "/api/census/current", json={"dataset": new_id}, headers=operator_headers(client)
+    )
+    assert response.status_code == 200
+    state = state_of(client)
+    assert state.dataset == new_id and state.theme is None, "the ACS table has no HH_INC"

@@ -1,10 +1,12 @@
-// The census map's dashboard panel: the data set, pan and zoom, groups, open balloons.
-import {STATUS_EVENT, api, changeState} from "/static/js/api.js";
+// The census map's dashboard panel: the data set, pan and zoom, the colouring, groups,
+// open balloons.
+import {STATUS_EVENT, api, changeState, wallId} from "/static/js/api.js";
 import {bindViewControls} from "/static/js/panels/view.js";
 
 const $ = (id) => document.getElementById(id);
 let state = null;
 let groups = [];
+let attributes = [];
 let groupsOf = null;
 
 let listedCurrent;  // the current data set when the list was last loaded (null: none)
@@ -35,7 +37,33 @@ async function loadDatasets() {
 async function loadGroups(datasetId) {
   if (groupsOf === datasetId) return;
   groupsOf = datasetId;
-  groups = datasetId ? (await api(`/api/census/datasets/${datasetId}`)).groups : [];
+  const detail = datasetId ? await api(`/api/census/datasets/${datasetId}`) : null;
+  groups = detail?.groups ?? [];
+  attributes = detail?.attributes ?? [];
+  $("census-attribute").replaceChildren(option("", "nothing (one plain colour)"),
+    ...attributes.map((a) => option(a.key, a.label)));
+}
+
+async function loadSchemes() {
+  const schemes = await api("/api/census/schemes");
+  $("census-scheme").replaceChildren(...schemes.map((s) => option(s.name, `${s.name} (${s.kind})`)));
+}
+
+// The wall's colouring as the status says: the controls follow it (another instructor,
+// or a phone, may have changed it).
+function showTheme() {
+  const theme = state.app === "census" ? state.theme : null;
+  const label = attributes.find((a) => a.key === theme?.attribute)?.label ?? theme?.attribute;
+  $("census-theme-shown").textContent = theme
+    ? `Coloured by ${label}: ${theme.classes} classes by ${theme.method}, ${theme.scheme}.`
+    : "One plain colour.";
+  if (document.activeElement?.closest("#census-theme")) return;  // the instructor is choosing
+  $("census-attribute").value = theme?.attribute ?? "";
+  if (theme) {
+    $("census-scheme").value = theme.scheme;
+    $("census-method").value = theme.method;
+    $("census-classes").value = String(theme.classes);
+  }
 }
 
 function item(text, buttonText, onClick) {
@@ -71,9 +99,19 @@ document.addEventListener(STATUS_EVENT, async (event) => {
   // a wall seeds the shipped one; an import elsewhere makes another current).
   if (state.app === "census" && state.dataset !== seenDataset) {
     seenDataset = state.dataset;
-    if (state.dataset !== listedCurrent) await loadDatasets();
+    if (state.dataset !== listedCurrent) await $("census-colour").addEventListener("click", async () => {
+  const attribute = $("census-attribute").value;
+  const theme = attribute ? {
+    attribute, scheme: $("census-scheme").value, method: $("census-method").value,
+    classes: Number($("census-classes").value),
+  } : null;
+  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
+});
+loadDatasets();
+loadSchemes();
   }
   await loadGroups(state.app === "census" ? state.dataset : null);
+  showTheme();
   showGroups();
   showBalloons();
 });
@@ -83,6 +121,24 @@ $("census-use").addEventListener("click", async () => {
   await api("/api/census/current", {
     method: "POST", body: JSON.stringify({dataset: Number($("census-dataset").value)}),
   });
-  await loadDatasets();
+  await $("census-colour").addEventListener("click", async () => {
+  const attribute = $("census-attribute").value;
+  const theme = attribute ? {
+    attribute, scheme: $("census-scheme").value, method: $("census-method").value,
+    classes: Number($("census-classes").value),
+  } : null;
+  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
 });
 loadDatasets();
+loadSchemes();
+});
+$("census-colour").addEventListener("click", async () => {
+  const attribute = $("census-attribute").value;
+  const theme = attribute ? {
+    attribute, scheme: $("census-scheme").value, method: $("census-method").value,
+    classes: Number($("census-classes").value),
+  } : null;
+  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
+});
+loadDatasets();
+loadSchemes();
