@@ -449,3 +449,86 @@ def test_tract_numbers_and_captions_read_upright_as_the_portrait_panel_hangs(
         tile.context.close()
     finally:
         server.stop()
+
+
+def colour_share(picture: np.ndarray, hex_colour: str, within: int = 24) -> float:
+    target = np.array([int(hex_colour[i : i + 2], 16) for i in (1, 3, 5)])
+    return float((np.abs(picture.astype(int) - target).sum(axis=2) <= within).mean())
+
+
+def colour_wall(server: ServerProcess, theme: dict[str, object] | None) -> None:
+    httpx.post(
+        f"{server.url}/api/census/walls/demo/theme",
+        json={"theme": theme},
+        headers=server.operator(),
+    ).raise_for_status()
+
+
+def legend_picture(server: ServerProcess, tiles: dict[str, Page], wall: Wall) -> np.ndarray:
+    """The legend as its tile shows it, cut out of the tile's screenshot."""
+    state = server.status("demo")["state"]
+    body = httpx.get(
+        f"{server.url}/api/walls/demo/tiles/r1c1/census/theme",
+        params={"dataset": state["dataset"], "layout": state["tag_layout"], **state["theme"]},
+    ).json()
+    x, y, w, h = body["legend"]["rect"]
+    [display] = [d for d in wall.displays if d.rect.intersects(Rect(x, y, w, h))]
+    to_pixels = wall.viewport(display.id).to_pixels
+    (left, top), (right, bottom) = (
+        apply_affine(to_pixels, x, y),
+        apply_affine(to_pixels, x + w, y + h),
+    )
+    picture = screenshot(tiles[display.id])
+    return picture[round(top) : round(bottom), round(left) : round(right)]
+
+
+def test_colouring_the_wall_by_a_value_reaches_every_tile_in_the_same_frame(
+    browser: Browser, census: ServerProcess
+) -> None:
+    """The instructor colours the map by household income, then by housing value: each
+    time every tile swaps in the same frame, the tracts take the classes' colours and
+    the legend stands on the registration screen; back to plain, the brown returns."""
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    tiles = dict(zip(DEMO, open_tiles(browser, census, "demo", DEMO, native=True), strict=True))
+    version = census.version("demo")
+    wait_until(
+        lambda: all(version_of(t) == version and shown(t, "census") for t in tiles.values()),
+        what="every tile to draw its share of the map",
+    )
+    assert colour_share(screenshot(tiles["r2c2"]), COLOURS["fill"], 8) > 0.02
+
+    income = {"attribute": "HH_INC", "scheme": "YlOrRd", "method": "quantiles", "classes": 5}
+    housing = {"attribute": "HSG_VAL", "scheme": "PuOr", "method": "natural", "classes": 7}
+    # the classes' colours; on the map, those of classes holding many tracts (the one
+    # tract valued at a million or more may lie off these two displays)
+    for theme, mark, colours, on_map in (
+        (income, "HH_INC 5", ["#ffffb2", "#fecc5c", "#fd8d3c", "#f03b20", "#bd0026"], 5),
+        (housing, "HSG_VAL 7", ["#b35806", "#f1a340", "#fee0b6", "#998ec3", "#542788"], 4),
+    ):
+        colour_wall(census, theme)
+        changed = census.version("demo")
+        wait_until(
+            lambda: all(version_of(t) == changed for t in tiles.values()),  # noqa: B023
+            what="every tile to apply the colouring",
+        )
+        assert all(shown(t, "censusTheme") == mark for t in tiles.values())
+        applied = [
+            t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == changed
+        ]
+        assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+        map_tiles = [screenshot(tiles[t]) for t in ("r2c2", "r2c3")]
+        assert colour_share(map_tiles[0], COLOURS["fill"], 8) < 0.0005, "no tract is left brown"
+        for hex_colour in colours[:on_map]:
+            assert any(colour_share(p, hex_colour) > 0.0005 for p in map_tiles), hex_colour
+        legend = legend_picture(census, tiles, wall)
+        assert legend.size and colour_share(legend, "#e6e6e6", 60) > 0.01, "its text"
+        for hex_colour in colours:
+            assert colour_share(legend, hex_colour, 8) > 0.002, f"a swatch of {hex_colour}"
+
+    colour_wall(census, None)
+    plain = census.version("demo")
+    wait_until(lambda: all(version_of(t) == plain for t in tiles.values()), what="plain again")
+    assert colour_share(screenshot(tiles["r2c2"]), COLOURS["fill"], 8) > 0.02
+    assert all(shown(t, "censusTheme") == "" for t in tiles.values())
+    for page in tiles.values():
+        page.context.close()

@@ -1,7 +1,8 @@
 """One scene on every tile: each tile's screenshot at native size, put into wall
 coordinates (rotation and bezels as the server's viewports say), against the overview
-drawn at the same scale. Every pin head and line, code, caption, balloon and label on
-one must be on the other, for every app and view preset, on the demo wall, the
+drawn at the same scale. Every pin head and line, code, caption, balloon, label,
+class colour and legend on one must be on the other, for every app and view preset
+(and the census map coloured by a value), on the demo wall, the
 irregular wall (a portrait panel) and a block of HIPerWall tiles.
 
 The volume raster may differ in detail (the overview gets the quick fallback image), so
@@ -49,6 +50,7 @@ class Feature:
     mask: Callable[[RGB], Mask]
     least: int = 2  # overview px of it that mark a cell
     least_tile: int = 6  # native tile px that do (about one overview px at these scales)
+    near_share: float = 1.0  # of those, what counts as the nearby mark a mark needs
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,7 @@ SCENES = [
     "pattern",
     "census",
     "census-zoomed-balloon",
+    "census-coloured",
     *(f"brain-{preset}" for preset in PRESETS),
     "brain-left-side-k5",
 ]
@@ -101,6 +104,17 @@ FEATURES = {
     "light": Feature(lambda rgb: np.asarray(rgb.min(axis=2) >= 235)),
 }
 CENSUS_FEATURES = {**FEATURES, "tract label": Feature(tract_label, least_tile=16)}
+# The coloured map (YlOrRd, five classes): its lightest and darkest classes where they
+# cover much of a cell (a sixth of the overview's, 400 native px: most of a demo cell, a
+# sixth of a HIPerWall one), near a cell they cover at least a little on the other side
+# (the overview blends the smallest tracts with their outlines), and the legend, on the
+# captions' backing.
+THEME = {"attribute": "HH_INC", "scheme": "YlOrRd", "method": "quantiles", "classes": 5}
+COLOURED_FEATURES = {
+    **{name: feature for name, feature in FEATURES.items() if name != "pin"},  # red classes
+    "lightest class": Feature(lambda rgb: near(rgb, "#ffffb2", 30), 6, 400, near_share=0.25),
+    "darkest class": Feature(lambda rgb: near(rgb, "#bd0026", 30), 6, 400, near_share=0.25),
+}
 
 
 @dataclass
@@ -195,6 +209,12 @@ def show(browser: Browser, server: ServerProcess, case: WallCase, scene: str) ->
         centre, zoom = case.zoomed
         view = {"center": list(centre), "zoom": zoom} if zoomed else WHOLE
         server.change(wall, {"app": "census", "view": view, "balloons": []})
+        theme = THEME if scene == "census-coloured" else None
+        httpx.post(
+            f"{server.url}/api/census/walls/{wall}/theme",
+            json={"theme": theme},
+            headers=server.operator(),
+        ).raise_for_status()
         return open_balloon(browser, server, wall) if zoomed else None
     else:
         server.change(wall, {"app": "brain", "balloons": []})
@@ -296,9 +316,9 @@ def test_every_tile_shows_its_part_of_the_one_scene(
 
     shots = {tile: screenshot(page) for tile, page in pages.tiles.items()}
 
-    def marks(feature: Feature, edge: int) -> tuple[Mask, Mask]:
-        """The cells the feature marks on the tiles and on the overview, leaving out
-        ``edge`` overview px along each display's edges."""
+    def marks(feature: Feature, edge: int, share: float = 1.0) -> tuple[Mask, Mask]:
+        """The cells the feature marks (``share`` of its least amounts) on the tiles and
+        on the overview, leaving out ``edge`` overview px along each display's edges."""
         on_tiles = np.zeros(grid, dtype=np.int64)
         for display in shown:
             _, _, w, h = display["rect"]
@@ -308,14 +328,16 @@ def test_every_tile_shows_its_part_of_the_one_scene(
             inner[native : mask.shape[0] - native, native : mask.shape[1] - native] = True
             on_tiles += cells_of_tile(mask & inner, map_to_overview(display, scale), grid)
         on_overview = cells_of_overview(feature.mask(overview) & on_displays(edge), grid)
-        return on_tiles >= feature.least_tile, on_overview >= feature.least
+        return on_tiles >= feature.least_tile * share, on_overview >= feature.least * share
 
     problems = []
-    features = CENSUS_FEATURES if scene.startswith("census") else FEATURES
+    features = {"census": CENSUS_FEATURES, "census-coloured": COLOURED_FEATURES}.get(
+        scene.removesuffix("-zoomed-balloon"), FEATURES
+    )
     for name, feature in features.items():
         # a mark well inside a display must be near a mark on the other side, anywhere
         tiles_inside, overview_inside = marks(feature, EDGE)
-        tiles_any, overview_any = marks(feature, 0)
+        tiles_any, overview_any = marks(feature, 0, feature.near_share)
         for where, missing in (
             ("the tiles", overview_inside & ~grown(tiles_any)),
             ("the overview", tiles_inside & ~grown(overview_any)),

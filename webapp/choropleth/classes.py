@@ -29,7 +29,7 @@ METHOD_NAMES: dict[Method, str] = {
 MISSING_FILL = "#7a7a7a"
 MISSING_STRIPE = "#b8b8b8"
 DARK_LINE = "#0d1b2a"  # the map's background
-LIGHT_LINE = "#f7f7f7"
+LIGHT_LINE = "#e6e6e6"  # not white: codes and the legend's text are the lightest things drawn
 Floats = npt.NDArray[np.float64]
 
 

@@ -8,6 +8,9 @@ import {fitText} from "/static/js/balloons.js";
 import {angleOf, upright} from "/static/js/matrix.js";
 
 const KEEP = 4;
+// The legend's box as the codes' captions have theirs (static/js/codes.js), its text a
+// little under white: codes' modules stay the lightest things on the wall.
+const LEGEND = {backing: "#10161f", text: "#e6e6e6"};
 
 export function groupShown(state, groupId) {
   return state.layers?.[groupId] ?? true;
@@ -152,25 +155,24 @@ export function drawLegend(ctx, legend, stripes) {
   const font = legend.font_mm;
   const pad = font / 2;
   const line = 1.35 * font;
-  ctx.fillStyle = "#0d1b2a";
-  ctx.strokeStyle = "#f7f7f7";
+  const room = w - 2 * pad;
+  ctx.fillStyle = LEGEND.backing;
+  ctx.strokeStyle = LEGEND.text;
   ctx.lineWidth = font / 10;
   ctx.fillRect(x, y, w, h);
   ctx.strokeRect(x, y, w, h);
   ctx.textAlign = "left";
   ctx.textBaseline = "top";
-  ctx.fillStyle = "#f7f7f7";
-  fitText(ctx, legend.title, x + pad, y + pad, w - 2 * pad, font, "bold ");
-  ctx.fillStyle = "#c9d3e6";
-  fitText(ctx, legend.note, x + pad, y + pad + line, w - 2 * pad, font * 0.8, "");
+  ctx.fillStyle = LEGEND.text;
+  fitText(ctx, legend.title, x + pad, y + pad, room, font, "bold ");
+  fitText(ctx, legend.note, x + pad, y + pad + line, room, font * 0.8, "");
   legend.rows.forEach((row, i) => {
     const top = y + pad + line * (i + 2);
     ctx.fillStyle = row.stripe ? stripes : row.fill;
     ctx.fillRect(x + pad, top, 2 * font, font);
-    ctx.strokeStyle = "#f7f7f7";
     ctx.strokeRect(x + pad, top, 2 * font, font);
-    ctx.fillStyle = "#f7f7f7";
-    fitText(ctx, row.text, x + pad + 3 * font, top, w - 2 * pad - 3 * font, font, "");
+    ctx.fillStyle = LEGEND.text;
+    fitText(ctx, row.text, x + pad + 3 * font, top, room - 3 * font, font, "");
   });
 }
 
