@@ -19,6 +19,7 @@ BENCHMARKS = (
     "scans",
     "volume",
     "census",
+    "census_colour",
     "brain",
     "signin",
     "sync",

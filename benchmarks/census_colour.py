@@ -1,0 +1,168 @@
+"""Colouring the census map: what a theme costs the server and the tiles.
+
+* Server: cutting the shipped data set's values into classes (quantiles, equal
+  intervals, natural breaks; 5 and 7 classes), and the body every tile of a wall
+  fetches (each tract's class, the legend placed clear of the codes): its bytes, and the
+  time to fetch it over HTTP the first time (built) and again (cached).
+* Tiles: drawing one display's share of the map in Chromium, plain and coloured (the
+  coloured map outlines each tract inside its own edge), on the demo wall's busiest
+  tile and HIPerWall's: the census layer's draw call on the tile page's own canvas
+  size, timed over repeated frames.
+"""
+
+from __future__ import annotations
+
+import gzip
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import httpx
+from playwright.sync_api import Page, sync_playwright
+
+from webapp.apps.census_map.importer import import_files
+from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
+from webapp.apps.census_map.theme import shade
+from webapp.choropleth.classes import Method, Theme
+from webapp.database.connection import Database
+from webapp.database.migrate import upgrade
+from webapp.settings import CONTENT_DIR
+from webapp.testing import CHROMIUM_ARGS, ServerProcess, wait_until
+
+THEME: dict[str, str | int] = {
+    "attribute": "HSG_VAL",
+    "scheme": "YlOrRd",
+    "method": "quantiles",
+    "classes": 7,
+}
+TILES = {"demo": "r2c2", "hiperwall": "r3c6"}  # where the map's downtown stands
+FRAMES = 30
+
+
+def _ms(seconds: float) -> float:
+    return round(seconds * 1000, 2)
+
+
+def _cuts(folder: Path) -> dict[str, float]:
+    """Milliseconds to cut the shipped values into classes, per method and count."""
+    url = f"sqlite:///{folder / 'cuts.db'}"
+    upgrade(url)
+    db = Database(url)
+    try:
+        dataset = load(db, import_files(db, shapes=SHIPPED, key=SHIPPED_KEY).dataset_id)
+    finally:
+        db.dispose()
+    assert dataset is not None
+    timings = {}
+    methods: tuple[Method, ...] = ("quantiles", "equal", "natural")
+    for method in methods:
+        for classes in (5, 7):
+            theme = Theme(attribute="HSG_VAL", method=method, classes=classes)
+            started = time.perf_counter()
+            shade(dataset, theme)
+            timings[f"{method} {classes}"] = _ms(time.perf_counter() - started)
+    return timings
+
+
+DRAW = """async ([view, theme, display, frames]) => {
+  const {drawCensus} = await import("/static/apps/census/census.js");
+  const canvas = document.createElement("canvas");
+  [canvas.width, canvas.height] = display.resolution;
+  const ctx = canvas.getContext("2d");
+  const state = {app: "census", layers: {}};
+  const times = [];
+  for (let i = 0; i < frames; i++) {
+    const started = performance.now();
+    drawCensus(ctx, view, state, display, theme);
+    ctx.getImageData(0, 0, 1, 1);  // wait for the frame to be drawn
+    times.push(performance.now() - started);
+  }
+  times.sort((a, b) => a - b);
+  return {median: times[Math.floor(times.length / 2)], max: times[times.length - 1]};
+}"""
+
+
+def _tile(server: ServerProcess, page: Page, wall: str, tile: str) -> dict[str, Any]:
+    """The body tiles fetch for the theme, and the draw time of one tile."""
+    server.change(wall, {"app": "census"})
+    coloured_wall = httpx.post(
+        f"{server.url}/api/census/walls/{wall}/theme",
+        json={"theme": THEME},
+        headers=server.operator(),
+        timeout=60,
+    )
+    assert coloured_wall.status_code == 200, coloured_wall.text
+    state = server.status(wall)["state"]
+    base = f"{server.url}/api/walls/{wall}/tiles/{tile}/census"
+    query = {"dataset": state["dataset"], "layout": state["tag_layout"]}
+    view = httpx.get(base, params={**query, "cx": 0.5, "cy": 0.5, "zoom": 1}, timeout=60)
+    started = time.perf_counter()
+    coloured = httpx.get(f"{base}/theme", params={**query, **THEME}, timeout=60)
+    built = time.perf_counter() - started
+    started = time.perf_counter()
+    httpx.get(f"{base}/theme", params={**query, **THEME}, timeout=60)
+    cached = time.perf_counter() - started
+    page.goto(server.tile_url(wall, tile))
+    wait_until(lambda: page.evaluate("document.body.dataset.census || ''"), what="the tile")
+    info = page.evaluate("JSON.parse(document.body.dataset.wallInfo)")
+    display = next(d for d in info["displays"] if d["id"] == tile)
+    plain = page.evaluate(DRAW, [view.json(), None, display, FRAMES])
+    themed = page.evaluate(DRAW, [view.json(), coloured.json(), display, FRAMES])
+    return {
+        "tile": tile,
+        "tracts_on_tile": len(view.json()["tracts"]),
+        "theme_fetch_first_ms": _ms(built),
+        "theme_fetch_cached_ms": _ms(cached),
+        "theme_bytes": len(coloured.content),
+        "theme_gzip_bytes": len(gzip.compress(coloured.content)),
+        "theme_bytes_per_wall": len(coloured.content) * len(info["displays"]),
+        "view_bytes": len(view.content),
+        "draw_plain_ms": round(plain["median"], 2),
+        "draw_coloured_ms": round(themed["median"], 2),
+        "draw_coloured_max_ms": round(themed["max"], 2),
+    }
+
+
+def run() -> dict[str, Any]:
+    executable = shutil.which("chromium")
+    if executable is None:
+        raise SystemExit("Debian chromium is not installed: run `make test` first")
+    with tempfile.TemporaryDirectory() as tmp:
+        result: dict[str, Any] = {"theme": THEME, "cut_ms": _cuts(Path(tmp)), "walls": {}}
+        server = ServerProcess(
+            var_dir=Path(tmp) / "var",
+            database_url=f"sqlite:///{tmp}/bench.db",
+            secret="benchmark-secret-" + "x" * 32,
+            extra_env={"TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls")},
+        )
+        server.start()
+        try:
+            with sync_playwright() as playwright:
+                browser = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
+                for wall, tile in TILES.items():
+                    width, height = (2560, 1600) if wall == "hiperwall" else (1920, 1080)
+                    context = browser.new_context(
+                        viewport={"width": width, "height": height}, device_scale_factor=1
+                    )
+                    result["walls"][wall] = _tile(server, context.new_page(), wall, tile)
+                    context.close()
+                browser.close()
+        finally:
+            server.stop()
+    return result
+
+
+def summary(result: dict[str, Any]) -> str:
+    cuts = ", ".join(f"{name} {ms} ms" for name, ms in result["cut_ms"].items())
+    lines = [f"   cutting 403 values into classes: {cuts}"]
+    for wall, r in result["walls"].items():
+        lines.append(
+            f"   {wall} {r['tile']} ({r['tracts_on_tile']} tracts): theme body"
+            f" {r['theme_bytes'] / 1e3:.1f} kB (gzip {r['theme_gzip_bytes'] / 1e3:.1f} kB), fetched"
+            f" in {r['theme_fetch_first_ms']} ms (cached {r['theme_fetch_cached_ms']} ms);"
+            f" draw plain {r['draw_plain_ms']} ms, coloured {r['draw_coloured_ms']} ms"
+            f" (max {r['draw_coloured_max_ms']} ms)"
+        )
+    return "\n".join(lines)
