@@ -210,7 +210,8 @@ def picture_of(codes: list[bytes]) -> bytes:
 
 def census_pages(tour: Tour, student: Page, instructor: Page) -> str:
     """The tract index, a cluster code's list, a tract's pages at every information
-    class, a balloon and a toggle; returns a toggle code's URL (retired when the map
+    class, the wall coloured from one (and the pages saying where the tract stands), a
+    balloon and a toggle; returns a toggle code's URL (retired when the map
     leaves the wall)."""
     url = tour.server.url
     codes = tour.codes()
@@ -235,15 +236,30 @@ def census_pages(tour: Tour, student: Page, instructor: Page) -> str:
     assert len(labels) == 27, labels  # every value at class 5
     raw = [label for label in labels if re.search(r"\b[A-Z0-9]+_[A-Z0-9_]*\b", label)]
     assert not raw, f"column codes instead of words: {raw}"
+    # the instructor colours the wall from the tract's page; each page says where it stands
+    instructor.locator("#colour-wall select").select_option("HH_INC")
+    with instructor.expect_navigation():
+        instructor.locator("#colour-wall button").tap()
+    expect(instructor.locator("#outcome")).to_contain_text("coloured by this now")
+    tour.look("coloured", instructor)
+    for info_class, phone in [(1, student), (5, instructor)]:
+        choose(phone, url, "info_class", str(info_class))
+        phone.goto(f"{url}{tract}/here")
+        expect(phone.locator("#standing")).to_contain_text("Median household income")
+        expect(phone.locator("#standing .swatch rect")).to_have_attribute(
+            "fill", re.compile(r"#[0-9a-f]{6}")
+        )
+        tour.look(f"tract-here-coloured-class-{info_class}", phone)
     student.goto(url + tract)
     submit(student, "Show on the wall")
     expect(student.locator("#outcome")).to_contain_text("on the wall")
     tour.look("balloon", student)
     student.goto(f"{url}/apps/census/{WALL}/tracts")
-    student.locator("details").first.evaluate("(d) => d.open = true")
+    group = student.locator(f'details:has(a[href="{tract}"])')  # the tract's own group
+    group.evaluate("(d) => d.open = true")
     with student.expect_navigation():
-        student.locator("details").first.get_by_role("button").tap()
-    expect(student.locator("#outcome")).to_contain_text("on the wall now")
+        group.get_by_role("button").tap()
+    expect(student.locator("#outcome")).to_contain_text("Hidden on the wall now")
     tour.look("toggled", student)
     # the tract's group is hidden now: no balloon into empty map, the way to show it
     tour.visit("tract-group-hidden", student, url + tract)
@@ -378,6 +394,8 @@ def dashboard_first_use(tour: Tour) -> Page:
     expect(datasets).to_contain_text("Sacramento MSA census tracts, 2000 (403 tracts")
     expect(datasets).to_contain_text("current")
     expect(page.locator("#census-groups li")).to_have_count(10)
+    expect(page.locator("#census-attribute option")).to_have_count(28)  # 27 values, or none
+    expect(page.locator("#census-scheme option")).to_have_count(12)
     return page
 
 
