@@ -86,6 +86,11 @@ def earth_displays(wall: Wall) -> list[Display]:
     return [d for d in wall.displays if d.id not in designated]
 
 
+def screen_role(wall: Wall, display_id: str) -> str | None:
+    """The role of the designated screen ``display_id`` is (public, menu, ...), if any."""
+    return next((role for role, ids in wall.screens.items() if display_id in ids), None)
+
+
 def map_url(base_url: str, wall_id: str) -> str:
     return f"{base_url}{PREFIX}/{quote(wall_id)}/map.kmz"
 

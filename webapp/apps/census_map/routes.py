@@ -34,6 +34,7 @@ from webapp.apps.census_map.earth import (
     display_document,
     earth_displays,
     opener_kml,
+    screen_role,
 )
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
@@ -404,7 +405,7 @@ def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
     if wall is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
     if display_id not in {d.id for d in earth_displays(wall)}:
-        role = next((r for r, ids in wall.screens.items() if display_id in ids), None)
+        role = screen_role(wall, display_id)
         detail = (
             f"Display {display_id!r} is the {role} screen: Google Earth cannot show its "
             "panels, open its tile in a browser."

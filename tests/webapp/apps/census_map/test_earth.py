@@ -3,16 +3,30 @@ documents each Earth opens and fetches, valid against the KML 2.2 + gx schemas."
 
 from __future__ import annotations
 
+import io
 import math
+import re
+import struct
+import zipfile
 from functools import cache
 from itertools import pairwise
 from typing import Any
 
 import pytest
+from fastapi.testclient import TestClient
 from lxml import etree
 
+from tests.conftest import register_student, services_of
 from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
+from tests.webapp.apps.census_map.test_app import (
+    census_codes,
+    change,
+    open_balloon,
+    placed,
+    show_census,
+    state_of,
+)
 from wall_client.config import load_walls
 from wall_client.layout import Wall
 from webapp.apps.census_map.earth import (
@@ -300,3 +314,147 @@ def test_the_update_targets_the_ids_the_map_has() -> None:
     ids = {element.get("id") for element in root.iter()}
     assert {group_feature_id(g.id) for g in dataset.groups} <= ids
     assert {tract_feature_id(t.geoid) for t in dataset.tracts} <= ids
+
+
+# --- over HTTP -----------------------------------------------------------------------
+
+
+def earth_get(client: TestClient, path: str, **params: Any) -> Any:
+    response = client.get(f"/apps/census/earth/demo/{path}", params=params)
+    assert response.status_code == 200, response.text
+    return response
+
+
+def wall_document(client: TestClient, display: str, **params: Any) -> Any:
+    response = earth_get(client, f"{display}/wall.kml", **params)
+    assert response.headers["content-type"].startswith("application/vnd.google-earth.kml+xml")
+    return parsed(response.text)
+
+
+def changes_of(root: Any) -> dict[str, str]:
+    return {
+        element.get("targetId"): element[0].text
+        for element in root.iterfind("k:NetworkLinkControl/k:Update/k:Change/*", NS)
+    }
+
+
+def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -> None:
+    state = show_census(client)
+    services = services_of(client)
+    opener = parsed(earth_get(client, "r2c2.kml", fov=50).text)
+    hrefs = [link.text for link in opener.iterfind(".//k:Link/k:href", NS)]
+    assert hrefs == [
+        f"{services.base_url}/apps/census/earth/demo/map.kmz",
+        f"{services.base_url}/apps/census/earth/demo/r2c2/wall.kml?fov=50",
+    ]
+
+    root = wall_document(client, "r2c2", fov=50)
+    # Earth reached the server at the test client's address: the map's URL there
+    target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
+    assert target == "http://testserver/apps/census/earth/demo/map.kmz"
+    dataset = services.apps["census"].datasets.current(services.db)
+    expected = display_view(MapGeometry.of(dataset), wall_named("demo"), state.view, "r2c2", 50)
+    look_at = root.find("k:NetworkLinkControl/k:LookAt", NS)
+    assert float(look_at.findtext("k:longitude", namespaces=NS)) == pytest.approx(
+        expected.longitude
+    )
+    assert float(look_at.findtext("k:range", namespaces=NS)) == pytest.approx(
+        expected.range_m, abs=0.1
+    )
+    assert set(changes_of(root).values()) == {"1"}  # every group shown, no balloon
+    assert len(changes_of(root)) == len(dataset.groups)
+
+    codes = [PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == "r2c2"]
+    overlays = root.findall(".//k:ScreenOverlay", NS)
+    assert codes and len(overlays) == len(codes)
+    width, height = wall_named("demo").display("r2c2").mounted_resolution
+    for code, overlay in zip(codes, overlays, strict=True):
+        x, y, side = code.pixels
+        screen = overlay.find("k:screenXY", NS).attrib
+        assert float(screen["x"]) * width == pytest.approx(x, abs=1e-3)
+        assert (1 - float(screen["y"])) * height == pytest.approx(y, abs=1e-3)
+        assert overlay.find("k:size", NS).attrib["x"] == str(side)
+    # the code's image: exactly its side in pixels, modules whole
+    image = client.get(overlays[0].findtext("k:Icon/k:href", namespaces=NS))
+    assert image.status_code == 200 and image.content.startswith(b"\x89PNG")
+    assert struct.unpack(">II", image.content[16:24]) == (codes[0].pixels[2],) * 2
+
+
+def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:
+    show_census(client)
+    codes = census_codes(client)
+    group = next(n for n in codes if n.startswith("census:group:")).removeprefix("census:group:")
+    client.get(f"/t/{codes[f'census:group:{group}']}")  # hide a group
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    shown_group = next(g for g in dataset.groups if g.id != group)
+    geoid = sorted(shown_group.geoids)[0]
+    assert open_balloon(client, geoid).status_code in (200, 303)
+    [balloon] = state_of(client).balloons
+    wall = wall_named("demo")
+    on = next(
+        d.id
+        for d in earth_displays(wall)
+        if wall.viewport(d.id).scene_rect.contains(balloon.anchor)
+    )
+    off = next(d.id for d in earth_displays(wall) if d.id != on)
+
+    root = wall_document(client, on)
+    changes = changes_of(root)
+    assert changes[group_feature_id(group)] == "0"
+    assert changes[group_feature_id(shown_group.id)] == "1"
+    assert changes[tract_feature_id(geoid)] == "1"
+    assert root.findtext("k:NetworkLinkControl/k:cookie", namespaces=NS) == f"open={geoid}"
+
+    # Another display opens none, and closes what its Earth says it opened (the cookie)
+    other = dataset.tracts[0].geoid
+    root = wall_document(client, off, open=other)
+    changes = changes_of(root)
+    assert changes[tract_feature_id(other)] == "0" and changes[tract_feature_id(geoid)] == "0"
+    assert root.find("k:NetworkLinkControl/k:cookie", NS) is None
+    assert tract_feature_id("nonsense") not in changes_of(
+        wall_document(client, off, open="nonsense")
+    )
+
+    # The map Earth loads opens no balloon (each display opens its own) and hides the group
+    kmz = earth_get(client, "map.kmz")
+    with zipfile.ZipFile(io.BytesIO(kmz.content)) as archive:
+        text = archive.read("doc.kml").decode()
+    assert_valid_kml(text)
+    assert "<gx:balloonVisibility>1" not in text
+    hidden = re.search(rf'<Folder id="{group_feature_id(group)}">.*?<visibility>(\d)<', text, re.S)
+    assert hidden and hidden.group(1) == "0"
+
+
+def test_the_map_not_on_the_wall_is_the_current_data_set_at_home(client: TestClient) -> None:
+    show_census(client)
+    change(client, {"app": "pattern", "view": {"center": [0.3, 0.3], "zoom": 3}})
+    root = wall_document(client, "r2c2")
+    assert root.findall(".//k:ScreenOverlay", NS) == []
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    home = display_view(MapGeometry.of(dataset), wall_named("demo"), View(), "r2c2")
+    longitude = root.findtext("k:NetworkLinkControl/k:LookAt/k:longitude", namespaces=NS)
+    assert float(longitude) == pytest.approx(home.longitude)
+
+
+@pytest.mark.parametrize(
+    ("path", "status", "says"),
+    [
+        ("/apps/census/earth/nope/r2c2.kml", 404, "no wall"),
+        ("/apps/census/earth/demo/r9c9.kml", 404, "no display"),
+        ("/apps/census/earth/demo/r1c2.kml", 404, "public screen"),
+        ("/apps/census/earth/demo/r1c3/wall.kml", 404, "menu screen"),
+        ("/apps/census/earth/nope/map.kmz", 404, "no wall"),
+        ("/apps/census/earth/demo/r2c2.kml?fov=0", 422, "fov"),
+        ("/apps/census/earth/demo/r2c2.kml?fov=wide", 422, "fov"),
+        ("/apps/census/earth/demo/r2c2.kml?refresh=0", 422, "refresh"),
+        ("/apps/census/earth/demo/r2c2.kml?map_refresh=100000", 422, "map_refresh"),
+        ("/apps/census/earth/demo/r2c2/wall.kml?fov=200", 422, "fov"),
+        (f"/apps/census/earth/demo/r2c2/wall.kml?open={'9' * 65}", 422, "open"),
+    ],
+)
+def test_bad_earth_requests(client: TestClient, path: str, status: int, says: str) -> None:
+    show_census(client)
+    response = client.get(path)
+    assert response.status_code == status
+    assert says in response.text
