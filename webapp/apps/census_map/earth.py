@@ -14,8 +14,8 @@ Each Earth instance opens one small file (:func:`opener_kml`) holding two networ
   ``Update`` that changes the loaded map in place by ``targetId``: group folders'
   ``visibility`` and the display's balloon (``gx:balloonVisibility``). Its ``cookie``
   names the balloon it opened, which Earth sends back on the next fetch so the next
-  document can close it. The document itself holds the display's codes as
-  ScreenOverlays.
+  document can close it. The document itself holds the display's codes and their
+  captions as ScreenOverlays.
 
 Google Earth applies an ``Update`` only to a file a NetworkLink loaded, found by the
 exact URL in ``targetHref``; the map's URL is therefore built once, by :func:`map_url`.
@@ -29,11 +29,14 @@ percent of a display (the tests measure it).
 
 from __future__ import annotations
 
+import io
 import math
-from collections.abc import Callable, Collection, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from urllib.parse import quote, urlencode
 from xml.etree.ElementTree import Element, SubElement, tostring
+
+from PIL import Image, ImageDraw, ImageFont
 
 from tag_service.codes import content_hash
 from wall_client.layout import Display, Wall
@@ -58,6 +61,10 @@ DEFAULT_REFRESH_S = 2  # the wall document: view, groups, balloons, codes
 DEFAULT_MAP_REFRESH_S = 60  # the map itself
 MIN_REFRESH_S, MAX_REFRESH_S = 1, 3600
 PREFIX = "/apps/census/earth"
+# A code's caption as tiles draw it (static/js/codes.js, drawCaption): white bold text,
+# as large as fits, on a dark strip.
+CAPTION_BACKING = "#10161f"
+CAPTION_FONT = "DejaVuSans-Bold.ttf"  # Debian's sans-serif, as Chromium draws the tiles'
 
 
 @dataclass(frozen=True)
@@ -112,6 +119,75 @@ def code_image_url(base_url: str, code: PlacedCode) -> str:
     name = f"{code.code}.{content_hash(code.payload, code.error)}.png"
     query = urlencode({"scale": code.px_per_module, "error": code.error})
     return f"{base_url}/codes/{name}?{query}"
+
+
+def caption_url(base_url: str, wall_id: str, layout_id: int, code: str) -> str:
+    return f"{base_url}{PREFIX}/{quote(wall_id)}/captions/{layout_id}/{quote(code)}.png"
+
+
+@dataclass(frozen=True)
+class ScreenImage:
+    """An image Earth draws on top of the globe, in the display's pixels as mounted."""
+
+    name: str
+    href: str
+    box: tuple[int, int, int, int]  # x, y from the top left, width, height
+
+
+def screen_images(
+    wall: Wall, display_id: str, codes: Sequence[PlacedCode], layout_id: int, base_url: str
+) -> list[ScreenImage]:
+    """The codes on ``display_id`` where the wall placed them, each with its caption
+    under it, so a code reads on Earth as on a tile (the pins some codes get are not
+    drawn: Earth has no lines on the screen)."""
+    images = []
+    for code in codes:
+        if code.display != display_id:
+            continue
+        x, y, side = code.pixels
+        images.append(ScreenImage(code.label, code_image_url(base_url, code), (x, y, side, side)))
+        if code.label and code.caption:
+            href = caption_url(base_url, wall.id, layout_id, code.code)
+            images.append(
+                ScreenImage(code.label, href, mounted_box(wall, display_id, code.caption))
+            )
+    return images
+
+
+def mounted_box(
+    wall: Wall, display_id: str, rect: tuple[float, float, float, float]
+) -> tuple[int, int, int, int]:
+    """A scene-mm rectangle in the display's whole pixels as mounted: Earth's window
+    fills the display upright as it hangs (a turned display turns its desktop)."""
+    scene = wall.viewport(display_id).scene_rect
+    width, height = wall.display(display_id).mounted_resolution
+    x, y, w, h = rect
+    left, right = (round((value - scene.x) / scene.width * width) for value in (x, x + w))
+    top, bottom = (round((value - scene.y) / scene.height * height) for value in (y, y + h))
+    return (left, top, right - left, bottom - top)
+
+
+def caption_png(text: str, size: tuple[int, int]) -> bytes:
+    """``text`` as large as fits its strip (80 % of its height, 96 % of its width at most),
+    centred, as tiles draw a code's caption."""
+    width, height = size
+    image = Image.new("RGB", size, CAPTION_BACKING)
+    draw = ImageDraw.Draw(image)
+    font_px = max(1, int(height * 0.8))
+    measured = draw.textlength(text, font=_font(font_px))
+    if measured > width * 0.96:
+        font_px = max(1, int(font_px * width * 0.96 / measured))
+    draw.text((width / 2, height / 2), text, fill="#fff", font=_font(font_px), anchor="mm")
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    try:
+        return ImageFont.truetype(CAPTION_FONT, size)
+    except OSError:  # no DejaVu: Pillow's own sans-serif
+        return ImageFont.load_default(size)
 
 
 # --- views ---------------------------------------------------------------------------
@@ -200,9 +276,8 @@ def display_document(
         groups={g.id: not on_wall or group_shown(state, g.id) for g in dataset.groups},
         balloon=display_balloon(wall, display_id, balloons, now),
         closing={geoid for geoid in closing if dataset.tract(geoid) is not None},
-        codes=[code for code in placed if code.display == display_id],
+        images=screen_images(wall, display_id, placed, state.tag_layout, base_url),
         pixels=wall.display(display_id).mounted_resolution,
-        code_image=lambda code: code_image_url(base_url, code),
     )
 
 
@@ -239,14 +314,13 @@ def wall_kml(
     groups: Mapping[str, bool],
     balloon: str | None,
     closing: Collection[str],
-    codes: Sequence[PlacedCode],
+    images: Sequence[ScreenImage],
     pixels: tuple[int, int],
-    code_image: Callable[[PlacedCode], str],
 ) -> str:
     """One display's wall document: its view, the map's group visibility (``groups``:
     group id -> shown) and balloons (open ``balloon``, close those in ``closing``) as
-    an Update of the loaded map, and its ``codes`` as ScreenOverlays on a window of
-    ``pixels`` (the display's resolution as mounted)."""
+    an Update of the loaded map, and ``images`` (its codes and their captions) as
+    ScreenOverlays on a window of ``pixels`` (the display's resolution as mounted)."""
     root = _kml()
     control = _add(root, "NetworkLinkControl")
     if balloon is not None:
@@ -270,25 +344,25 @@ def wall_kml(
     _add(look_at, "altitudeMode", "relativeToGround")
     document = _add(root, "Document")
     _add(document, "name", name)
-    for code in codes:
-        _code_overlay(document, code, pixels, code_image(code))
+    for image in images:
+        _screen_overlay(document, image, pixels)
     return _text(root)
 
 
-def _code_overlay(document: Element, code: PlacedCode, pixels: tuple[int, int], image: str) -> None:
-    """A code where the wall placed it: its top-left corner at its pixel position as a
-    fraction of the display (KML counts y from the bottom), its side in pixels, so
-    every module is whole pixels as on a tile."""
+def _screen_overlay(document: Element, image: ScreenImage, pixels: tuple[int, int]) -> None:
+    """An image at its pixels: its top-left corner at its position as a fraction of the
+    display (KML counts y from the bottom), its size in pixels, so a code's modules
+    stay whole pixels as on a tile."""
     width, height = pixels
-    x, y, side = code.pixels
+    x, y, w, h = image.box
     overlay = _add(document, "ScreenOverlay")
-    _add(overlay, "name", code.label)
+    _add(overlay, "name", image.name)
     icon = _add(overlay, "Icon")
-    _add(icon, "href", image)
+    _add(icon, "href", image.href)
     fraction = {"xunits": "fraction", "yunits": "fraction"}
     _add(overlay, "overlayXY", x="0", y="1", **fraction)
     _add(overlay, "screenXY", x=_number(x / width), y=_number(1 - y / height), **fraction)
-    _add(overlay, "size", x=str(side), y=str(side), xunits="pixels", yunits="pixels")
+    _add(overlay, "size", x=str(w), y=str(h), xunits="pixels", yunits="pixels")
 
 
 def _change(update: Element, kind: str, target: str, field: str, value: bool) -> None:

@@ -31,8 +31,10 @@ from webapp.apps.census_map.earth import (
     MIN_FOV,
     MIN_REFRESH_S,
     EarthOptions,
+    caption_png,
     display_document,
     earth_displays,
+    mounted_box,
     opener_kml,
     screen_role,
 )
@@ -40,6 +42,7 @@ from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
+from webapp.caching import IMMUTABLE
 from webapp.database.connection import ROW_ID_MAX, RowId
 from webapp.database.models import TagRecord
 from webapp.deps import (
@@ -378,10 +381,10 @@ async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
 
 @router.get("/apps/census/network-link.kml", responses=errors(404))
 async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
-    """Open once in Google Earth Pro: it fetches census.kml every few seconds, so
-    Earth follows the wall's groups and balloons."""
+    """Open once in Google Earth Pro: it fetches census.kmz (a fifth of census.kml's
+    bytes) every few seconds, so Earth follows the wall's groups and balloons."""
     wall, _, _ = await _kml_inputs(services, wall_id)
-    url = f"{services.base_url}/apps/census/census.kml?wall={wall.id}"
+    url = f"{services.base_url}/apps/census/census.kmz?wall={wall.id}"
     text = network_link_kml(
         url, refresh_seconds=NETWORK_LINK_REFRESH_S, name=f"tagwall census map · {wall.name}"
     )
@@ -475,6 +478,23 @@ async def earth_display(
         )
     )
     return Response(text, media_type=KML_TYPE)
+
+
+@router.get("/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png", responses=errors(404))
+async def earth_caption(
+    wall_id: str, layout_id: RowId, code: str, services: ServicesDep
+) -> Response:
+    """A placed code's caption as Google Earth draws it under the code (a layout never
+    changes, so neither does its image)."""
+    wall = services.walls.get(wall_id)
+    record = await run_in_threadpool(get_layout, services.db, wall_id, layout_id) if wall else None
+    found = next((p for p in record.placed if p["code"] == code), None) if record else None
+    placed = PlacedCode.model_validate(found) if found else None
+    if wall is None or placed is None or not placed.label or placed.caption is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
+    _, _, width, height = mounted_box(wall, placed.display, placed.caption)
+    body = await run_in_threadpool(caption_png, placed.label, (width, height))
+    return Response(body, media_type="image/png", headers={"Cache-Control": IMMUTABLE})
 
 
 # --- data sets -----------------------------------------------------------------------

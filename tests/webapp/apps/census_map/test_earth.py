@@ -12,11 +12,14 @@ from functools import cache
 from itertools import pairwise
 from typing import Any
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 from lxml import etree
+from PIL import Image
 
-from tests.conftest import register_student, services_of
+from tag_service.verify import decode_image
+from tests.conftest import register_student, services_of, sign_in
 from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_app import (
@@ -33,10 +36,12 @@ from webapp.apps.census_map.earth import (
     EARTH_RADIUS_M,
     DisplayView,
     EarthOptions,
+    ScreenImage,
     display_balloon,
     display_view,
     earth_displays,
     map_url,
+    mounted_box,
     opener_kml,
     wall_kml,
 )
@@ -239,25 +244,6 @@ def test_options_out_of_range_are_refused(options: dict[str, Any]) -> None:
         EarthOptions(**options)
 
 
-def placed_code(display: str, pixels: tuple[int, int, int]) -> PlacedCode:
-    return PlacedCode(
-        code="7K2Q9XAB",
-        label="0012",
-        kind="tract",
-        payload="HTTP://WALL.EXAMPLE:8000/T/7K2Q9XAB",
-        display=display,
-        rect=(0, 0, 10, 10),
-        pixels=pixels,
-        px_per_module=4,
-        modules=pixels[2] // 4,
-        error="M",
-        version=2,
-        matrix=[],
-        anchor=(0, 0),
-        leader=None,
-    )
-
-
 def test_the_wall_document_updates_the_map_flies_to_the_view_and_places_codes() -> None:
     wall, geometry = wall_named("demo"), shipped_geometry()
     view = display_view(geometry, wall, View(), "r2c2")
@@ -268,9 +254,8 @@ def test_the_wall_document_updates_the_map_flies_to_the_view_and_places_codes() 
         groups={"a": True, "b c": False},
         balloon="06067000100",
         closing={"06067000100", "06067000200"},
-        codes=[placed_code("r2c2", (480, 270, 148))],
+        images=[ScreenImage("0012", f"{BASE}/codes/7K2Q9XAB.png", (480, 270, 148, 148))],
         pixels=(1920, 1080),
-        code_image=lambda code: f"{BASE}/codes/{code.code}.png",
     )
     root = parsed(text)
     control = root.find("k:NetworkLinkControl", NS)
@@ -366,9 +351,9 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
 
     codes = [PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == "r2c2"]
     overlays = root.findall(".//k:ScreenOverlay", NS)
-    assert codes and len(overlays) == len(codes)
+    assert codes and len(overlays) == 2 * len(codes)  # each code, then its caption
     width, height = wall_named("demo").display("r2c2").mounted_resolution
-    for code, overlay in zip(codes, overlays, strict=True):
+    for code, overlay in zip(codes, overlays[::2], strict=True):
         x, y, side = code.pixels
         screen = overlay.find("k:screenXY", NS).attrib
         assert float(screen["x"]) * width == pytest.approx(x, abs=1e-3)
@@ -378,6 +363,15 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     image = client.get(overlays[0].findtext("k:Icon/k:href", namespaces=NS))
     assert image.status_code == 200 and image.content.startswith(b"\x89PNG")
     assert struct.unpack(">II", image.content[16:24]) == (codes[0].pixels[2],) * 2
+    # its caption: as big as the strip placement reserved, and never changing
+    caption = client.get(overlays[1].findtext("k:Icon/k:href", namespaces=NS))
+    assert "immutable" in caption.headers["cache-control"]
+    size = overlays[1].find("k:size", NS).attrib
+    assert struct.unpack(">II", caption.content[16:24]) == (int(size["x"]), int(size["y"]))
+    assert overlays[1].findtext("k:name", namespaces=NS) == codes[0].label
+    other = f"/apps/census/earth/demo/captions/{state.tag_layout}/NOSUCHCODE.png"
+    assert client.get(other).status_code == 404
+    assert client.get("/apps/census/earth/demo/captions/0/X.png").status_code == 422
 
 
 def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:
@@ -458,3 +452,62 @@ def test_bad_earth_requests(client: TestClient, path: str, status: int, says: st
     response = client.get(path)
     assert response.status_code == status
     assert says in response.text
+
+
+def test_the_dashboard_links_each_displays_earth_file(client: TestClient) -> None:
+    sign_in(client, "instructor")
+    page = client.get("/dashboard?wall=demo").text
+    links = re.findall(r'href="(/apps/census/earth/demo/[^"]+)"', page)
+    assert links == [f"/apps/census/earth/demo/{d}.kml" for d in ("r1c1", "r2c2", "r2c3")]
+    for link in links:
+        assert_valid_kml(client.get(link).content)
+
+
+def composed(client: TestClient, root: Any, pixels: tuple[int, int]) -> Image.Image:
+    """The display as Google Earth draws the wall document's screen overlays (KML's
+    rules: ``screenXY`` in fractions from the bottom left, ``overlayXY`` the image's
+    point put there), on the map's dark background."""
+    width, height = pixels
+    canvas = Image.new("RGB", pixels, "#0d1b2a")
+    for overlay in root.iterfind(".//k:ScreenOverlay", NS):
+        image = Image.open(
+            io.BytesIO(client.get(overlay.findtext(".//k:href", namespaces=NS)).content)
+        )
+        size = overlay.find("k:size", NS).attrib
+        assert image.size == (int(size["x"]), int(size["y"]))  # drawn at its own pixels
+        screen, anchor = (
+            overlay.find("k:screenXY", NS).attrib,
+            overlay.find("k:overlayXY", NS).attrib,
+        )
+        x = float(screen["x"]) * width - float(anchor["x"]) * image.width
+        y = (1 - float(screen["y"])) * height - (1 - float(anchor["y"])) * image.height
+        canvas.paste(image.convert("RGB"), (round(x), round(y)))
+    return canvas
+
+
+def test_phones_read_the_codes_off_an_earth_display_where_the_tile_has_them(
+    client: TestClient,
+) -> None:
+    state = show_census(client)
+    wall = wall_named("demo")
+    for display in ("r2c2", "r2c3"):
+        codes = [
+            PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == display
+        ]
+        picture = composed(
+            client, wall_document(client, display), wall.display(display).mounted_resolution
+        )
+        decoded = {found.payload: found.rect for found in decode_image(picture)}
+        assert set(decoded) == {code.payload for code in codes}
+        for code in codes:
+            x, y, side = code.pixels
+            dx, dy, dw, dh = decoded[code.payload]
+            assert x <= dx and dx + dw <= x + side and y <= dy and dy + dh <= y + side
+            # the code's own rectangle lands on its pixels: the same map, scene to screen
+            assert mounted_box(wall, display, code.rect) == (x, y, side, side)
+            assert code.caption is not None
+            cx, cy, cw, ch = mounted_box(wall, display, code.caption)
+            assert cy == y + side and cx <= x and x + side <= cx + cw  # its caption under it
+            strip = np.asarray(picture.crop((cx, cy, cx + cw, cy + ch)))
+            assert (strip == (0x10, 0x16, 0x1F)).all(axis=2).mean() > 0.5  # the dark strip
+            assert (strip > 200).all(axis=2).any()  # with white text on it
