@@ -18,7 +18,9 @@ Each Earth instance opens one small file (:func:`opener_kml`) holding two networ
   captions as ScreenOverlays.
 
 Google Earth applies an ``Update`` only to a file a NetworkLink loaded, found by the
-exact URL in ``targetHref``; the map's URL is therefore built once, by :func:`map_url`.
+exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url`), on
+the server address Earth fetched the wall document from, which is the one the opener
+named for both links.
 
 Views: Google Earth looks straight down (heading 0, tilt 0) at the middle of the
 display's rectangle of the map, from the height at which its horizontal field of view
