@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Annotated
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Query, Request
 from fastapi.concurrency import run_in_threadpool
@@ -98,11 +98,14 @@ async def code_image(
     request: Request,
     services: ServicesDep,
     scale: Annotated[int, Query(ge=1, le=40)] = 10,
+    error: Annotated[Literal["M", "L"], Query()] = "M",
 ) -> Response:
     """``CODE.svg`` / ``CODE.png`` (revalidated) or ``CODE.HASH.svg`` (cached for a year).
 
     The hash names the payload, so a hashed URL never changes content: when the
-    payload changes (a new server address), the URL changes with it.
+    payload changes (a new server address), the URL changes with it. ``error`` is the
+    error correction level: a code placed at level L (where space is tight) draws with
+    it, so its image has the modules the wall's placement counted.
     """
     stem, _, extension = name.rpartition(".")
     code_text, _, given_hash = stem.partition(".")
@@ -111,14 +114,15 @@ async def code_image(
     if tag is None or extension not in ("svg", "png"):
         return Response("No such code image.", 404, media_type="text/plain")
     payload = payload_of(tag, services.base_url)
-    digest = content_hash(payload, "M")
+    digest = content_hash(payload, error)
     if given_hash and given_hash != digest:
-        return RedirectResponse(f"/codes/{tag.code}.{digest}.{extension}", 307)
+        query = f"?{request.url.query}" if request.url.query else ""  # keeps scale and error
+        return RedirectResponse(f"/codes/{tag.code}.{digest}.{extension}{query}", 307)
     etag = f'"{digest}"' if extension == "svg" else f'"{digest}-{scale}"'
     headers = {"ETag": etag, "Cache-Control": IMMUTABLE if given_hash else "no-cache"}
     if request.headers.get("if-none-match") == etag:
         return Response(status_code=304, headers=headers)
     if extension == "svg":
-        return Response(_svg(payload, "M"), media_type="image/svg+xml", headers=headers)
-    png = await run_in_threadpool(render_png, make_symbol(payload), scale)
+        return Response(_svg(payload, error), media_type="image/svg+xml", headers=headers)
+    png = await run_in_threadpool(render_png, make_symbol(payload, error), scale)
     return Response(png, media_type="image/png", headers=headers)

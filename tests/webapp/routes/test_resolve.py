@@ -1,5 +1,6 @@
 """Scanning a code: ``/t/{code}`` resolves, records and hands over; bad codes get pages."""
 
+import struct
 from datetime import UTC, datetime, timedelta
 
 import pytest
@@ -8,6 +9,8 @@ from fastapi.responses import PlainTextResponse
 from fastapi.testclient import TestClient
 from itsdangerous import URLSafeSerializer
 
+from tag_service.codes import content_hash, make_symbol
+from tag_service.sizing import QUIET_ZONE_MODULES
 from tests.conftest import operator_headers
 from wall_client.layout import Wall
 from webapp.apps import Scan
@@ -180,6 +183,22 @@ def test_code_images_svg_png_and_caching(client: TestClient) -> None:
     assert client.get("/codes/ZZZZZZZ.svg").status_code == 404
     assert client.get(f"/codes/{code}.gif").status_code == 404
     assert client.get(f"/codes/{code}.png?scale=1000").status_code == 400
+
+
+def test_code_images_at_the_error_level_a_code_was_placed_with(client: TestClient) -> None:
+    code = code_named(client, "demo", "register-student")
+    payload = client.get(f"/api/tags/{code}", headers=operator_headers(client)).json()["payload"]
+    for level in ("M", "L"):
+        png = client.get(f"/codes/{code}.png?scale=2&error={level}")
+        across = make_symbol(payload, level).symbol_size(border=QUIET_ZONE_MODULES)[0]
+        assert struct.unpack(">II", png.content[16:24]) == (2 * across,) * 2
+    hashed = f"/codes/{code}.{content_hash(payload, 'L')}.png?scale=2&error=L"
+    assert client.get(hashed, follow_redirects=False).status_code == 200
+    stale = client.get(
+        f"/codes/{code}.0000000000000000.png?scale=2&error=L", follow_redirects=False
+    )
+    assert stale.status_code == 307 and stale.headers["location"] == hashed
+    assert client.get(f"/codes/{code}.png?error=H").status_code == 400
 
 
 def test_wall_start_page(client: TestClient) -> None:

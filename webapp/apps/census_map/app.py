@@ -260,4 +260,4 @@ class CensusApp:
         return routes.router
 
     def commands(self) -> list[click.Command]:
-        return [commands.census]
+        return [commands.census, commands.earth]

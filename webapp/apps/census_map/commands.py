@@ -1,4 +1,5 @@
-"""The census map's commands: ``tagwall census import`` and ``tagwall census list``."""
+"""The census map's commands: ``tagwall census import``, ``tagwall census list`` and
+``tagwall earth``."""
 
 from __future__ import annotations
 
@@ -8,9 +9,29 @@ from pathlib import Path
 import click
 import httpx
 
+from webapp.apps.census_map.earth import (
+    DEFAULT_FOV,
+    DEFAULT_MAP_REFRESH_S,
+    DEFAULT_REFRESH_S,
+    MAX_FOV,
+    MAX_REFRESH_S,
+    MIN_FOV,
+    MIN_REFRESH_S,
+    EarthOptions,
+    opener_kml,
+    opener_url,
+    screen_role,
+)
 from webapp.apps.census_map.importer import CensusImportError, import_files
 from webapp.apps.census_map.store import list_datasets
-from webapp.console import current_tokens, load_settings, open_database
+from webapp.console import (
+    current_tokens,
+    fail,
+    load_configured_walls,
+    load_settings,
+    open_database,
+    pick_wall,
+)
 from webapp.settings import Settings
 
 
@@ -129,3 +150,72 @@ def census_list() -> None:
             f"{mark} {d.id:>4}  {d.name}  {d.title!r}  {d.tract_count} tracts  "
             f"{d.created_at:%Y-%m-%d %H:%M} UTC"
         )
+
+
+REFRESH = click.IntRange(MIN_REFRESH_S, MAX_REFRESH_S)
+
+
+@click.command()
+@click.option("--wall", "wall_id", default=None, help="Wall id (default: TAGWALL_DEFAULT_WALL).")
+@click.option(
+    "--out",
+    type=click.Path(path_type=Path, file_okay=False),
+    help="Write each display's KML file into this folder instead of printing URLs.",
+)
+@click.option(
+    "--base-url",
+    help="Where Google Earth reaches the server (default: TAGWALL_PUBLIC_BASE_URL, else "
+    "where the server listens).",
+)
+@click.option(
+    "--fov",
+    type=click.FloatRange(MIN_FOV, MAX_FOV),
+    default=DEFAULT_FOV,
+    show_default=True,
+    help="Google Earth's horizontal field of view on these displays, degrees.",
+)
+@click.option(
+    "--refresh",
+    type=REFRESH,
+    default=DEFAULT_REFRESH_S,
+    show_default=True,
+    help="Seconds between fetches of each display's view, groups, balloon and codes.",
+)
+@click.option(
+    "--map-refresh",
+    type=REFRESH,
+    default=DEFAULT_MAP_REFRESH_S,
+    show_default=True,
+    help="Seconds between fetches of the map itself.",
+)
+def earth(
+    wall_id: str | None,
+    out: Path | None,
+    base_url: str | None,
+    fov: float,
+    refresh: int,
+    map_refresh: int,
+) -> None:
+    """What each display's Google Earth Pro opens to show the census map (a Google
+    Earth wall); the designated screens stay browser tiles."""
+    settings = load_settings()
+    wall = pick_wall(load_configured_walls(settings), wall_id, settings)
+    base = (base_url or settings.resolved_public_base_url).rstrip("/")
+    if not base.startswith(("http://", "https://")):
+        fail(f"--base-url must be an http:// or https:// URL, not {base!r}")
+    options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+    width = max(len(d.id) for d in wall.displays)
+    click.echo(f"{'display':<{width}}  Google Earth Pro opens")
+    for display in wall.displays:
+        role = screen_role(wall, display.id)
+        if role is not None:
+            what = f"(the {role} screen: a browser tile, see `tagwall tiles`)"
+        elif out is not None:
+            path = out / f"{display.id}.kml"
+            path.write_text(opener_kml(base, wall, display.id, options))
+            what = str(path)
+        else:
+            what = opener_url(base, wall.id, display.id, options)
+        click.echo(f"{display.id:<{width}}  {what}")

@@ -187,6 +187,16 @@ def network_link_kml(url: str, *, refresh_seconds: int, name: str) -> str:
     return valid_kml(text)
 
 
+def group_feature_id(group_id: str) -> str:
+    """The id of a group's Folder in :func:`census_kml`: what an ``Update`` targets."""
+    return f"group-{_id_part(group_id)}"
+
+
+def tract_feature_id(geoid: str) -> str:
+    """The id of a tract's Placemark in :func:`census_kml`: what an ``Update`` targets."""
+    return f"tract-{_id_part(geoid)}"
+
+
 def valid_kml(text: str, ids: Mapping[str, str] | None = None) -> str:
     """simplekml's output made valid against the KML 2.2 schema.
 

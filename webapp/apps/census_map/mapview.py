@@ -76,6 +76,7 @@ class MapGeometry:
     extent: tuple[float, float, float, float]
     label_points: Floats  # (n, 2): a point well inside each tract
     room: Floats  # (n,): radius of the widest circle inside the tract around that point
+    lat0: float  # the plane's middle latitude (degrees): x = longitude · cos(lat0)
     _levels: dict[int, Shapes] = field(default_factory=dict, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
@@ -113,12 +114,17 @@ class MapGeometry:
             extent=extent,
             label_points=np.array(points, dtype=np.float64).reshape(-1, 2),
             room=np.array(room, dtype=np.float64),
+            lat0=lat0,
         )
 
     @property
     def size(self) -> float:
         minx, miny, maxx, maxy = self.extent
         return max(maxx - minx, maxy - miny, 1e-12)
+
+    def to_lonlat(self, u: float, v: float) -> tuple[float, float]:
+        """A point of the plane as longitude/latitude: the plane's projection undone."""
+        return (u / math.cos(math.radians(self.lat0)), -v)
 
     def outlines(self, tolerance: float) -> Shapes:
         """Outlines simplified as much as ``tolerance`` (plane units) allows: none

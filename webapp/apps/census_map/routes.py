@@ -4,7 +4,7 @@ KML for Google Earth, and the data set the map shows."""
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
@@ -24,12 +24,29 @@ from webapp.apps.census_map.actions import (
     switch_dataset,
 )
 from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.earth import (
+    DEFAULT_FOV,
+    DEFAULT_MAP_REFRESH_S,
+    DEFAULT_REFRESH_S,
+    MAX_FOV,
+    MAX_REFRESH_S,
+    MIN_FOV,
+    MIN_REFRESH_S,
+    EarthOptions,
+    caption_png,
+    display_document,
+    earth_displays,
+    mounted_box,
+    opener_kml,
+    screen_role,
+)
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.legend import theme_view
 from webapp.apps.census_map.mapview import tile_view
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
 from webapp.apps.census_map.theme import Shading, kept_theme
+from webapp.caching import IMMUTABLE
 from webapp.choropleth.classes import Method, Theme
 from webapp.choropleth.palettes import SCHEMES, SchemeName, colours, kind
 from webapp.database.connection import ROW_ID_MAX, RowId
@@ -421,19 +438,35 @@ class _KmlInputs:
         return body
 
 
-async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
-    """The map as the wall shows it now: its data set, hidden groups, open balloons (the
-    current data set as imported when the map is not on the wall)."""
+@dataclass(frozen=True)
+class _MapNow:
+    """The map as the wall shows it now (the current data set as imported when the map
+    is not on the wall, ``on_wall`` False)."""
+
+    wall: Wall
+    state: WallState
+    dataset: DataSet
+    on_wall: bool
+
+
+async def _map_now(services: Services, wall_id: str | None) -> _MapNow:
     wall, state, app = await _kml_inputs(services, wall_id)
     dataset = await run_in_threadpool(app.shown, services, state)
     if dataset is None:
         dataset = await run_in_threadpool(app.datasets.current, services.db)
     if dataset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "No census data set has been imported.")
-    on_wall = state.app == APP and state.dataset == dataset.id
+    return _MapNow(wall, state, dataset, state.app == APP and state.dataset == dataset.id)
+
+
+async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
+    """The map as the wall shows it now: its data set, hidden groups, open balloons."""
+    now_map = await _map_now(services, wall_id)
+    wall, state, dataset, on_wall = now_map.wall, now_map.state, now_map.dataset, now_map.on_wall
     now = now_ms()
     hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
     balloons = frozenset(b.id.removeprefix("tract-") for b in state.balloons if b.open_at(now))
+    app = census_app(services)
     shading = await run_in_threadpool(app.shading, dataset, state.theme) if on_wall else None
     return _KmlInputs(
         dataset=dataset,
@@ -468,10 +501,10 @@ async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
 
 @router.get("/apps/census/network-link.kml", responses=errors(404))
 async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
-    """Open once in Google Earth Pro: it fetches census.kml every few seconds, so
-    Earth follows the wall's groups and balloons."""
+    """Open once in Google Earth Pro: it fetches census.kmz (a fifth of census.kml's
+    bytes) every few seconds, so Earth follows the wall's groups and balloons."""
     wall, _, _ = await _kml_inputs(services, wall_id)
-    url = f"{services.base_url}/apps/census/census.kml?wall={wall.id}"
+    url = f"{services.base_url}/apps/census/census.kmz?wall={wall.id}"
     text = network_link_kml(
         url, refresh_seconds=NETWORK_LINK_REFRESH_S, name=f"tagwall census map · {wall.name}"
     )
@@ -480,6 +513,108 @@ async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Resp
         media_type=KML_TYPE,
         headers={"Content-Disposition": 'attachment; filename="network-link.kml"'},
     )
+
+
+# --- Google Earth walls: one Earth per display (see earth.py) -------------------------
+
+FovQuery = Annotated[float, Query(ge=MIN_FOV, le=MAX_FOV)]
+RefreshQuery = Annotated[int, Query(ge=MIN_REFRESH_S, le=MAX_REFRESH_S)]
+OpenedQuery = Annotated[str | None, Query(alias="open", max_length=64)]
+
+
+def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
+    """The wall, when ``display_id`` is one of its displays Google Earth can drive."""
+    wall = services.walls.get(wall_id)
+    if wall is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
+    if display_id not in {d.id for d in earth_displays(wall)}:
+        role = screen_role(wall, display_id)
+        detail = (
+            f"Display {display_id!r} is the {role} screen: Google Earth cannot show its "
+            "panels, open its tile in a browser."
+            if role
+            else f"Wall {wall.id!r} has no display {display_id!r}."
+        )
+        raise HTTPException(status.HTTP_404_NOT_FOUND, detail)
+    return wall
+
+
+@router.get("/apps/census/earth/{wall_id}/map.kmz", responses=errors(404))
+async def earth_map(wall_id: str, services: ServicesDep) -> Response:
+    """The map Google Earth walls load: census.kmz with no balloon open (each display
+    opens the one on it)."""
+    inputs = replace(await _kml_of(services, wall_id), open_balloons=frozenset())
+    body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
+    return Response(body, media_type=KMZ_TYPE)
+
+
+@router.get("/apps/census/earth/{wall_id}/{display_id}.kml", responses=errors(404))
+async def earth_opener(
+    wall_id: str,
+    display_id: str,
+    services: ServicesDep,
+    fov: FovQuery = DEFAULT_FOV,
+    refresh: RefreshQuery = DEFAULT_REFRESH_S,
+    map_refresh: RefreshQuery = DEFAULT_MAP_REFRESH_S,
+) -> Response:
+    """What the Google Earth on one display opens: the map and its wall document."""
+    wall = _earth_wall(services, wall_id, display_id)
+    options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
+    return Response(
+        opener_kml(services.base_url, wall, display_id, options),
+        media_type=KML_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="tagwall-earth.kml"'},
+    )
+
+
+@router.get("/apps/census/earth/{wall_id}/{display_id}/wall.kml", responses=errors(404))
+async def earth_display(
+    request: Request,
+    wall_id: str,
+    display_id: str,
+    services: ServicesDep,
+    fov: FovQuery = DEFAULT_FOV,
+    opened: OpenedQuery = None,
+) -> Response:
+    """One display's wall document, fetched every few seconds by its Google Earth: the
+    view, groups and balloon (an Update of the map) and the codes on the display."""
+    _earth_wall(services, wall_id, display_id)
+    shown = await _map_now(services, wall_id)
+    app = census_app(services)
+    geometry = await run_in_threadpool(app.geometry, shown.dataset)
+    text = await run_in_threadpool(
+        lambda: display_document(
+            services.db,
+            wall=shown.wall,
+            state=shown.state,
+            dataset=shown.dataset,
+            geometry=geometry,
+            on_wall=shown.on_wall,
+            display_id=display_id,
+            fov=fov,
+            opened=opened,
+            base_url=str(request.base_url).rstrip("/"),  # as Earth reached us: targetHref
+            now=now_ms(),
+        )
+    )
+    return Response(text, media_type=KML_TYPE)
+
+
+@router.get("/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png", responses=errors(404))
+async def earth_caption(
+    wall_id: str, layout_id: RowId, code: str, services: ServicesDep
+) -> Response:
+    """A placed code's caption as Google Earth draws it under the code (a layout never
+    changes, so neither does its image)."""
+    wall = services.walls.get(wall_id)
+    record = await run_in_threadpool(get_layout, services.db, wall_id, layout_id) if wall else None
+    found = next((p for p in record.placed if p["code"] == code), None) if record else None
+    placed = PlacedCode.model_validate(found) if found else None
+    if wall is None or placed is None or not placed.label or placed.caption is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
+    _, _, width, height = mounted_box(wall, placed.display, placed.caption)
+    body = await run_in_threadpool(caption_png, placed.label, (width, height))
+    return Response(body, media_type="image/png", headers={"Cache-Control": IMMUTABLE})
 
 
 # --- data sets -----------------------------------------------------------------------

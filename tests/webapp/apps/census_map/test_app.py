@@ -493,7 +493,7 @@ def test_google_earth_gets_the_wall_as_it_is(client: TestClient) -> None:
     assert kmz.status_code == 200 and kmz.content[:2] == b"PK"
     link = client.get("/apps/census/network-link.kml?wall=demo")
     assert_valid_kml(link.content)
-    assert "/apps/census/census.kml?wall=demo" in link.text and "onInterval" in link.text
+    assert "/apps/census/census.kmz?wall=demo" in link.text and "onInterval" in link.text
     assert client.get("/apps/census/census.kml?wall=nope").status_code == 404
 
 

@@ -11,6 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from tests.conftest import TEST_SECRET
+from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
@@ -175,3 +176,43 @@ def test_import_asks_a_running_server_to_switch_the_map(
     assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/census/current"
     assert kwargs["json"] == {"dataset": 1} and kwargs["timeout"] == 5
     assert kwargs["headers"] == {"Authorization": f"Bearer {operator_token(TEST_SECRET)}"}
+
+
+def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
+    code, out, err = run(
+        env, "earth", "--wall", "demo", "--base-url", "http://wall.example:8000/", "--fov", "45"
+    )
+    assert code == 0, err
+    lines = out.splitlines()
+    assert lines[0].split() == ["display", "Google", "Earth", "Pro", "opens"]
+    rows = dict(line.split(maxsplit=1) for line in lines[1:])
+    assert rows["r2c2"] == (
+        "http://wall.example:8000/apps/census/earth/demo/r2c2.kml?fov=45&refresh=2&map_refresh=60"
+    )
+    assert rows["r1c2"] == "(the public screen: a browser tile, see `tagwall tiles`)"
+    assert len(rows) == 6
+
+
+def test_earth_writes_one_kml_file_per_display(env: dict[str, str], tmp_path: Path) -> None:
+    code, out, err = run(env, "earth", "--wall", "demo", "--out", str(tmp_path / "earth"))
+    assert code == 0, err
+    written = sorted(path.name for path in (tmp_path / "earth").iterdir())
+    assert written == ["r1c1.kml", "r2c2.kml", "r2c3.kml"]
+    text = (tmp_path / "earth" / "r2c3.kml").read_text()
+    assert_valid_kml(text)
+    assert f"{env['TAGWALL_PORT']}/apps/census/earth/demo/r2c3/wall.kml?fov=60" in text
+    assert str(tmp_path / "earth" / "r2c3.kml") in out
+
+
+@pytest.mark.parametrize(
+    ("args", "says"),
+    [
+        (["--wall", "nope"], "no wall 'nope'"),
+        (["--fov", "0"], "--fov"),
+        (["--refresh", "0"], "--refresh"),
+        (["--base-url", "wall.example"], "--base-url must be an http"),
+    ],
+)
+def test_earth_refuses_bad_options(env: dict[str, str], args: list[str], says: str) -> None:
+    code, _, err = run(env, "earth", *args)
+    assert code == 2 and says in err

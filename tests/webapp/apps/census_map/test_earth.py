@@ -1,0 +1,513 @@
+"""Google Earth walls: each display's view measured against the wall's layout, and the
+documents each Earth opens and fetches, valid against the KML 2.2 + gx schemas."""
+
+from __future__ import annotations
+
+import io
+import math
+import re
+import struct
+import zipfile
+from functools import cache
+from itertools import pairwise
+from typing import Any
+
+import numpy as np
+import pytest
+from fastapi.testclient import TestClient
+from lxml import etree
+from PIL import Image
+
+from tag_service.verify import decode_image
+from tests.conftest import register_student, services_of, sign_in
+from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
+from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
+from tests.webapp.apps.census_map.test_app import (
+    census_codes,
+    change,
+    open_balloon,
+    placed,
+    show_census,
+    state_of,
+)
+from wall_client.config import load_walls
+from wall_client.layout import Wall
+from webapp.apps.census_map.earth import (
+    EARTH_RADIUS_M,
+    DisplayView,
+    EarthOptions,
+    ScreenImage,
+    display_balloon,
+    display_view,
+    earth_displays,
+    map_url,
+    mounted_box,
+    opener_kml,
+    wall_kml,
+)
+from webapp.apps.census_map.kml import census_kml, group_feature_id, tract_feature_id
+from webapp.apps.census_map.mapview import MapGeometry, projection
+from webapp.engine.wall_state import Balloon, View
+from webapp.schemas import PlacedCode
+from webapp.settings import CONTENT_DIR
+
+NS = {"k": "http://www.opengis.net/kml/2.2", "gx": "http://www.google.com/kml/ext/2.2"}
+BASE = "http://wall.example:8000"
+WALLS = ("demo", "hiperwall")
+
+
+@cache
+def wall_named(wall_id: str) -> Wall:
+    return load_walls([CONTENT_DIR / "walls" / f"{wall_id}.toml"])[wall_id]
+
+
+@cache
+def shipped_geometry() -> MapGeometry:
+    return MapGeometry.of(sacramento())
+
+
+def seen(view: DisplayView, sx: float, sy: float, aspect: float) -> tuple[float, float]:
+    """Where a pinhole camera ``view.range_m`` above the view's middle, looking straight
+    down with north up and ``view.fov`` degrees across, sees the point (sx, sy) of its
+    picture (-1..1 from the middle, x east, y north; ``aspect`` = width / height) on a
+    sphere: Google Earth's view, modelled independently of the code under test."""
+    lon, lat = math.radians(view.longitude), math.radians(view.latitude)
+    up = (math.cos(lat) * math.cos(lon), math.cos(lat) * math.sin(lon), math.sin(lat))
+    east = (-math.sin(lon), math.cos(lon), 0.0)
+    north = (-math.sin(lat) * math.cos(lon), -math.sin(lat) * math.sin(lon), math.cos(lat))
+    spread = math.tan(math.radians(view.fov) / 2)
+    ray = [
+        -u + sx * spread * e + sy * spread / aspect * n
+        for u, e, n in zip(up, east, north, strict=True)
+    ]
+    length = math.hypot(*ray)
+    ray = [r / length for r in ray]
+    camera = [(EARTH_RADIUS_M + view.range_m) * u for u in up]
+    along = sum(c * r for c, r in zip(camera, ray, strict=True))
+    beyond = sum(c * c for c in camera) - EARTH_RADIUS_M**2
+    k = -along - math.sqrt(along**2 - beyond)  # the nearer of the ray's two crossings
+    x, y, z = (c + k * r for c, r in zip(camera, ray, strict=True))
+    return math.degrees(math.atan2(y, x)), math.degrees(math.asin(z / EARTH_RADIUS_M))
+
+
+def scene_of(geometry: MapGeometry, wall: Wall, view: View, lon: float, lat: float) -> Any:
+    """Longitude/latitude through the plane to the wall's scene mm (the wall's own map)."""
+    return projection(geometry, wall, view).point(lon * math.cos(math.radians(geometry.lat0)), -lat)
+
+
+# --- views ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("wall_id", WALLS)
+@pytest.mark.parametrize("view", [View(), View(center=(0.4, 0.6), zoom=2.5)])
+def test_each_view_looks_at_the_middle_of_its_display(wall_id: str, view: View) -> None:
+    wall, geometry = wall_named(wall_id), shipped_geometry()
+    for display in earth_displays(wall):
+        seen_view = display_view(geometry, wall, view, display.id)
+        rect = wall.viewport(display.id).scene_rect
+        x, y = scene_of(geometry, wall, view, seen_view.longitude, seen_view.latitude)
+        assert x == pytest.approx(rect.center[0], abs=1e-6)
+        assert y == pytest.approx(rect.center[1], abs=1e-6)
+        for lon, lat, corner in (
+            (seen_view.west, seen_view.north, (rect.x, rect.y)),
+            (seen_view.east, seen_view.south, (rect.right, rect.bottom)),
+        ):
+            assert scene_of(geometry, wall, view, lon, lat) == pytest.approx(corner, abs=1e-6)
+
+
+@pytest.mark.parametrize("wall_id", WALLS)
+def test_neighbouring_views_abut_with_the_bezel_between(wall_id: str) -> None:
+    wall, geometry = wall_named(wall_id), shipped_geometry()
+    project = projection(geometry, wall, View())
+    mm_per_degree_lon = project.scale * math.cos(math.radians(geometry.lat0))
+    rects = {d.id: wall.viewport(d.id).scene_rect for d in wall.displays}
+    views = {i: display_view(geometry, wall, View(), i) for i in rects}
+    rows: dict[float, list[str]] = {}
+    columns: dict[float, list[str]] = {}
+    for display_id, rect in rects.items():
+        rows.setdefault(rect.y, []).append(display_id)
+        columns.setdefault(rect.x, []).append(display_id)
+    pairs = 0
+    for row in rows.values():
+        for left, right in pairwise(sorted(row, key=lambda i: rects[i].x)):
+            gap = rects[right].x - rects[left].right
+            assert views[left].east < views[right].west  # the bezel hides a strip
+            assert (views[right].west - views[left].east) * mm_per_degree_lon == pytest.approx(gap)
+            pairs += 1
+    for column in columns.values():
+        for upper, lower in pairwise(sorted(column, key=lambda i: rects[i].y)):
+            gap = rects[lower].y - rects[upper].bottom
+            assert views[lower].north < views[upper].south
+            assert (views[upper].south - views[lower].north) * project.scale == pytest.approx(gap)
+            pairs += 1
+    assert pairs == {"demo": 3 + 4, "hiperwall": 40 + 45}[wall_id]  # every pair in the grid
+
+
+@pytest.mark.parametrize("wall_id", WALLS)
+@pytest.mark.parametrize("fov", [60.0, 35.0])
+@pytest.mark.parametrize(("zoom", "within"), [(1.0, 0.015), (4.0, 0.004)])
+def test_earth_sees_each_display_rect_from_its_range(
+    wall_id: str, fov: float, zoom: float, within: float
+) -> None:
+    """Earth's perspective of the sphere against the wall's equirectangular map: the
+    middle row spans the display exactly; the corners land within ``within`` of the
+    display's width. Measured: at zoom 1 a demo display spans 270 km and its corners
+    are off by 0.7 % (1.1 % on the display north of the map, where the plane's
+    cos(latitude) is furthest from the display's); HIPerWall's by 0.2-0.5 %."""
+    wall, geometry = wall_named(wall_id), shipped_geometry()
+    view = View(zoom=zoom)
+    worst = 0.0
+    for display in earth_displays(wall):
+        seen_view = display_view(geometry, wall, view, display.id, fov)
+        rect = wall.viewport(display.id).scene_rect
+        aspect = rect.width / rect.height
+        west, _ = seen(seen_view, -1, 0, aspect)
+        east, _ = seen(seen_view, 1, 0, aspect)
+        assert west == pytest.approx(seen_view.west, abs=1e-9)
+        assert east == pytest.approx(seen_view.east, abs=1e-9)
+        for sx, sy, corner in (
+            (-1, 1, (rect.x, rect.y)),
+            (1, 1, (rect.right, rect.y)),
+            (-1, -1, (rect.x, rect.bottom)),
+            (1, -1, (rect.right, rect.bottom)),
+        ):
+            x, y = scene_of(geometry, wall, view, *seen(seen_view, sx, sy, aspect))
+            worst = max(worst, math.hypot(x - corner[0], y - corner[1]) / rect.width)
+    assert worst < within
+
+
+def test_the_range_follows_the_field_of_view_and_the_zoom() -> None:
+    """Over flat ground the width seen is 2 · range · tan(fov / 2): zoomed in to 34 km
+    a display (and 17 km), the globe's curve changes the range by under 0.1 %."""
+    wall, geometry = wall_named("demo"), shipped_geometry()
+    display = earth_displays(wall)[0].id
+    views = [
+        display_view(geometry, wall, View(zoom=8), display, 60),
+        display_view(geometry, wall, View(zoom=8), display, 30),
+        display_view(geometry, wall, View(zoom=16), display, 60),
+    ]
+    for view in views:
+        width_m = math.radians(view.east - view.west) * math.cos(math.radians(view.latitude))
+        flat = width_m * EARTH_RADIUS_M / 2 / math.tan(math.radians(view.fov) / 2)
+        assert view.range_m == pytest.approx(flat, rel=1e-3)
+    assert views[2].east - views[2].west == pytest.approx((views[0].east - views[0].west) / 2)
+
+
+def test_earth_drives_the_displays_that_show_the_map() -> None:
+    wall = wall_named("demo")
+    assert [d.id for d in earth_displays(wall)] == ["r1c1", "r2c2", "r2c3"]
+
+
+def test_each_display_opens_the_newest_balloon_on_it() -> None:
+    wall = wall_named("demo")
+    rect = wall.viewport("r2c2").scene_rect
+    inside = (rect.x + 10, rect.y + 10)
+
+    def balloon(geoid: str, anchor: tuple[float, float], closes_at: int | None) -> Balloon:
+        return Balloon(id=f"tract-{geoid}", anchor=anchor, title=geoid, closes_at=closes_at)
+
+    balloons = [balloon("1", inside, None), balloon("2", inside, None), balloon("3", inside, 5)]
+    assert display_balloon(wall, "r2c2", balloons, now=10) == "2"  # 3 closed at 5
+    assert display_balloon(wall, "r2c2", balloons, now=1) == "3"
+    assert display_balloon(wall, "r2c3", balloons, now=1) is None
+
+
+# --- documents -----------------------------------------------------------------------
+
+
+def parsed(text: str) -> Any:
+    assert_valid_kml(text)
+    return etree.fromstring(text.encode())
+
+
+def test_the_opener_links_the_map_and_the_displays_wall_document() -> None:
+    wall = wall_named("demo")
+    root = parsed(opener_kml(BASE, wall, "r2c2", EarthOptions(fov=45, refresh=3, map_refresh=90)))
+    the_map, state = root.findall(".//k:NetworkLink", NS)
+    assert the_map.findtext("k:Link/k:href", namespaces=NS) == map_url(BASE, "demo")
+    assert the_map.findtext("k:Link/k:refreshInterval", namespaces=NS) == "90"
+    assert the_map.findtext("k:refreshVisibility", namespaces=NS) == "1"
+    assert the_map.findtext("k:flyToView", namespaces=NS) == "0"
+    assert state.findtext("k:Link/k:href", namespaces=NS) == (
+        f"{BASE}/apps/census/earth/demo/r2c2/wall.kml?fov=45"
+    )
+    assert state.findtext("k:Link/k:refreshInterval", namespaces=NS) == "3"
+    assert state.findtext("k:flyToView", namespaces=NS) == "1"
+    for link in (the_map, state):
+        assert link.findtext("k:Link/k:refreshMode", namespaces=NS) == "onInterval"
+        assert link.findtext("k:Link/k:viewRefreshMode", namespaces=NS) == "never"
+
+
+@pytest.mark.parametrize("options", [{"fov": 0.5}, {"fov": 170}, {"refresh": 0}])
+def test_options_out_of_range_are_refused(options: dict[str, Any]) -> None:
+    with pytest.raises(ValueError):
+        EarthOptions(**options)
+
+
+def test_the_wall_document_updates_the_map_flies_to_the_view_and_places_codes() -> None:
+    wall, geometry = wall_named("demo"), shipped_geometry()
+    view = display_view(geometry, wall, View(), "r2c2")
+    text = wall_kml(
+        name="demo · r2c2",
+        map_href=map_url(BASE, "demo"),
+        view=view,
+        groups={"a": True, "b c": False},
+        balloon="06067000100",
+        closing={"06067000100", "06067000200"},
+        images=[ScreenImage("0012", f"{BASE}/codes/7K2Q9XAB.png", (480, 270, 148, 148))],
+        pixels=(1920, 1080),
+    )
+    root = parsed(text)
+    control = root.find("k:NetworkLinkControl", NS)
+    assert control.findtext("k:cookie", namespaces=NS) == "open=06067000100"
+    assert control.findtext("k:Update/k:targetHref", namespaces=NS) == map_url(BASE, "demo")
+    changes = {
+        element.get("targetId"): element[0].text
+        for element in control.iterfind("k:Update/k:Change/*", NS)
+    }
+    assert changes == {
+        group_feature_id("a"): "1",
+        group_feature_id("b c"): "0",
+        tract_feature_id("06067000200"): "0",
+        tract_feature_id("06067000100"): "1",
+    }
+    look_at = control.find("k:LookAt", NS)
+    assert float(look_at.findtext("k:longitude", namespaces=NS)) == pytest.approx(view.longitude)
+    assert float(look_at.findtext("k:latitude", namespaces=NS)) == pytest.approx(view.latitude)
+    assert float(look_at.findtext("k:range", namespaces=NS)) == pytest.approx(view.range_m, abs=0.1)
+    assert look_at.findtext("k:tilt", namespaces=NS) == "0"
+    assert look_at.findtext("k:heading", namespaces=NS) == "0"
+    [overlay] = root.findall(".//k:ScreenOverlay", NS)
+    assert overlay.findtext("k:Icon/k:href", namespaces=NS) == f"{BASE}/codes/7K2Q9XAB.png"
+    assert dict(overlay.find("k:overlayXY", NS).attrib) == {
+        "x": "0",
+        "y": "1",
+        "xunits": "fraction",
+        "yunits": "fraction",
+    }
+    screen = overlay.find("k:screenXY", NS).attrib
+    assert (screen["x"], screen["y"]) == ("0.25", "0.75")  # 480 of 1920; 270 down of 1080
+    size = overlay.find("k:size", NS).attrib
+    assert (size["x"], size["y"], size["xunits"]) == ("148", "148", "pixels")
+
+
+def test_the_update_targets_the_ids_the_map_has() -> None:
+    dataset = grid_dataset()
+    root = etree.fromstring(
+        census_kml(dataset, hidden=frozenset(), open_balloons=frozenset()).encode()
+    )
+    ids = {element.get("id") for element in root.iter()}
+    assert {group_feature_id(g.id) for g in dataset.groups} <= ids
+    assert {tract_feature_id(t.geoid) for t in dataset.tracts} <= ids
+
+
+# --- over HTTP -----------------------------------------------------------------------
+
+
+def earth_get(client: TestClient, path: str, **params: Any) -> Any:
+    response = client.get(f"/apps/census/earth/demo/{path}", params=params)
+    assert response.status_code == 200, response.text
+    return response
+
+
+def wall_document(client: TestClient, display: str, **params: Any) -> Any:
+    response = earth_get(client, f"{display}/wall.kml", **params)
+    assert response.headers["content-type"].startswith("application/vnd.google-earth.kml+xml")
+    return parsed(response.text)
+
+
+def changes_of(root: Any) -> dict[str, str]:
+    return {
+        element.get("targetId"): element[0].text
+        for element in root.iterfind("k:NetworkLinkControl/k:Update/k:Change/*", NS)
+    }
+
+
+def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -> None:
+    state = show_census(client)
+    services = services_of(client)
+    opener = parsed(earth_get(client, "r2c2.kml", fov=50).text)
+    hrefs = [link.text for link in opener.iterfind(".//k:Link/k:href", NS)]
+    assert hrefs == [
+        f"{services.base_url}/apps/census/earth/demo/map.kmz",
+        f"{services.base_url}/apps/census/earth/demo/r2c2/wall.kml?fov=50",
+    ]
+
+    root = wall_document(client, "r2c2", fov=50)
+    # Earth reached the server at the test client's address: the map's URL there
+    target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
+    assert target == "http://testserver/apps/census/earth/demo/map.kmz"
+    dataset = services.apps["census"].datasets.current(services.db)
+    expected = display_view(MapGeometry.of(dataset), wall_named("demo"), state.view, "r2c2", 50)
+    look_at = root.find("k:NetworkLinkControl/k:LookAt", NS)
+    assert float(look_at.findtext("k:longitude", namespaces=NS)) == pytest.approx(
+        expected.longitude
+    )
+    assert float(look_at.findtext("k:range", namespaces=NS)) == pytest.approx(
+        expected.range_m, abs=0.1
+    )
+    assert set(changes_of(root).values()) == {"1"}  # every group shown, no balloon
+    assert len(changes_of(root)) == len(dataset.groups)
+
+    codes = [PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == "r2c2"]
+    overlays = root.findall(".//k:ScreenOverlay", NS)
+    assert codes and len(overlays) == 2 * len(codes)  # each code, then its caption
+    width, height = wall_named("demo").display("r2c2").mounted_resolution
+    for code, overlay in zip(codes, overlays[::2], strict=True):
+        x, y, side = code.pixels
+        screen = overlay.find("k:screenXY", NS).attrib
+        assert float(screen["x"]) * width == pytest.approx(x, abs=1e-3)
+        assert (1 - float(screen["y"])) * height == pytest.approx(y, abs=1e-3)
+        assert overlay.find("k:size", NS).attrib["x"] == str(side)
+    # the code's image: exactly its side in pixels, modules whole
+    image = client.get(overlays[0].findtext("k:Icon/k:href", namespaces=NS))
+    assert image.status_code == 200 and image.content.startswith(b"\x89PNG")
+    assert struct.unpack(">II", image.content[16:24]) == (codes[0].pixels[2],) * 2
+    # its caption: as big as the strip placement reserved, and never changing
+    caption = client.get(overlays[1].findtext("k:Icon/k:href", namespaces=NS))
+    assert "immutable" in caption.headers["cache-control"]
+    size = overlays[1].find("k:size", NS).attrib
+    assert struct.unpack(">II", caption.content[16:24]) == (int(size["x"]), int(size["y"]))
+    assert overlays[1].findtext("k:name", namespaces=NS) == codes[0].label
+    other = f"/apps/census/earth/demo/captions/{state.tag_layout}/NOSUCHCODE.png"
+    assert client.get(other).status_code == 404
+    assert client.get("/apps/census/earth/demo/captions/0/X.png").status_code == 422
+
+
+def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:
+    show_census(client)
+    codes = census_codes(client)
+    group = next(n for n in codes if n.startswith("census:group:")).removeprefix("census:group:")
+    client.get(f"/t/{codes[f'census:group:{group}']}")  # hide a group
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    shown_group = next(g for g in dataset.groups if g.id != group)
+    geoid = sorted(shown_group.geoids)[0]
+    assert open_balloon(client, geoid).status_code in (200, 303)
+    [balloon] = state_of(client).balloons
+    wall = wall_named("demo")
+    on = next(
+        d.id
+        for d in earth_displays(wall)
+        if wall.viewport(d.id).scene_rect.contains(balloon.anchor)
+    )
+    off = next(d.id for d in earth_displays(wall) if d.id != on)
+
+    root = wall_document(client, on)
+    changes = changes_of(root)
+    assert changes[group_feature_id(group)] == "0"
+    assert changes[group_feature_id(shown_group.id)] == "1"
+    assert changes[tract_feature_id(geoid)] == "1"
+    assert root.findtext("k:NetworkLinkControl/k:cookie", namespaces=NS) == f"open={geoid}"
+
+    # Another display opens none, and closes what its Earth says it opened (the cookie)
+    other = dataset.tracts[0].geoid
+    root = wall_document(client, off, open=other)
+    changes = changes_of(root)
+    assert changes[tract_feature_id(other)] == "0" and changes[tract_feature_id(geoid)] == "0"
+    assert root.find("k:NetworkLinkControl/k:cookie", NS) is None
+    assert tract_feature_id("nonsense") not in changes_of(
+        wall_document(client, off, open="nonsense")
+    )
+
+    # The map Earth loads opens no balloon (each display opens its own) and hides the group
+    kmz = earth_get(client, "map.kmz")
+    with zipfile.ZipFile(io.BytesIO(kmz.content)) as archive:
+        text = archive.read("doc.kml").decode()
+    assert_valid_kml(text)
+    assert "<gx:balloonVisibility>1" not in text
+    hidden = re.search(rf'<Folder id="{group_feature_id(group)}">.*?<visibility>(\d)<', text, re.S)
+    assert hidden and hidden.group(1) == "0"
+
+
+def test_the_map_not_on_the_wall_is_the_current_data_set_at_home(client: TestClient) -> None:
+    show_census(client)
+    change(client, {"app": "pattern", "view": {"center": [0.3, 0.3], "zoom": 3}})
+    root = wall_document(client, "r2c2")
+    assert root.findall(".//k:ScreenOverlay", NS) == []
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    home = display_view(MapGeometry.of(dataset), wall_named("demo"), View(), "r2c2")
+    longitude = root.findtext("k:NetworkLinkControl/k:LookAt/k:longitude", namespaces=NS)
+    assert float(longitude) == pytest.approx(home.longitude)
+
+
+@pytest.mark.parametrize(
+    ("path", "status", "says"),
+    [
+        ("/apps/census/earth/nope/r2c2.kml", 404, "no wall"),
+        ("/apps/census/earth/demo/r9c9.kml", 404, "no display"),
+        ("/apps/census/earth/demo/r1c2.kml", 404, "public screen"),
+        ("/apps/census/earth/demo/r1c3/wall.kml", 404, "menu screen"),
+        ("/apps/census/earth/nope/map.kmz", 404, "no wall"),
+        ("/apps/census/earth/demo/r2c2.kml?fov=0", 422, "fov"),
+        ("/apps/census/earth/demo/r2c2.kml?fov=wide", 422, "fov"),
+        ("/apps/census/earth/demo/r2c2.kml?refresh=0", 422, "refresh"),
+        ("/apps/census/earth/demo/r2c2.kml?map_refresh=100000", 422, "map_refresh"),
+        ("/apps/census/earth/demo/r2c2/wall.kml?fov=200", 422, "fov"),
+        (f"/apps/census/earth/demo/r2c2/wall.kml?open={'9' * 65}", 422, "open"),
+    ],
+)
+def test_bad_earth_requests(client: TestClient, path: str, status: int, says: str) -> None:
+    show_census(client)
+    response = client.get(path)
+    assert response.status_code == status
+    assert says in response.text
+
+
+def test_the_dashboard_links_each_displays_earth_file(client: TestClient) -> None:
+    sign_in(client, "instructor")
+    page = client.get("/dashboard?wall=demo").text
+    links = re.findall(r'href="(/apps/census/earth/demo/[^"]+)"', page)
+    assert links == [f"/apps/census/earth/demo/{d}.kml" for d in ("r1c1", "r2c2", "r2c3")]
+    for link in links:
+        assert_valid_kml(client.get(link).content)
+
+
+def composed(client: TestClient, root: Any, pixels: tuple[int, int]) -> Image.Image:
+    """The display as Google Earth draws the wall document's screen overlays (KML's
+    rules: ``screenXY`` in fractions from the bottom left, ``overlayXY`` the image's
+    point put there), on the map's dark background."""
+    width, height = pixels
+    canvas = Image.new("RGB", pixels, "#0d1b2a")
+    for overlay in root.iterfind(".//k:ScreenOverlay", NS):
+        image = Image.open(
+            io.BytesIO(client.get(overlay.findtext(".//k:href", namespaces=NS)).content)
+        )
+        size = overlay.find("k:size", NS).attrib
+        assert image.size == (int(size["x"]), int(size["y"]))  # drawn at its own pixels
+        screen, anchor = (
+            overlay.find("k:screenXY", NS).attrib,
+            overlay.find("k:overlayXY", NS).attrib,
+        )
+        x = float(screen["x"]) * width - float(anchor["x"]) * image.width
+        y = (1 - float(screen["y"])) * height - (1 - float(anchor["y"])) * image.height
+        canvas.paste(image.convert("RGB"), (round(x), round(y)))
+    return canvas
+
+
+def test_phones_read_the_codes_off_an_earth_display_where_the_tile_has_them(
+    client: TestClient,
+) -> None:
+    state = show_census(client)
+    wall = wall_named("demo")
+    for display in ("r2c2", "r2c3"):
+        codes = [
+            PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == display
+        ]
+        picture = composed(
+            client, wall_document(client, display), wall.display(display).mounted_resolution
+        )
+        decoded = {found.payload: found.rect for found in decode_image(picture)}
+        assert set(decoded) == {code.payload for code in codes}
+        for code in codes:
+            x, y, side = code.pixels
+            dx, dy, dw, dh = decoded[code.payload]
+            assert x <= dx and dx + dw <= x + side and y <= dy and dy + dh <= y + side
+            # the code's own rectangle lands on its pixels: the same map, scene to screen
+            assert mounted_box(wall, display, code.rect) == (x, y, side, side)
+            assert code.caption is not None
+            cx, cy, cw, ch = mounted_box(wall, display, code.caption)
+            assert cy == y + side and cx <= x and x + side <= cx + cw  # its caption under it
+            strip = np.asarray(picture.crop((cx, cy, cx + cw, cy + ch)))
+            assert (strip == (0x10, 0x16, 0x1F)).all(axis=2).mean() > 0.5  # the dark strip
+            assert (strip > 200).all(axis=2).any()  # with white text on it

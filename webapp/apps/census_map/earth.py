@@ -1,0 +1,402 @@
+"""Google Earth walls: one Google Earth Pro per display, each showing exactly its
+display's part of the census map, with the codes placed on that display, so phones
+scan a code off an Earth display as off a tile (the dissertation's HIPerWall ran
+Google Earth on its tiles this way).
+
+Each Earth instance opens one small file (:func:`opener_kml`) holding two network links:
+
+* **the map** (``map.kmz``: every tract, hidden groups unticked, no balloon open),
+  fetched again every ``map_refresh`` seconds. It is the big one (0.6 MB zipped) and
+  changes only with the data set, so it is fetched seldom;
+* **the display's wall document** (:func:`wall_kml`, a few kB), fetched every
+  ``refresh`` seconds with ``flyToView``. Its ``NetworkLinkControl`` carries the
+  display's view (:func:`display_view`: the wall pans and zooms, Earth follows) and an
+  ``Update`` that changes the loaded map in place by ``targetId``: group folders'
+  ``visibility`` and the display's balloon (``gx:balloonVisibility``). Its ``cookie``
+  names the balloon it opened, which Earth sends back on the next fetch so the next
+  document can close it. The document itself holds the display's codes and their
+  captions as ScreenOverlays.
+
+Google Earth applies an ``Update`` only to a file a NetworkLink loaded, found by the
+exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url`), on
+the server address Earth fetched the wall document from, which is the one the opener
+named for both links.
+
+Views: Google Earth looks straight down (heading 0, tilt 0) at the middle of the
+display's rectangle of the map, from the height at which its horizontal field of view
+spans the rectangle's width on the globe. Earth's view is a perspective of the sphere,
+the wall's map an equirectangular plane: at county scale they differ by well under a
+percent of a display (the tests measure it).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Collection, Mapping, Sequence
+from dataclasses import dataclass
+from urllib.parse import quote, urlencode
+from xml.etree.ElementTree import Element, SubElement, tostring
+
+from PIL import Image, ImageDraw, ImageFont
+
+from tag_service.codes import content_hash
+from wall_client.layout import Display, Wall
+from webapp.apps.census_map.actions import group_shown
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.kml import (
+    NAMESPACES,
+    XML_DECLARATION,
+    group_feature_id,
+    tract_feature_id,
+)
+from webapp.apps.census_map.mapview import MapGeometry, projection
+from webapp.database.connection import Database
+from webapp.engine.wall_state import Balloon, View, WallState
+from webapp.schemas import PlacedCode
+from webapp.tags.registry import get_layout
+
+EARTH_RADIUS_M = 6_371_008.8  # the mean radius (IUGG): Earth draws a sphere at this scale
+DEFAULT_FOV = 60.0  # degrees across: Google Earth's horizontal field of view
+MIN_FOV, MAX_FOV = 1.0, 150.0
+DEFAULT_REFRESH_S = 2  # the wall document: view, groups, balloons, codes
+DEFAULT_MAP_REFRESH_S = 60  # the map itself
+MIN_REFRESH_S, MAX_REFRESH_S = 1, 3600
+PREFIX = "/apps/census/earth"
+# A code's caption as tiles draw it (static/js/codes.js, drawCaption): white bold text,
+# as large as fits, on a dark strip.
+CAPTION_BACKING = "#10161f"
+CAPTION_FONT = "DejaVuSans-Bold.ttf"  # Debian's sans-serif, as Chromium draws the tiles'
+
+
+@dataclass(frozen=True)
+class EarthOptions:
+    """How a display group's Earth instances are set up (the opener's query)."""
+
+    fov: float = DEFAULT_FOV  # their horizontal field of view, degrees
+    refresh: int = DEFAULT_REFRESH_S  # seconds between fetches of the wall document
+    map_refresh: int = DEFAULT_MAP_REFRESH_S  # seconds between fetches of the map
+
+    def __post_init__(self) -> None:
+        if not MIN_FOV <= self.fov <= MAX_FOV:
+            raise ValueError(f"fov must be from {MIN_FOV:g} to {MAX_FOV:g} degrees")
+        for value in (self.refresh, self.map_refresh):
+            if not MIN_REFRESH_S <= value <= MAX_REFRESH_S:
+                raise ValueError(f"refresh intervals must be {MIN_REFRESH_S}-{MAX_REFRESH_S} s")
+
+
+# --- where things are ----------------------------------------------------------------
+
+
+def earth_displays(wall: Wall) -> list[Display]:
+    """The displays Google Earth can drive: those showing the map. The designated
+    screens (public, menu, registration) show panels Earth cannot draw: they stay tiles."""
+    designated = wall.designated()
+    return [d for d in wall.displays if d.id not in designated]
+
+
+def screen_role(wall: Wall, display_id: str) -> str | None:
+    """The role of the designated screen ``display_id`` is (public, menu, ...), if any."""
+    return next((role for role, ids in wall.screens.items() if display_id in ids), None)
+
+
+def map_url(base_url: str, wall_id: str) -> str:
+    return f"{base_url}{PREFIX}/{quote(wall_id)}/map.kmz"
+
+
+def opener_url(base_url: str, wall_id: str, display_id: str, options: EarthOptions) -> str:
+    query = urlencode(
+        {"fov": f"{options.fov:g}", "refresh": options.refresh, "map_refresh": options.map_refresh}
+    )
+    return f"{base_url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml?{query}"
+
+
+def wall_document_url(base_url: str, wall_id: str, display_id: str, fov: float) -> str:
+    query = urlencode({"fov": f"{fov:g}"})
+    return f"{base_url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml?{query}"
+
+
+def code_image_url(base_url: str, code: PlacedCode) -> str:
+    """The code's PNG as the wall placed it: its error level, whole pixels per module."""
+    name = f"{code.code}.{content_hash(code.payload, code.error)}.png"
+    query = urlencode({"scale": code.px_per_module, "error": code.error})
+    return f"{base_url}/codes/{name}?{query}"
+
+
+def caption_url(base_url: str, wall_id: str, layout_id: int, code: str) -> str:
+    return f"{base_url}{PREFIX}/{quote(wall_id)}/captions/{layout_id}/{quote(code)}.png"
+
+
+@dataclass(frozen=True)
+class ScreenImage:
+    """An image Earth draws on top of the globe, in the display's pixels as mounted."""
+
+    name: str
+    href: str
+    box: tuple[int, int, int, int]  # x, y from the top left, width, height
+
+
+def screen_images(
+    wall: Wall, display_id: str, codes: Sequence[PlacedCode], layout_id: int, base_url: str
+) -> list[ScreenImage]:
+    """The codes on ``display_id`` where the wall placed them, each with its caption
+    under it, so a code reads on Earth as on a tile (the pins some codes get are not
+    drawn: Earth has no lines on the screen)."""
+    images = []
+    for code in codes:
+        if code.display != display_id:
+            continue
+        x, y, side = code.pixels
+        images.append(ScreenImage(code.label, code_image_url(base_url, code), (x, y, side, side)))
+        if code.label and code.caption:
+            href = caption_url(base_url, wall.id, layout_id, code.code)
+            images.append(
+                ScreenImage(code.label, href, mounted_box(wall, display_id, code.caption))
+            )
+    return images
+
+
+def mounted_box(
+    wall: Wall, display_id: str, rect: tuple[float, float, float, float]
+) -> tuple[int, int, int, int]:
+    """A scene-mm rectangle in the display's whole pixels as mounted: Earth's window
+    fills the display upright as it hangs (a turned display turns its desktop)."""
+    scene = wall.viewport(display_id).scene_rect
+    width, height = wall.display(display_id).mounted_resolution
+    x, y, w, h = rect
+    left, right = (round((value - scene.x) / scene.width * width) for value in (x, x + w))
+    top, bottom = (round((value - scene.y) / scene.height * height) for value in (y, y + h))
+    return (left, top, right - left, bottom - top)
+
+
+def caption_png(text: str, size: tuple[int, int]) -> bytes:
+    """``text`` as large as fits its strip (80 % of its height, 96 % of its width at most),
+    centred, as tiles draw a code's caption."""
+    width, height = size
+    image = Image.new("RGB", size, CAPTION_BACKING)
+    draw = ImageDraw.Draw(image)
+    font_px = max(1, int(height * 0.8))
+    measured = draw.textlength(text, font=_font(font_px))
+    if measured > width * 0.96:
+        font_px = max(1, int(font_px * width * 0.96 / measured))
+    draw.text((width / 2, height / 2), text, fill="#fff", font=_font(font_px), anchor="mm")
+    buffer = io.BytesIO()
+    image.save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    try:
+        return ImageFont.truetype(CAPTION_FONT, size)
+    except OSError:  # no DejaVu: Pillow's own sans-serif
+        return ImageFont.load_default(size)
+
+
+# --- views ---------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class DisplayView:
+    """What one display shows of the map on the globe, and the view that shows it."""
+
+    display_id: str
+    west: float  # degrees: the display's rectangle of the map
+    north: float
+    east: float
+    south: float
+    longitude: float  # the rectangle's middle, where Earth looks straight down
+    latitude: float
+    range_m: float  # how high above it Earth's camera stands
+    fov: float  # horizontal field of view the range is for (degrees)
+
+
+def display_view(
+    geometry: MapGeometry, wall: Wall, view: View, display_id: str, fov: float = DEFAULT_FOV
+) -> DisplayView:
+    """The display's scene rectangle taken back through the wall's projection of the
+    map to longitude/latitude, and the height from which a camera looking straight
+    down, ``fov`` degrees across, sees exactly its width at its middle latitude.
+
+    On a sphere of radius R a camera h above the ground sees, at angle a off straight
+    down, the point t = asin((R + h) / R · sin a) - a (radians of arc) away; solved
+    for h with a = fov / 2 and t the arc of the great circle heading east from the
+    middle to the display's east edge (tan t = tan(half the longitudes) · cos latitude)."""
+    project = projection(geometry, wall, view)
+    rect = wall.viewport(display_id).scene_rect
+    west, north = geometry.to_lonlat(*project.to_plane(rect.x, rect.y))
+    east, south = geometry.to_lonlat(*project.to_plane(rect.right, rect.bottom))
+    longitude, latitude = geometry.to_lonlat(*project.to_plane(*rect.center))
+    half_arc = math.atan(math.tan(math.radians(east - west) / 2) * math.cos(math.radians(latitude)))
+    half_fov = math.radians(fov) / 2
+    range_m = EARTH_RADIUS_M * (math.sin(half_fov + half_arc) / math.sin(half_fov) - 1)
+    return DisplayView(display_id, west, north, east, south, longitude, latitude, range_m, fov)
+
+
+def display_balloon(
+    wall: Wall, display_id: str, balloons: Sequence[Balloon], now: int
+) -> str | None:
+    """The tract whose balloon this display's Earth opens: the newest open balloon
+    whose tract point lies on the display. Google Earth shows one balloon at a time,
+    at its placemark, so each display opens the one the wall points at on it."""
+    rect = wall.viewport(display_id).scene_rect
+    for balloon in reversed(balloons):
+        if balloon.open_at(now) and rect.contains(balloon.anchor):
+            return balloon.id.removeprefix("tract-")
+    return None
+
+
+# --- documents -----------------------------------------------------------------------
+
+
+def display_document(
+    db: Database,
+    *,
+    wall: Wall,
+    state: WallState,
+    dataset: DataSet,
+    geometry: MapGeometry,
+    on_wall: bool,
+    display_id: str,
+    fov: float,
+    opened: str | None,
+    base_url: str,
+    now: int,
+) -> str:
+    """:func:`wall_kml` for ``display_id`` as the wall stands: its view, groups, the
+    balloon on it, its codes (none, every group shown and the map's home view while the
+    census map is not on the wall). ``opened`` is the balloon this display's Earth
+    opened last (its cookie): closed unless still the one to show. ``base_url`` is where
+    Earth reaches this server, so ``targetHref`` is the very URL it loaded the map from."""
+    balloons = state.balloons if on_wall else []
+    closing = {b.id.removeprefix("tract-") for b in balloons} | ({opened} if opened else set())
+    record = get_layout(db, wall.id, state.tag_layout) if on_wall and state.tag_layout else None
+    placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
+    return wall_kml(
+        name=f"tagwall · {wall.name} · {display_id}",
+        map_href=map_url(base_url, wall.id),
+        view=display_view(geometry, wall, state.view if on_wall else View(), display_id, fov),
+        groups={g.id: not on_wall or group_shown(state, g.id) for g in dataset.groups},
+        balloon=display_balloon(wall, display_id, balloons, now),
+        closing={geoid for geoid in closing if dataset.tract(geoid) is not None},
+        images=screen_images(wall, display_id, placed, state.tag_layout, base_url),
+        pixels=wall.display(display_id).mounted_resolution,
+    )
+
+
+def opener_kml(base_url: str, wall: Wall, display_id: str, options: EarthOptions) -> str:
+    """What the Earth instance on ``display_id`` opens (once, by hand or at start): the
+    map and the display's wall document as network links."""
+    root = _kml()
+    document = _add(root, "Document")
+    _add(document, "name", f"tagwall · {wall.name} · {display_id}")
+    _add(document, "open", 1)
+    _add(
+        document,
+        "description",
+        "Keeps this Google Earth showing its display's part of the wall's census map. "
+        f"Set Earth's horizontal field of view to {options.fov:g}°.",
+    )
+    the_map = _add(document, "NetworkLink")
+    _add(the_map, "name", "Census map")
+    _add(the_map, "refreshVisibility", 1)  # the refreshed map's groups, not the user's ticks
+    _add(the_map, "flyToView", 0)
+    _link(the_map, map_url(base_url, wall.id), options.map_refresh)
+    state = _add(document, "NetworkLink")
+    _add(state, "name", "The wall: view, groups, balloon, codes")
+    _add(state, "flyToView", 1)  # to the NetworkLinkControl's view, on every fetch
+    _link(state, wall_document_url(base_url, wall.id, display_id, options.fov), options.refresh)
+    return _text(root)
+
+
+def wall_kml(
+    *,
+    name: str,
+    map_href: str,
+    view: DisplayView,
+    groups: Mapping[str, bool],
+    balloon: str | None,
+    closing: Collection[str],
+    images: Sequence[ScreenImage],
+    pixels: tuple[int, int],
+) -> str:
+    """One display's wall document: its view, the map's group visibility (``groups``:
+    group id -> shown) and balloons (open ``balloon``, close those in ``closing``) as
+    an Update of the loaded map, and ``images`` (its codes and their captions) as
+    ScreenOverlays on a window of ``pixels`` (the display's resolution as mounted)."""
+    root = _kml()
+    control = _add(root, "NetworkLinkControl")
+    if balloon is not None:
+        _add(control, "cookie", urlencode({"open": balloon}))
+    update = _add(control, "Update")
+    _add(update, "targetHref", map_href)
+    for group_id, shown in groups.items():
+        _change(update, "Folder", group_feature_id(group_id), "visibility", shown)
+    for geoid in sorted(closing):
+        if geoid != balloon:
+            _change(update, "Placemark", tract_feature_id(geoid), "gx:balloonVisibility", False)
+    if balloon is not None:
+        _change(update, "Placemark", tract_feature_id(balloon), "gx:balloonVisibility", True)
+    look_at = _add(control, "LookAt")
+    _add(look_at, "longitude", _number(view.longitude))
+    _add(look_at, "latitude", _number(view.latitude))
+    _add(look_at, "altitude", 0)
+    _add(look_at, "heading", 0)
+    _add(look_at, "tilt", 0)
+    _add(look_at, "range", f"{view.range_m:.1f}")
+    _add(look_at, "altitudeMode", "relativeToGround")
+    document = _add(root, "Document")
+    _add(document, "name", name)
+    for image in images:
+        _screen_overlay(document, image, pixels)
+    return _text(root)
+
+
+def _screen_overlay(document: Element, image: ScreenImage, pixels: tuple[int, int]) -> None:
+    """An image at its pixels: its top-left corner at its position as a fraction of the
+    display (KML counts y from the bottom), its size in pixels, so a code's modules
+    stay whole pixels as on a tile."""
+    width, height = pixels
+    x, y, w, h = image.box
+    overlay = _add(document, "ScreenOverlay")
+    _add(overlay, "name", image.name)
+    icon = _add(overlay, "Icon")
+    _add(icon, "href", image.href)
+    fraction = {"xunits": "fraction", "yunits": "fraction"}
+    _add(overlay, "overlayXY", x="0", y="1", **fraction)
+    _add(overlay, "screenXY", x=_number(x / width), y=_number(1 - y / height), **fraction)
+    _add(overlay, "size", x=str(w), y=str(h), xunits="pixels", yunits="pixels")
+
+
+def _change(update: Element, kind: str, target: str, field: str, value: bool) -> None:
+    change = _add(update, "Change")
+    _add(_add(change, kind, targetId=target), field, int(value))
+
+
+def _link(network_link: Element, href: str, seconds: int) -> None:
+    link = _add(network_link, "Link")
+    _add(link, "href", href)
+    _add(link, "refreshMode", "onInterval")
+    _add(link, "refreshInterval", seconds)
+    _add(link, "viewRefreshMode", "never")
+
+
+def _kml() -> Element:
+    return Element(f"{{{NAMESPACES['']}}}kml")
+
+
+def _add(parent: Element, name: str, text: object = None, **attributes: str) -> Element:
+    """A child element ``name`` (``gx:`` for Google's extensions) holding ``text``."""
+    prefix, _, local = name.rpartition(":")
+    child = SubElement(parent, f"{{{NAMESPACES[prefix]}}}{local}", attributes)
+    if text is not None:
+        child.text = str(text)
+    return child
+
+
+def _number(value: float) -> str:
+    """Seven decimals (a centimetre in degrees), without trailing zeros."""
+    return f"{value:.7f}".rstrip("0").rstrip(".")
+
+
+def _text(root: Element) -> str:
+    return XML_DECLARATION + tostring(root, encoding="unicode")
