@@ -8,6 +8,7 @@ let state = null;
 let groups = [];
 let attributes = [];
 let groupsOf = null;
+const METHODS = {quantiles: "quantiles", equal: "equal intervals", natural: "natural breaks"};
 
 let listedCurrent;  // the current data set when the list was last loaded (null: none)
 let seenDataset = null;  // the data set the wall showed at the last status
@@ -55,7 +56,7 @@ function showTheme() {
   const theme = state.app === "census" ? state.theme : null;
   const label = attributes.find((a) => a.key === theme?.attribute)?.label ?? theme?.attribute;
   $("census-theme-shown").textContent = theme
-    ? `Coloured by ${label}: ${theme.classes} classes by ${theme.method}, ${theme.scheme}.`
+    ? `Coloured by ${label}: ${theme.classes} classes by ${METHODS[theme.method]}, ${theme.scheme}.`
     : "One plain colour.";
   if (document.activeElement?.closest("#census-theme")) return;  // the instructor is choosing
   $("census-attribute").value = theme?.attribute ?? "";
