@@ -36,3 +36,35 @@ def test_the_operator_link_refuses_a_wrong_token(browser: Browser, server: Serve
     assert response is not None and response.status == 403
     expect(page.locator("body")).not_to_contain_text("Traceback")
     page.close()
+
+
+def test_the_instructor_colours_the_census_map_from_the_dashboard(
+    browser: Browser, server: ServerProcess
+) -> None:
+    server.change("demo", {"app": "census"})
+    [tile] = open_tiles(browser, server, "demo", ["r2c2"])
+    page = browser.new_page()
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+    expect(page.locator("#census-theme-shown")).to_have_text("One plain colour.")
+    panel = page.locator("#census-panel")
+    panel.get_by_label("Value").select_option(label="Median housing value")
+    panel.get_by_label("Colours").select_option("PuBuGn")
+    panel.get_by_label("Classes by").select_option("natural")
+    panel.get_by_label("Number").select_option("4")
+    panel.get_by_role("button", name="Colour the wall").click()
+
+    expect(page.locator("#census-theme-shown")).to_have_text(
+        "Coloured by Median housing value: 4 classes by natural breaks, PuBuGn."
+    )
+    theme = {"attribute": "HSG_VAL", "scheme": "PuBuGn", "method": "natural", "classes": 4}
+    assert server.status("demo")["state"]["theme"] == theme
+    version = server.version("demo")
+    wait_until(lambda: version_of(tile) == version, what="the tile to follow the dashboard")
+    expect(tile.locator("body")).to_have_attribute("data-census-theme", "HSG_VAL 4")
+
+    panel.get_by_label("Value").select_option("")
+    panel.get_by_role("button", name="Colour the wall").click()
+    expect(page.locator("#census-theme-shown")).to_have_text("One plain colour.")
+    assert server.status("demo")["state"]["theme"] is None
+    tile.context.close()
+    page.close()
