@@ -29,7 +29,7 @@ from tests.conftest import (
 from webapp.engine.wall_state import commit_change, read_state
 from webapp.people.accounts import add_account
 from webapp.people.address_rules import add_rule
-from webapp.tags.registry import wall_tags
+from webapp.tags.registry import get_layout, wall_tags
 from webapp.volume.layer import VolumeLayer
 
 ROLES = ("anonymous", "student", "instructor", "admin")
@@ -75,6 +75,15 @@ def matrix(client: TestClient) -> list[Row]:
     dataset = read_state(db, "kl-3x3")[1].dataset
     group = next(t.params["group"] for t in wall_tags(db, "kl-3x3") if t.action == "toggle")
     tract = "/apps/census/kl-3x3/tracts/06061022001"
+    census_state = read_state(db, "kl-3x3")[1]
+    layout = get_layout(db, "kl-3x3", census_state.tag_layout)
+    assert layout is not None
+    captioned = next(p for p in layout.placed if p.get("label") and p.get("caption"))
+    theme = {"attribute": "HH_INC", "scheme": "Blues", "method": "quantiles", "classes": 5}
+    tile_theme = (
+        f"/api/walls/kl-3x3/tiles/r2c2/census/theme?dataset={dataset}"
+        f"&layout={census_state.tag_layout}&{urlencode(theme)}"
+    )
     # the brain atlas on a third wall, in quiz mode
     brain = client.post(
         "/api/walls/irregular/state",
@@ -213,6 +222,7 @@ def matrix(client: TestClient) -> list[Row]:
             f"/api/walls/kl-3x3/tiles/r2c2/census?dataset={dataset}",
             PUBLIC,
         ),
+        Row("GET", "/api/walls/{wall_id}/tiles/{tile_id}/census/theme", tile_theme, PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),
@@ -233,6 +243,45 @@ def matrix(client: TestClient) -> list[Row]:
         Row("GET", "/apps/census/census.kml", "/apps/census/census.kml?wall=kl-3x3", PUBLIC),
         Row("GET", "/apps/census/census.kmz", "/apps/census/census.kmz", PUBLIC),
         Row("GET", "/apps/census/network-link.kml", "/apps/census/network-link.kml", PUBLIC),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/theme",
+            "/apps/census/kl-3x3/theme",
+            STAFF_PAGE,
+            form={"attribute": "HH_INC"},
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/theme",
+            "/api/census/walls/kl-3x3/theme",
+            STAFF_API,
+            json={"theme": theme},
+        ),
+        Row("GET", "/api/census/schemes", "/api/census/schemes", STAFF_API),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/map.kmz",
+            "/apps/census/earth/kl-3x3/map.kmz",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/{display_id}.kml",
+            "/apps/census/earth/kl-3x3/r2c2.kml",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/{display_id}/wall.kml",
+            "/apps/census/earth/kl-3x3/r2c2/wall.kml",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png",
+            f"/apps/census/earth/kl-3x3/captions/{census_state.tag_layout}/{captioned['code']}.png",
+            PUBLIC,
+        ),
         Row("GET", "/api/census/datasets", "/api/census/datasets", STAFF_API),
         Row(
             "GET",
