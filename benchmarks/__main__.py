@@ -19,6 +19,7 @@ BENCHMARKS = (
     "scans",
     "volume",
     "census",
+    "census_fit",
     "brain",
     "signin",
     "sync",
