@@ -319,12 +319,15 @@ class Projection:
 
 
 def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
-    """At zoom 1 and centre (0.5, 0.5) the data as :meth:`MapGeometry.fit` puts it; the
-    view then pans (its centre a fraction of the stage) and zooms about the stage's
-    centre exactly as every scene layer does."""
+    """At zoom 1 and centre (0.5, 0.5) the data as :meth:`MapGeometry.fit` puts it. The
+    view then pans it as every scene layer (its centre moves by fractions of the stage)
+    and zooms it about where the data's middle stands at zoom 1, as every layer does
+    about its picture's middle: the fit may put the map off the stage's centre, and
+    zooming in keeps it on the wall."""
     fitted = geometry.fit(wall)
+    minx, miny, maxx, maxy = geometry.extent
+    middle_x, middle_y = fitted.point((minx + maxx) / 2, (miny + maxy) / 2)
     stage = wall.stage
-    middle_x, middle_y = stage.center
     pan_x, pan_y = (view.center[0] - 0.5) * stage.width, (view.center[1] - 0.5) * stage.height
     zoom = view.zoom
     return Projection(

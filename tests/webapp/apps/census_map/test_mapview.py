@@ -164,16 +164,20 @@ def test_the_fit_is_made_once_per_wall_and_the_same_every_time(
     assert geometry.fit(walls["demo"]) != fitted
 
 
-def test_pan_and_zoom_move_the_map_like_every_scene_layer(walls: dict[str, Wall]) -> None:
-    wall = walls["demo"]
-    geometry = MapGeometry.of(grid_dataset())
+def test_pan_and_zoom_move_the_map_like_every_scene_layer(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    """On hiperwall the map stands left of the stage's middle; zooming in keeps it there."""
+    wall = walls["hiperwall"]
+    geometry = MapGeometry.of(shipped)
     base = projection(geometry, wall, View())
     panned = projection(geometry, wall, View(center=(0.6, 0.5)))
     zoomed = projection(geometry, wall, View(zoom=2))
     u, v = geometry.label_points[0]
     assert panned.point(u, v)[0] == pytest.approx(base.point(u, v)[0] - 0.1 * wall.stage.width)
-    # zooming about the stage's centre doubles every distance from it
-    cx, cy = wall.stage.center
+    # zooming about where the map's middle stands at zoom 1 doubles every distance from it
+    minx, miny, maxx, maxy = geometry.extent
+    cx, cy = base.point((minx + maxx) / 2, (miny + maxy) / 2)
     bx, by = base.point(u, v)
     zx, zy = zoomed.point(u, v)
     assert (zx - cx, zy - cy) == pytest.approx((2 * (bx - cx), 2 * (by - cy)))
