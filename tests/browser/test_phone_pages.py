@@ -240,9 +240,10 @@ def census_pages(tour: Tour, student: Page, instructor: Page) -> str:
     expect(student.locator("#outcome")).to_contain_text("on the wall")
     tour.look("balloon", student)
     student.goto(f"{url}/apps/census/{WALL}/tracts")
-    student.locator("details").first.evaluate("(d) => d.open = true")
+    group = student.locator("details", has=student.locator(f'a[href="{tract}"]'))
+    group.evaluate("(d) => d.open = true")
     with student.expect_navigation():
-        student.locator("details").first.get_by_role("button").tap()
+        group.get_by_role("button").tap()  # hides the tract's own group
     expect(student.locator("#outcome")).to_contain_text("on the wall now")
     tour.look("toggled", student)
     # the tract's group is hidden now: no balloon into empty map, the way to show it
