@@ -32,7 +32,7 @@ from webapp.engine.wall_state import View
 
 MARGIN = 0.01  # of the wall's shorter side, kept between the data and a panel or the edge
 FIT_OF_EXTENT = 2.0**-9  # the fit's outline of the data strays this share of its size at most
-FIT_PRECISION = 1e-3  # the fitted scale is this share of the largest from it, at most
+FIT_PRECISION = 1e-3  # bisection stops this share short of the largest scale, at most
 FIT_GRID = 8  # placements tried across the map's area's shorter side before refining
 BEZEL_OF_DISPLAY = 0.25  # a gap between displays narrower than this share of them is a bezel
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before
@@ -194,7 +194,8 @@ class MapGeometry:
 def shown_area(wall: Wall) -> Polygon | MultiPolygon:
     """The scene area of the displays that show the map, with the bezels between two of
     them (closing the displays' union over the widest bezel: a gap that two shown
-    displays face across), not those beside a designated screen or the wall's edge."""
+    displays face across), not those beside a designated screen or the wall's edge.
+    Every display when all are designated, as the stage then takes them all."""
     rects = _free_rects(wall) or [v.scene_rect for v in wall.viewports().values()]
     shown = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in rects])
     bezel = max(
