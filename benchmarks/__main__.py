@@ -20,6 +20,7 @@ BENCHMARKS = (
     "volume",
     "census",
     "census_colour",
+    "census_fit",
     "brain",
     "signin",
     "sync",

@@ -5,12 +5,15 @@ Tracts are put once on a flat plane (x = longitude · cos φ0, y = -latitude, φ
 data set's middle latitude: an equirectangular projection, true to shape at the
 scale of a county). The plane differs from the wall's scene only by a scale and a
 shift, so a pan or zoom never redoes geometry: it changes :class:`Projection`.
+At the whole-map view the data is as large as its shape allows on the displays that
+show the map (:meth:`MapGeometry.fit`), once per data set and wall.
 Outlines are simplified at a few tolerances, each twice the one before, and each
 tile takes the coarsest that stays within half a pixel of the true outline.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 from collections.abc import Sequence
@@ -27,7 +30,11 @@ from wall_client.layout import Affine, Rect, Wall, apply_affine, compose_affine
 from webapp.apps.census_map.dataset import DataSet
 from webapp.engine.wall_state import View
 
-MARGIN = 0.03  # of the wall left around the data at zoom 1
+MARGIN = 0.01  # of the wall's shorter side, kept between the data and a panel or the edge
+FIT_OF_EXTENT = 2.0**-9  # the fit's outline of the data strays this share of its size at most
+FIT_PRECISION = 1e-3  # bisection stops this share short of the largest scale, at most
+FIT_GRID = 8  # placements tried across the map's area's shorter side before refining
+BEZEL_OF_DISPLAY = 0.25  # a gap between displays narrower than this share of them is a bezel
 LEVELS = 8  # simplified outlines kept, each twice as coarse as the one before
 FINEST_OF_EXTENT = 2.0**-16  # the finest level's tolerance, as a share of the data's size
 LABEL_MM_PER_M = 6.0  # tract-number height (mm) per metre of scanning distance
@@ -78,7 +85,10 @@ class MapGeometry:
     room: Floats  # (n,): radius of the widest circle inside the tract around that point
     lat0: float  # the plane's middle latitude (degrees): x = longitude · cos(lat0)
     _levels: dict[int, Shapes] = field(default_factory=dict, repr=False)
-    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+    _fits: dict[str, Projection] = field(default_factory=dict, repr=False)
+    # Reentrant: a fit takes outlines. Held while one is made, so the tiles of a wall
+    # asking at once wait for it rather than each making it.
+    _lock: threading.RLock = field(default_factory=threading.RLock, repr=False)
 
     @classmethod
     def of(cls, dataset: DataSet) -> MapGeometry:
@@ -140,6 +150,133 @@ class MapGeometry:
                 )
             return self._levels[level]
 
+    def fit(self, wall: Wall) -> Projection:
+        """The data at the whole-map view: as large as its shape allows on the displays
+        that show the map (bezels between two of them count as shown), clear of the
+        designated screens and the wall's edge by :data:`MARGIN`. Made once per wall
+        (walls are immutable; a wall id names one) and kept."""
+        with self._lock:
+            if wall.id not in self._fits:
+                area = shown_area(wall).buffer(
+                    -MARGIN * min(wall.width, wall.height), join_style="mitre"
+                )
+                self._fits[wall.id] = _fit(self._footprint(), area, wall.stage.center)
+            return self._fits[wall.id]
+
+    def _footprint(self) -> Polygon | MultiPolygon:
+        """The land the data covers, holes between tracts filled, simplified for the fit
+        and grown by what simplifying took, so every tract lies inside it."""
+        if not len(self.shapes):
+            return shapely.box(*self.extent)
+        tolerance = self.size * FIT_OF_EXTENT
+        land = shapely.union_all(self.outlines(tolerance))  # within tolerance of the tracts
+        filled = shapely.union_all([Polygon(part.exterior) for part in _polygons(land)])
+        footprint: Polygon | MultiPolygon = filled.simplify(tolerance).buffer(
+            2 * tolerance, join_style="mitre"
+        )
+        return footprint
+
+
+def shown_area(wall: Wall) -> Polygon | MultiPolygon:
+    """The scene area of the displays that show the map, with the bezels between two of
+    them (closing the displays' union over the widest bezel: a gap that two shown
+    displays face across), not those beside a designated screen or the wall's edge.
+    Every display when all are designated, as the stage then takes them all."""
+    rects = _free_rects(wall) or [v.scene_rect for v in wall.viewports().values()]
+    shown = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in rects])
+    bezel = max(
+        (
+            gap
+            for a, b in itertools.permutations(rects, 2)
+            for gap, along, size in (
+                (b.x - a.right, a.overlap(b)[1], a.width),
+                (b.y - a.bottom, a.overlap(b)[0], a.height),
+            )
+            if along > 0 and 0 < gap < BEZEL_OF_DISPLAY * size
+        ),
+        default=0.0,
+    )
+    if not bezel:
+        return shown
+    closed: Polygon | MultiPolygon = shown.buffer(bezel / 2, join_style="mitre").buffer(
+        -bezel / 2, join_style="mitre"
+    )
+    return closed
+
+
+def _fit(
+    footprint: Polygon | MultiPolygon, area: Polygon | MultiPolygon, start: tuple[float, float]
+) -> Projection:
+    """The largest scale, and a placement, at which ``footprint`` (plane) lies within
+    ``area`` (scene mm), searched numerically: the footprint's middle is tried on a grid
+    over the area, nearest ``start`` first (so ties go to it), each try grown by
+    bisection only where it beats the best so far; the best is then moved by a pattern
+    search with halving steps, and at last centred in the room left at its scale, along
+    x then y. Fixed orders, no randomness: the same inputs give the same fit."""
+    shapely.prepare(area)
+    minx, miny, maxx, maxy = footprint.bounds
+    middle = np.array(((minx + maxx) / 2, (miny + maxy) / 2))
+    half = np.array((max(maxx - minx, 1e-12) / 2, max(maxy - miny, 1e-12) / 2))
+    low_corner, high_corner = np.array(area.bounds[:2]), np.array(area.bounds[2:])
+    shorter = float(min(high_corner - low_corner))
+    step, finest = shorter / FIT_GRID, shorter * FIT_PRECISION
+
+    def fits(scale: float, at: Floats) -> bool:
+        moved = shapely.transform(footprint, lambda p: (p - middle) * scale + at)
+        return bool(area.covers(moved))
+
+    def grown(at: Floats, beat: float) -> float:
+        """The largest scale above ``beat`` that fits at ``at`` (``beat`` when none)."""
+        high = float(min(np.minimum(at - low_corner, high_corner - at) / half))
+        low = beat * (1 + FIT_PRECISION) if beat else high * FIT_PRECISION
+        if low >= high or not fits(low, at):
+            return beat
+        while high > low * (1 + FIT_PRECISION):
+            mid = (low + high) / 2
+            low, high = (mid, high) if fits(mid, at) else (low, mid)
+        return low
+
+    tries = [
+        np.array(p)
+        for p in itertools.product(
+            np.arange(low_corner[0] + step / 2, high_corner[0], step),
+            np.arange(low_corner[1] + step / 2, high_corner[1], step),
+        )
+    ]
+    tries.sort(key=lambda p: (math.dist(p, start), p[1], p[0]))
+    scale, at = 0.0, np.array(start)
+    for place in tries:
+        if (better := grown(place, scale)) > scale:
+            scale, at = better, place
+    if not scale:
+        raise ValueError("no room for the map on the displays that show it")
+    directions = [np.array(d) for d in itertools.product((-1, 0, 1), repeat=2) if any(d)]
+    step /= 2
+    while step > finest:
+        for direction in directions:
+            place = at + direction * step
+            if (better := grown(place, scale)) > scale:
+                scale, at = better, place
+                break
+        else:
+            step /= 2
+    for axis in (0, 1):
+        along = np.eye(2)[axis]
+        ends = []
+        for sign in (-1, 1):
+            inside, outside = 0.0, float(high_corner[axis] - low_corner[axis])
+            while outside - inside > finest:
+                mid = (inside + outside) / 2
+                if fits(scale, at + sign * mid * along):
+                    inside = mid
+                else:
+                    outside = mid
+            ends.append(inside)
+        centred = at + (ends[1] - ends[0]) / 2 * along
+        if fits(scale, centred):
+            at = centred
+    return Projection(scale, float(at[0] - scale * middle[0]), float(at[1] - scale * middle[1]))
+
 
 def _simplify(shapes: Shapes, tolerance: float) -> Shapes:
     """Each outline within ``tolerance`` of the true one (Douglas-Peucker bounds the
@@ -169,21 +306,21 @@ class Projection:
 
 
 def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
-    """At zoom 1 the data fills the wall's stage (with a margin), centred on it, clear of
-    the designated screens; the view then pans and zooms about the stage's centre
-    exactly as every scene layer does."""
+    """At zoom 1 and centre (0.5, 0.5) the data as :meth:`MapGeometry.fit` puts it. The
+    view then pans it as every scene layer (its centre moves by fractions of the stage)
+    and zooms it about where the data's middle stands at zoom 1, as every layer does
+    about its picture's middle: the fit may put the map off the stage's centre, and
+    zooming in keeps it on the wall."""
+    fitted = geometry.fit(wall)
     minx, miny, maxx, maxy = geometry.extent
+    middle_x, middle_y = fitted.point((minx + maxx) / 2, (miny + maxy) / 2)
     stage = wall.stage
-    usable_w, usable_h = stage.width * (1 - 2 * MARGIN), stage.height * (1 - 2 * MARGIN)
-    base = min(usable_w / max(maxx - minx, 1e-12), usable_h / max(maxy - miny, 1e-12))
-    cx, cy = view.center
+    pan_x, pan_y = (view.center[0] - 0.5) * stage.width, (view.center[1] - 0.5) * stage.height
     zoom = view.zoom
-    mid_u, mid_v = (minx + maxx) / 2, (miny + maxy) / 2
-    middle_x, middle_y = stage.center
     return Projection(
-        scale=zoom * base,
-        dx=middle_x + zoom * (stage.width / 2 - base * mid_u - cx * stage.width),
-        dy=middle_y + zoom * (stage.height / 2 - base * mid_v - cy * stage.height),
+        scale=zoom * fitted.scale,
+        dx=middle_x + zoom * (fitted.dx - middle_x - pan_x),
+        dy=middle_y + zoom * (fitted.dy - middle_y - pan_y),
     )
 
 

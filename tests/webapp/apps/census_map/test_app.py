@@ -16,8 +16,9 @@ from tests.webapp.apps.census_map.test_acs import INCOME, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import write_shapefile
 from wall_client.layout import Rect
 from webapp.apps.census_map.importer import import_files
+from webapp.apps.census_map.mapview import projection, shown_area
 from webapp.apps.census_map.store import list_datasets
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import View, WallState, read_state
 from webapp.schemas import PlacedCode
 from webapp.tags.registry import get_layout, wall_tags
 
@@ -218,10 +219,28 @@ def test_show_on_the_wall_opens_a_balloon_clear_of_every_code(client: TestClient
     assert any("Total population" in line for line in first.lines)
 
     # zoomed in, tracts carry their own codes on their label points: a balloon points at
-    # the tract beside its code, not into it, and its pointer runs clear of every code
+    # the tract beside its code, not into it, and its pointer runs clear of every code.
+    # Taken among the tracts lying wholly on the displays that show the map: one mostly
+    # under the menu screen may leave a sliver with no room for a box within reach, and
+    # then its pointer passes under codes, as where codes crowd the map.
     change(client, {"view": {"center": [0.5, 0.5], "zoom": 3}, "balloons": []})
     codes = census_codes(client)
-    own = sorted(n.removeprefix("census:tract:") for n in codes if n.startswith("census:tract:"))
+    wall = services_of(client).walls["demo"]
+    geometry = services_of(client).apps["census"].geometry(dataset)
+    project = projection(geometry, wall, View(zoom=3))
+    shown = shown_area(wall)
+    own = [
+        geoid
+        for geoid in sorted(
+            n.removeprefix("census:tract:") for n in codes if n.startswith("census:tract:")
+        )
+        if shown.covers(
+            shapely.transform(
+                geometry.shapes[geometry.geoids.index(geoid)],
+                lambda c: c * project.scale + (project.dx, project.dy),
+            )
+        )
+    ]
     assert len(own) >= 5
     with TestClient(client.app) as phone:  # a phone of its own: within its action limit
         for geoid in own[:5]:

@@ -12,7 +12,7 @@ from shapely.geometry import Polygon
 
 from tests.webapp.apps.census_map.conftest import grid_dataset
 from wall_client.config import load_walls
-from wall_client.layout import Wall
+from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.mapview import (
     COLOURS,
@@ -23,6 +23,7 @@ from webapp.apps.census_map.mapview import (
     code_anchors,
     label_mm,
     projection,
+    shown_area,
     tile_view,
     tract_codes,
 )
@@ -45,31 +46,138 @@ def scene_extent(geometry: MapGeometry, wall: Wall, view: View) -> tuple[float, 
     return (*project.point(minx, miny), *project.point(maxx, maxy))
 
 
-def test_at_zoom_one_the_data_fills_the_stage_centred(walls: dict[str, Wall]) -> None:
-    """The demo's stage is r2c2 and r2c3: the map lies clear of the public, menu and
-    registration screens."""
-    wall = walls["demo"]
+SHIPPED_WALLS = ("demo", "hiperwall", "irregular", "kl-3x3")
+
+
+def scene_land(geometry: MapGeometry, wall: Wall, view: View) -> shapely.Geometry:
+    """Every tract, as drawn on the wall (scene mm)."""
+    project = projection(geometry, wall, view)
+    return shapely.transform(
+        shapely.union_all(geometry.shapes), lambda c: c * project.scale + (project.dx, project.dy)
+    )
+
+
+def covered(land: shapely.Geometry, wall: Wall, share: float) -> set[str]:
+    """The displays ``land`` covers at least ``share`` of."""
+    return {
+        d.id
+        for d in wall.displays
+        if land.intersection(shapely.box(*rect_bounds(wall.viewport(d.id).scene_rect))).area
+        >= share * d.rect.width * d.rect.height
+    }
+
+
+def rect_bounds(rect: Rect) -> tuple[float, float, float, float]:
+    return (rect.x, rect.y, rect.right, rect.bottom)
+
+
+def stage_scale(geometry: MapGeometry, wall: Wall) -> float:
+    """The scale of the rule before the fit: the data's bounding box in the stage, 3 %
+    of it kept free on every side."""
+    minx, miny, maxx, maxy = geometry.extent
     stage = wall.stage
-    geometry = MapGeometry.of(grid_dataset())
-    x0, y0, x1, y1 = scene_extent(geometry, wall, View())
-    assert x0 >= stage.x + stage.width * MARGIN - 1e-6
-    assert x1 <= stage.right - stage.width * MARGIN + 1e-6
-    assert y0 >= stage.y + stage.height * MARGIN - 1e-6
-    assert y1 <= stage.bottom - stage.height * MARGIN + 1e-6
-    assert ((x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(stage.center)
-    assert y0 - stage.y == pytest.approx(stage.height * MARGIN, rel=0.01), "fills its height"
+    return min(stage.width * 0.94 / (maxx - minx), stage.height * 0.94 / (maxy - miny))
 
 
-def test_pan_and_zoom_move_the_map_like_every_scene_layer(walls: dict[str, Wall]) -> None:
-    wall = walls["demo"]
-    geometry = MapGeometry.of(grid_dataset())
+@pytest.mark.parametrize("name", SHIPPED_WALLS)
+def test_at_zoom_one_every_tract_lies_on_the_displays_that_show_the_map(
+    walls: dict[str, Wall], shipped: DataSet, name: str
+) -> None:
+    """No tract reaches a designated screen or the wall's edge (the margin kept), and the
+    map is never smaller than the data's bounding box framed in the stage made it."""
+    wall = walls[name]
+    geometry = MapGeometry.of(shipped)
+    land = scene_land(geometry, wall, View())
+    margin = MARGIN * min(wall.width, wall.height)
+    x0, y0, x1, y1 = land.bounds
+    assert margin <= x0 and x1 <= wall.width - margin
+    assert margin <= y0 and y1 <= wall.height - margin
+    for display in wall.designated():
+        panel = shapely.box(*rect_bounds(wall.viewport(display).scene_rect))
+        assert land.distance(panel) >= margin * 0.999, display
+    assert shown_area(wall).buffer(-margin * 0.999).covers(land)
+    assert projection(geometry, wall, View()).scale >= stage_scale(geometry, wall)
+
+
+def test_the_map_takes_the_room_its_shape_allows_not_its_bounding_box(
+    walls: dict[str, Wall],
+) -> None:
+    """The demo wall with only its top-right display designated leaves an L of five
+    displays; tracts laid out as an L (five across below, three above) take both rows,
+    their bounding box reaching over the designated display where no tract does (the
+    stage, the largest free block, holds only two columns)."""
+    wall = dataclasses.replace(walls["demo"], id="corner", screens={"public": ("r1c3",)})
+    squares = grid_dataset(columns=5, rows=2)
+    tracts = tuple(t for i, t in enumerate(squares.tracts) if i not in (3, 4))
+    data = dataclasses.replace(squares, tracts=tracts)
+    geometry = MapGeometry.of(data)
+    land = scene_land(geometry, wall, View())
+    margin = MARGIN * min(wall.width, wall.height)
+    assert land.bounds[3] - land.bounds[1] > 0.9 * (wall.height - 2 * margin)
+    public = shapely.box(*rect_bounds(wall.viewport("r1c3").scene_rect))
+    assert not land.intersects(public)
+    assert shapely.box(*land.bounds).intersects(public)
+    assert projection(geometry, wall, View()).scale > 1.5 * stage_scale(geometry, wall)
+
+
+def test_the_map_shows_on_free_displays_and_the_bezels_between_them(
+    walls: dict[str, Wall],
+) -> None:
+    wall = walls["hiperwall"]
+    area = shown_area(wall)
+    rect = {d.id: wall.viewport(d.id).scene_rect for d in wall.displays}
+    assert area.covers(shapely.Point(rect["r2c2"].right + 1, rect["r2c2"].center[1]))
+    assert area.covers(shapely.Point(rect["r2c2"].right + 1, rect["r2c2"].bottom + 1))
+    assert not area.covers(shapely.Point(rect["r1c4"].right + 1, rect["r1c4"].center[1]))
+    assert not area.covers(shapely.Point(rect["r5c5"].center[0], rect["r5c5"].bottom + 1))
+    assert not area.intersects(shapely.box(*rect_bounds(rect["r1c5"])))
+    assert area.covers(shapely.box(*rect_bounds(rect["r3c1"])))
+
+
+def test_on_hiperwall_the_map_covers_more_displays_than_its_bounding_box_in_the_stage(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    """The shipped data's shape (its north-east high, its south-west low) meets the
+    wall's free area (the public and menu screens top right, registration bottom left)
+    badly, so the fit gains little there; still it covers more displays than before."""
+    wall = walls["hiperwall"]
+    geometry = MapGeometry.of(shipped)
+    fitted = covered(scene_land(geometry, wall, View()), wall, 0.1)
+    minx, miny, maxx, maxy = geometry.extent
+    scale = stage_scale(geometry, wall)
+    cx, cy = wall.stage.center
+    before = shapely.transform(
+        shapely.union_all(geometry.shapes),
+        lambda c: (c - ((minx + maxx) / 2, (miny + maxy) / 2)) * scale + (cx, cy),
+    )
+    assert len(fitted) > len(covered(before, wall, 0.1))
+    assert fitted.isdisjoint(wall.designated())
+
+
+def test_the_fit_is_made_once_per_wall_and_the_same_every_time(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    geometry = MapGeometry.of(shipped)
+    fitted = geometry.fit(walls["hiperwall"])
+    assert geometry.fit(walls["hiperwall"]) is fitted
+    assert MapGeometry.of(shipped).fit(walls["hiperwall"]) == fitted
+    assert geometry.fit(walls["demo"]) != fitted
+
+
+def test_pan_and_zoom_move_the_map_like_every_scene_layer(
+    walls: dict[str, Wall], shipped: DataSet
+) -> None:
+    """On hiperwall the map stands left of the stage's middle; zooming in keeps it there."""
+    wall = walls["hiperwall"]
+    geometry = MapGeometry.of(shipped)
     base = projection(geometry, wall, View())
     panned = projection(geometry, wall, View(center=(0.6, 0.5)))
     zoomed = projection(geometry, wall, View(zoom=2))
     u, v = geometry.label_points[0]
     assert panned.point(u, v)[0] == pytest.approx(base.point(u, v)[0] - 0.1 * wall.stage.width)
-    # zooming about the stage's centre doubles every distance from it
-    cx, cy = wall.stage.center
+    # zooming about where the map's middle stands at zoom 1 doubles every distance from it
+    minx, miny, maxx, maxy = geometry.extent
+    cx, cy = base.point((minx + maxx) / 2, (miny + maxy) / 2)
     bx, by = base.point(u, v)
     zx, zy = zoomed.point(u, v)
     assert (zx - cx, zy - cy) == pytest.approx((2 * (bx - cx), 2 * (by - cy)))
