@@ -12,10 +12,16 @@ Each Earth instance opens one small file (:func:`opener_kml`) holding two networ
   ``refresh`` seconds with ``flyToView``. Its ``NetworkLinkControl`` carries the
   display's view (:func:`display_view`: the wall pans and zooms, Earth follows) and an
   ``Update`` that changes the loaded map in place by ``targetId``: group folders'
-  ``visibility`` and the display's balloon (``gx:balloonVisibility``). Its ``cookie``
-  names the balloon it opened, which Earth sends back on the next fetch so the next
-  document can close it. The document itself holds the display's codes and their
-  captions as ScreenOverlays.
+  ``visibility``, the display's balloon (``gx:balloonVisibility``) and the colouring
+  (:class:`Colouring`: the class styles' colours, the tracts' ``styleUrl``). Its
+  ``cookie`` names the balloon it opened and the colouring it left, which Earth sends
+  back on the next fetch: the next document closes that balloon, and recolours only
+  what differs from that colouring (nothing while the theme stays). The document
+  itself holds the display's codes and their captions as ScreenOverlays.
+
+The map Earth loads has a style for every class any theme can have (``all_classes``
+in :func:`~webapp.apps.census_map.kml.census_kml`): an ``Update`` can ``Change`` a
+Style but not ``Create`` one, so every id a theme may need is there from the start.
 
 Google Earth applies an ``Update`` only to a file a NetworkLink loaded, found by the
 exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url`), on
@@ -33,12 +39,13 @@ from __future__ import annotations
 
 import io
 import math
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from urllib.parse import quote, urlencode
 from xml.etree.ElementTree import Element, SubElement, tostring
 
 from PIL import Image, ImageDraw, ImageFont
+from pydantic import ValidationError
 
 from tag_service.codes import content_hash
 from wall_client.layout import Display, Wall
@@ -47,10 +54,15 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.kml import (
     NAMESPACES,
     XML_DECLARATION,
+    class_colours,
+    class_style_id,
     group_feature_id,
     tract_feature_id,
+    tract_style_id,
 )
 from webapp.apps.census_map.mapview import MapGeometry, projection
+from webapp.apps.census_map.theme import Shading
+from webapp.choropleth.classes import Theme
 from webapp.database.connection import Database
 from webapp.engine.wall_state import Balloon, View, WallState
 from webapp.schemas import PlacedCode
@@ -245,6 +257,75 @@ def display_balloon(
     return None
 
 
+# --- colouring ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Colouring:
+    """How an Earth's map is coloured, as ``map.kmz`` writes it and an Update changes
+    it. ``key`` names it in the wall document's cookie."""
+
+    key: str
+    classes: tuple[tuple[str, str], ...]  # each class slot's KML (fill, line), "no value" last
+    styles: Mapping[str, str]  # GEOID -> the id of the style the tract points at
+
+
+def colouring(dataset: DataSet, shading: Shading | None) -> Colouring:
+    """The map coloured by ``shading`` (None: plain brown), every class slot written."""
+    colours = class_colours(shading, all_classes=True)
+    return Colouring(
+        key=colouring_key(dataset.id, shading.theme if shading else None),
+        classes=tuple(colours),
+        styles={t.geoid: tract_style_id(t.geoid, shading, len(colours)) for t in dataset.tracts},
+    )
+
+
+def colouring_key(dataset_id: int, theme: Theme | None) -> str:
+    """``7`` (data set 7, plain) or ``7.YlOrRd.quantiles.5.POP``: short enough for a
+    cookie, and enough to colour the map again (the value last: it may hold dots)."""
+    if theme is None:
+        return str(dataset_id)
+    return f"{dataset_id}.{theme.scheme}.{theme.method}.{theme.classes}.{theme.attribute}"
+
+
+def keyed_theme(key: str) -> tuple[int, Theme | None] | None:
+    """The data set and theme :func:`colouring_key` wrote into ``key``; None when it
+    names none (a mangled cookie)."""
+    dataset_id, *rest = key.split(".", 4)
+    if not (dataset_id.isascii() and dataset_id.isdigit()) or len(rest) not in (0, 4):
+        return None
+    if not rest:
+        return int(dataset_id), None
+    scheme, method, classes, attribute = rest
+    fields = {"attribute": attribute, "scheme": scheme, "method": method, "classes": classes}
+    try:
+        return int(dataset_id), Theme.model_validate(fields)
+    except ValidationError:
+        return None
+
+
+def earlier_colouring(
+    dataset: DataSet,
+    key: str | None,
+    now: Colouring,
+    shading_of: Callable[[Theme], Shading | None],
+) -> Colouring | None:
+    """What the Earth whose cookie names ``key`` shows: ``now`` when that is the
+    current colouring (nothing to change); None when it cannot be known: a just-started
+    Earth (no cookie yet), another data set, a value this one lacks. An Earth whose
+    colouring is unknown gets every style, right whichever map it loaded."""
+    if key == now.key:
+        return now
+    named = keyed_theme(key) if key else None
+    if named is None or named[0] != dataset.id:
+        return None
+    theme = named[1]
+    shading = None if theme is None else shading_of(theme)
+    if theme is not None and shading is None:
+        return None
+    return colouring(dataset, shading)
+
+
 # --- documents -----------------------------------------------------------------------
 
 
@@ -256,21 +337,28 @@ def display_document(
     dataset: DataSet,
     geometry: MapGeometry,
     on_wall: bool,
+    shading: Shading | None,
+    shading_of: Callable[[Theme], Shading | None],
     display_id: str,
     fov: float,
     opened: str | None,
+    coloured: str | None,
     base_url: str,
     now: int,
 ) -> str:
     """:func:`wall_kml` for ``display_id`` as the wall stands: its view, groups, the
-    balloon on it, its codes (none, every group shown and the map's home view while the
-    census map is not on the wall). ``opened`` is the balloon this display's Earth
-    opened last (its cookie): closed unless still the one to show. ``base_url`` is where
-    Earth reaches this server, so ``targetHref`` is the very URL it loaded the map from."""
+    balloon on it, its codes, the map coloured by ``shading`` (none, every group shown,
+    the map's home view and plain while the census map is not on the wall). This
+    display's Earth's cookie says what it shows: ``opened``, the balloon it opened last
+    (closed unless still the one to show), and ``coloured``, the key of its colouring
+    (``shading_of`` colours the data set by that key's theme, to change only what
+    differs). ``base_url`` is where Earth reaches this server, so ``targetHref`` is the
+    very URL it loaded the map from."""
     balloons = state.balloons if on_wall else []
     closing = {b.id.removeprefix("tract-") for b in balloons} | ({opened} if opened else set())
     record = get_layout(db, wall.id, state.tag_layout) if on_wall and state.tag_layout else None
     placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
+    now_coloured = colouring(dataset, shading)
     return wall_kml(
         name=f"tagwall · {wall.name} · {display_id}",
         map_href=map_url(base_url, wall.id),
@@ -278,6 +366,8 @@ def display_document(
         groups={g.id: not on_wall or group_shown(state, g.id) for g in dataset.groups},
         balloon=display_balloon(wall, display_id, balloons, now),
         closing={geoid for geoid in closing if dataset.tract(geoid) is not None},
+        colours=now_coloured,
+        earlier=earlier_colouring(dataset, coloured, now_coloured, shading_of),
         images=screen_images(wall, display_id, placed, state.tag_layout, base_url),
         pixels=wall.display(display_id).mounted_resolution,
     )
@@ -302,7 +392,7 @@ def opener_kml(base_url: str, wall: Wall, display_id: str, options: EarthOptions
     _add(the_map, "flyToView", 0)
     _link(the_map, map_url(base_url, wall.id), options.map_refresh)
     state = _add(document, "NetworkLink")
-    _add(state, "name", "The wall: view, groups, balloon, codes")
+    _add(state, "name", "The wall: view, groups, balloon, colours, codes")
     _add(state, "flyToView", 1)  # to the NetworkLinkControl's view, on every fetch
     _link(state, wall_document_url(base_url, wall.id, display_id, options.fov), options.refresh)
     return _text(root)
@@ -316,26 +406,37 @@ def wall_kml(
     groups: Mapping[str, bool],
     balloon: str | None,
     closing: Collection[str],
+    colours: Colouring,
+    earlier: Colouring | None,
     images: Sequence[ScreenImage],
     pixels: tuple[int, int],
 ) -> str:
     """One display's wall document: its view, the map's group visibility (``groups``:
-    group id -> shown) and balloons (open ``balloon``, close those in ``closing``) as
-    an Update of the loaded map, and ``images`` (its codes and their captions) as
-    ScreenOverlays on a window of ``pixels`` (the display's resolution as mounted)."""
+    group id -> shown), balloons (open ``balloon``, close those in ``closing``) and
+    ``colours`` (the class styles and tracts that differ from ``earlier``, what the
+    Earth shows: all when unknown) as an Update of the loaded map, and ``images`` (its
+    codes and their captions) as ScreenOverlays on a window of ``pixels`` (the
+    display's resolution as mounted). The cookie names the balloon and the colouring."""
     root = _kml()
     control = _add(root, "NetworkLinkControl")
-    if balloon is not None:
-        _add(control, "cookie", urlencode({"open": balloon}))
+    cookie = {"open": balloon} if balloon is not None else {}
+    _add(control, "cookie", urlencode({**cookie, "theme": colours.key}))
     update = _add(control, "Update")
     _add(update, "targetHref", map_href)
+    for index, (fill, line) in enumerate(colours.classes):
+        if earlier is None or earlier.classes[index] != (fill, line):
+            _change(update, "PolyStyle", class_style_id(index, "poly"), "color", fill)
+            _change(update, "LineStyle", class_style_id(index, "line"), "color", line)
+    for geoid, style in colours.styles.items():
+        if earlier is None or earlier.styles.get(geoid) != style:
+            _change(update, "Placemark", tract_feature_id(geoid), "styleUrl", f"#{style}")
     for group_id, shown in groups.items():
-        _change(update, "Folder", group_feature_id(group_id), "visibility", shown)
+        _change(update, "Folder", group_feature_id(group_id), "visibility", int(shown))
     for geoid in sorted(closing):
         if geoid != balloon:
-            _change(update, "Placemark", tract_feature_id(geoid), "gx:balloonVisibility", False)
+            _change(update, "Placemark", tract_feature_id(geoid), "gx:balloonVisibility", 0)
     if balloon is not None:
-        _change(update, "Placemark", tract_feature_id(balloon), "gx:balloonVisibility", True)
+        _change(update, "Placemark", tract_feature_id(balloon), "gx:balloonVisibility", 1)
     look_at = _add(control, "LookAt")
     _add(look_at, "longitude", _number(view.longitude))
     _add(look_at, "latitude", _number(view.latitude))
@@ -367,9 +468,9 @@ def _screen_overlay(document: Element, image: ScreenImage, pixels: tuple[int, in
     _add(overlay, "size", x=str(w), y=str(h), xunits="pixels", yunits="pixels")
 
 
-def _change(update: Element, kind: str, target: str, field: str, value: bool) -> None:
+def _change(update: Element, kind: str, target: str, field: str, value: object) -> None:
     change = _add(update, "Change")
-    _add(_add(change, kind, targetId=target), field, int(value))
+    _add(_add(change, kind, targetId=target), field, value)
 
 
 def _link(network_link: Element, href: str, seconds: int) -> None:

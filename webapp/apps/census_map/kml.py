@@ -16,6 +16,7 @@ import threading
 import zipfile
 from collections.abc import Iterator, Mapping
 from html import escape
+from typing import Literal
 from xml.etree import ElementTree
 
 import simplekml
@@ -25,6 +26,7 @@ from shapely.ops import polylabel
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.theme import Shading
 from webapp.choropleth.classes import MISSING_FILL, outline_for
+from webapp.choropleth.palettes import MAX_CLASSES
 
 NAMESPACES = {
     "": "http://www.opengis.net/kml/2.2",  # the default namespace, as in every KML file
@@ -48,6 +50,7 @@ XML_DECLARATION = '<?xml version="1.0" encoding="UTF-8"?>\n'
 FILL_COLOR = "9919457a"
 LINE_COLOR = "ff0f2a4a"
 CLASS_ALPHA = "e6"  # a class's fill, nearly opaque: the colour must read as on the wall
+PLAIN_STYLE_ID = "style-tract"
 LABEL_TOLERANCE = 1e-4  # degrees (about 10 m): a hundredth of the smallest shipped tract
 
 # simplekml keeps its id counter and the document being written in class attributes,
@@ -101,29 +104,33 @@ def census_kml(
     open_balloons: frozenset[str],
     name: str | None = None,
     shading: Shading | None = None,
+    all_classes: bool = False,
 ) -> str:
     """The data set as one KML document: a folder per tract group (hidden groups
     unticked), each tract an outline labelled with its number and a balloon with its
     headline values; the balloons in ``open_balloons`` open in Google Earth. Tracts
     are brown, or with ``shading`` in their class's colour (a shared style per class,
-    the legend in the document's description), as on the wall."""
+    the legend in the document's description), as on the wall. ``all_classes`` writes
+    a style for every class any theme can have (see :func:`class_colours`), so that an
+    ``Update`` can colour the map by another theme without loading it again."""
     ids: dict[str, str] = {}
     with _SIMPLEKML:
         simplekml.Kml.resetidcounter()  # the same data gives the same bytes
         kml = simplekml.Kml(name=name or dataset.title, description=_about(dataset, shading))
         ids[kml.document.id] = f"dataset-{dataset.id}"
         style = _tract_style()
-        ids[style.id] = "style-tract"
+        ids[style.id] = PLAIN_STYLE_ID
         # Setting a style on the Document makes it a shared style, but also the
         # Document's own styleUrl, which only the tracts should have.
         kml.document.style = style
         kml.document.styleurl = None
-        class_styles = []
-        for index, (fill, line) in enumerate(_class_colours(shading)):
+        colours = class_colours(shading, all_classes=all_classes)
+        for index, (fill, line) in enumerate(colours):
             class_style = _tract_style(fill, line)
-            ids[class_style.id] = f"style-class-{index}"
+            ids[class_style.id] = class_style_id(index)
+            ids[class_style.polystyle.id] = class_style_id(index, "poly")
+            ids[class_style.linestyle.id] = class_style_id(index, "line")
             kml.document.style = class_style
-            class_styles.append(class_style)
         kml.document.styleurl = None
         order = {tract.geoid: index for index, tract in enumerate(dataset.tracts)}
         for group in dataset.groups:
@@ -135,7 +142,7 @@ def census_kml(
                     name=tract.label, description=_balloon(dataset, tract)
                 )
                 ids[multi.placemark.id] = f"tract-{_id_part(tract.geoid)}"
-                multi.placemark.styleurl = f"#{_style_of(tract, shading, class_styles, style).id}"
+                multi.placemark.styleurl = f"#{tract_style_id(geoid, shading, len(colours))}"
                 if geoid in open_balloons:
                     multi.gxballoonvisibility = 1
                 for polygon in _parts(tract.shape):
@@ -157,10 +164,16 @@ def census_kmz(
     open_balloons: frozenset[str],
     name: str | None = None,
     shading: Shading | None = None,
+    all_classes: bool = False,
 ) -> bytes:
     """:func:`census_kml` zipped, as Google Earth expects a KMZ: ``doc.kml`` first."""
     text = census_kml(
-        dataset, hidden=hidden, open_balloons=open_balloons, name=name, shading=shading
+        dataset,
+        hidden=hidden,
+        open_balloons=open_balloons,
+        name=name,
+        shading=shading,
+        all_classes=all_classes,
     )
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as kmz:
@@ -195,6 +208,32 @@ def group_feature_id(group_id: str) -> str:
 def tract_feature_id(geoid: str) -> str:
     """The id of a tract's Placemark in :func:`census_kml`: what an ``Update`` targets."""
     return f"tract-{_id_part(geoid)}"
+
+
+def class_style_id(index: int, part: Literal["", "poly", "line"] = "") -> str:
+    """The id of class ``index``'s shared Style in :func:`census_kml`, or of its
+    PolyStyle or LineStyle: what an ``Update`` changes to recolour a class."""
+    return f"style-class-{index}-{part}" if part else f"style-class-{index}"
+
+
+def tract_style_id(geoid: str, shading: Shading | None, styles: int) -> str:
+    """The style a tract points at, among ``styles`` class styles ("no value" last)."""
+    if shading is None:
+        return PLAIN_STYLE_ID
+    band = shading.band_of.get(geoid)
+    return class_style_id(styles - 1 if band is None else band)
+
+
+def class_colours(shading: Shading | None, *, all_classes: bool = False) -> list[tuple[str, str]]:
+    """KML colours (fill, line) of each class, then of "no value"; none when plain.
+    With ``all_classes`` there are always ``MAX_CLASSES`` class slots, then "no value",
+    whatever the theme: slots it does not use, and all of them when plain, brown."""
+    brown = (FILL_COLOR, LINE_COLOR)
+    if shading is None:
+        return [brown] * (MAX_CLASSES + 1) if all_classes else []
+    colours = [_kml_pair(band.colour, band.line) for band in shading.bands]
+    unused = MAX_CLASSES - len(colours) if all_classes else 0
+    return [*colours, *[brown] * unused, _kml_pair(MISSING_FILL, outline_for(MISSING_FILL))]
 
 
 def valid_kml(text: str, ids: Mapping[str, str] | None = None) -> str:
@@ -269,25 +308,8 @@ def _about(dataset: DataSet, shading: Shading | None) -> str:
     return f"{about} Coloured by {shading.title}: {'; '.join(rows)}."
 
 
-def _class_colours(shading: Shading | None) -> list[tuple[str, str]]:
-    """KML colours (fill, line) of each class, then of "no value"; none when plain."""
-    if shading is None:
-        return []
-    colours = [(band.colour, band.line) for band in shading.bands]
-    colours.append((MISSING_FILL, outline_for(MISSING_FILL)))
-    return [(kml_colour(fill, CLASS_ALPHA), kml_colour(line, "ff")) for fill, line in colours]
-
-
-def _style_of(
-    tract: Tract,
-    shading: Shading | None,
-    class_styles: list[simplekml.Style],
-    plain: simplekml.Style,
-) -> simplekml.Style:
-    if shading is None:
-        return plain
-    band = shading.band_of.get(tract.geoid)
-    return class_styles[-1 if band is None else band]
+def _kml_pair(fill: str, line: str) -> tuple[str, str]:
+    return kml_colour(fill, CLASS_ALPHA), kml_colour(line, "ff")
 
 
 def kml_colour(rgb: str, alpha: str) -> str:

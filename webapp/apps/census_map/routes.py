@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, replace
+from functools import partial
 from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
@@ -408,6 +409,7 @@ class _KmlInputs:
     open_balloons: frozenset[str]
     name: str
     shading: Shading | None
+    all_classes: bool = False  # Google Earth walls: a style for every class, see earth.py
 
     def kml(self) -> bytes:
         return census_kml(
@@ -416,6 +418,7 @@ class _KmlInputs:
             open_balloons=self.open_balloons,
             name=self.name,
             shading=self.shading,
+            all_classes=self.all_classes,
         ).encode()
 
     def kmz(self) -> bytes:
@@ -425,12 +428,21 @@ class _KmlInputs:
             open_balloons=self.open_balloons,
             name=self.name,
             shading=self.shading,
+            all_classes=self.all_classes,
         )
 
     def cached(self, app: CensusApp, kind: Literal["kml", "kmz"]) -> bytes:
         """Built once per map state: a network link asks every few seconds."""
         theme = self.shading.theme if self.shading else None
-        key = (kind, self.dataset.id, self.hidden, self.open_balloons, self.name, theme)
+        key = (
+            kind,
+            self.dataset.id,
+            self.hidden,
+            self.open_balloons,
+            self.name,
+            theme,
+            self.all_classes,
+        )
         body = app.renders.get(key)
         if body is None:
             body = self.kml() if kind == "kml" else self.kmz()
@@ -440,13 +452,14 @@ class _KmlInputs:
 
 @dataclass(frozen=True)
 class _MapNow:
-    """The map as the wall shows it now (the current data set as imported when the map
-    is not on the wall, ``on_wall`` False)."""
+    """The map as the wall shows it now (the current data set as imported, plain, when
+    the map is not on the wall, ``on_wall`` False)."""
 
     wall: Wall
     state: WallState
     dataset: DataSet
     on_wall: bool
+    shading: Shading | None
 
 
 async def _map_now(services: Services, wall_id: str | None) -> _MapNow:
@@ -456,7 +469,9 @@ async def _map_now(services: Services, wall_id: str | None) -> _MapNow:
         dataset = await run_in_threadpool(app.datasets.current, services.db)
     if dataset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "No census data set has been imported.")
-    return _MapNow(wall, state, dataset, state.app == APP and state.dataset == dataset.id)
+    on_wall = state.app == APP and state.dataset == dataset.id
+    shading = await run_in_threadpool(app.shading, dataset, state.theme) if on_wall else None
+    return _MapNow(wall, state, dataset, on_wall, shading)
 
 
 async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
@@ -466,14 +481,12 @@ async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
     now = now_ms()
     hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
     balloons = frozenset(b.id.removeprefix("tract-") for b in state.balloons if b.open_at(now))
-    app = census_app(services)
-    shading = await run_in_threadpool(app.shading, dataset, state.theme) if on_wall else None
     return _KmlInputs(
         dataset=dataset,
         hidden=hidden if on_wall else frozenset(),
         open_balloons=balloons if on_wall else frozenset(),
         name=f"{dataset.title} · {wall.name}",
-        shading=shading,
+        shading=now_map.shading,
     )
 
 
@@ -520,6 +533,7 @@ async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Resp
 FovQuery = Annotated[float, Query(ge=MIN_FOV, le=MAX_FOV)]
 RefreshQuery = Annotated[int, Query(ge=MIN_REFRESH_S, le=MAX_REFRESH_S)]
 OpenedQuery = Annotated[str | None, Query(alias="open", max_length=64)]
+ColouredQuery = Annotated[str | None, Query(alias="theme", max_length=128)]
 
 
 def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
@@ -542,8 +556,9 @@ def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
 @router.get("/apps/census/earth/{wall_id}/map.kmz", responses=errors(404))
 async def earth_map(wall_id: str, services: ServicesDep) -> Response:
     """The map Google Earth walls load: census.kmz with no balloon open (each display
-    opens the one on it)."""
-    inputs = replace(await _kml_of(services, wall_id), open_balloons=frozenset())
+    opens the one on it) and a style for every class (each display recolours them)."""
+    inputs = await _kml_of(services, wall_id)
+    inputs = replace(inputs, open_balloons=frozenset(), all_classes=True)
     body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
     return Response(body, media_type=KMZ_TYPE)
 
@@ -575,9 +590,11 @@ async def earth_display(
     services: ServicesDep,
     fov: FovQuery = DEFAULT_FOV,
     opened: OpenedQuery = None,
+    coloured: ColouredQuery = None,
 ) -> Response:
     """One display's wall document, fetched every few seconds by its Google Earth: the
-    view, groups and balloon (an Update of the map) and the codes on the display."""
+    view, groups, balloon and colouring (an Update of the map) and the codes on the
+    display. ``open`` and ``theme`` come from the previous document's cookie."""
     _earth_wall(services, wall_id, display_id)
     shown = await _map_now(services, wall_id)
     app = census_app(services)
@@ -590,9 +607,12 @@ async def earth_display(
             dataset=shown.dataset,
             geometry=geometry,
             on_wall=shown.on_wall,
+            shading=shown.shading,
+            shading_of=partial(app.shading, shown.dataset),
             display_id=display_id,
             fov=fov,
             opened=opened,
+            coloured=coloured,
             base_url=str(request.base_url).rstrip("/"),  # as Earth reached us: targetHref
             now=now_ms(),
         )

@@ -11,6 +11,7 @@ import zipfile
 from functools import cache
 from itertools import pairwise
 from typing import Any
+from urllib.parse import parse_qsl
 
 import numpy as np
 import pytest
@@ -23,8 +24,10 @@ from tests.conftest import register_student, services_of, sign_in
 from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_app import (
+    INCOME_THEME,
     census_codes,
     change,
+    colour,
     open_balloon,
     placed,
     show_census,
@@ -37,21 +40,36 @@ from webapp.apps.census_map.earth import (
     DisplayView,
     EarthOptions,
     ScreenImage,
+    colouring,
+    colouring_key,
     display_balloon,
     display_view,
     earth_displays,
+    keyed_theme,
     map_url,
     mounted_box,
     opener_kml,
     wall_kml,
 )
-from webapp.apps.census_map.kml import census_kml, group_feature_id, tract_feature_id
+from webapp.apps.census_map.kml import (
+    FILL_COLOR,
+    LINE_COLOR,
+    census_kml,
+    class_style_id,
+    group_feature_id,
+    tract_feature_id,
+)
 from webapp.apps.census_map.mapview import MapGeometry, projection
+from webapp.apps.census_map.theme import shade
+from webapp.choropleth.classes import Theme
+from webapp.choropleth.palettes import MAX_CLASSES
 from webapp.engine.wall_state import Balloon, View
 from webapp.schemas import PlacedCode
 from webapp.settings import CONTENT_DIR
 
 NS = {"k": "http://www.opengis.net/kml/2.2", "gx": "http://www.google.com/kml/ext/2.2"}
+VISIBILITY, BALLOON = "k:visibility", "gx:balloonVisibility"
+STYLE_URL, COLOR = "k:styleUrl", "k:color"
 BASE = "http://wall.example:8000"
 WALLS = ("demo", "hiperwall")
 
@@ -247,6 +265,7 @@ def test_options_out_of_range_are_refused(options: dict[str, Any]) -> None:
 def test_the_wall_document_updates_the_map_flies_to_the_view_and_places_codes() -> None:
     wall, geometry = wall_named("demo"), shipped_geometry()
     view = display_view(geometry, wall, View(), "r2c2")
+    plain = colouring(grid_dataset(), None)
     text = wall_kml(
         name="demo · r2c2",
         map_href=map_url(BASE, "demo"),
@@ -254,12 +273,14 @@ def test_the_wall_document_updates_the_map_flies_to_the_view_and_places_codes() 
         groups={"a": True, "b c": False},
         balloon="06067000100",
         closing={"06067000100", "06067000200"},
+        colours=plain,
+        earlier=plain,  # the Earth shows it already: no style changes
         images=[ScreenImage("0012", f"{BASE}/codes/7K2Q9XAB.png", (480, 270, 148, 148))],
         pixels=(1920, 1080),
     )
     root = parsed(text)
     control = root.find("k:NetworkLinkControl", NS)
-    assert control.findtext("k:cookie", namespaces=NS) == "open=06067000100"
+    assert control.findtext("k:cookie", namespaces=NS) == "open=06067000100&theme=7"
     assert control.findtext("k:Update/k:targetHref", namespaces=NS) == map_url(BASE, "demo")
     changes = {
         element.get("targetId"): element[0].text
@@ -301,6 +322,62 @@ def test_the_update_targets_the_ids_the_map_has() -> None:
     assert {tract_feature_id(t.geoid) for t in dataset.tracts} <= ids
 
 
+@pytest.mark.parametrize(
+    "theme",
+    [
+        None,
+        Theme(attribute="HH_INC"),
+        Theme(attribute="a.b:c d", scheme="Blues", method="equal", classes=MAX_CLASSES),
+    ],
+)
+def test_a_colouring_key_names_its_data_set_and_theme(theme: Theme | None) -> None:
+    assert keyed_theme(colouring_key(12, theme)) == (12, theme)
+
+
+@pytest.mark.parametrize(
+    "key", ["", "x", "1.YlOrRd", "1.YlOrRd.quantiles.5", "1.Nope.quantiles.5.A", "1.YlOrRd.x.5.A"]
+)
+def test_a_mangled_colouring_key_names_nothing(key: str) -> None:
+    assert keyed_theme(key) is None
+
+
+@pytest.mark.parametrize("theme", [None, Theme(attribute="POP", classes=3)])
+def test_the_earth_map_has_a_style_for_every_class_as_its_colouring_says(
+    theme: Theme | None,
+) -> None:
+    """The map Earth walls load and :func:`colouring` agree, so an Update computed
+    from the one recolours the other: every class slot (fewer classes, or none, leave
+    theirs brown), each tract's style."""
+    dataset = grid_dataset()
+    shading = shade(dataset, theme) if theme else None
+    text = census_kml(
+        dataset, hidden=frozenset(), open_balloons=frozenset(), shading=shading, all_classes=True
+    )
+    expected = colouring(dataset, shading)
+    assert look_of(parsed(text)) == (list(expected.classes), dict(expected.styles))
+    assert len(expected.classes) == MAX_CLASSES + 1
+    brown = (FILL_COLOR, LINE_COLOR)
+    assert expected.classes.count(brown) == MAX_CLASSES + 1 - (4 if theme else 0)
+
+
+def look_of(root: Any) -> tuple[list[tuple[str, str]], dict[str, str]]:
+    """A map's colouring as written: each class style's (fill, line), each tract's style."""
+    classes = []
+    for index in range(MAX_CLASSES + 1):
+        [style] = root.xpath(f'//k:Style[@id="{class_style_id(index)}"]', namespaces=NS)
+        poly, line = style.find("k:PolyStyle", NS), style.find("k:LineStyle", NS)
+        assert (poly.get("id"), line.get("id")) == (
+            class_style_id(index, "poly"),
+            class_style_id(index, "line"),
+        )
+        classes.append((poly.findtext(COLOR, namespaces=NS), line.findtext(COLOR, namespaces=NS)))
+    styles = {
+        placemark.get("id").removeprefix("tract-"): placemark.findtext(STYLE_URL, namespaces=NS)[1:]
+        for placemark in root.iterfind(".//k:Placemark", NS)
+    }
+    return classes, styles
+
+
 # --- over HTTP -----------------------------------------------------------------------
 
 
@@ -316,10 +393,17 @@ def wall_document(client: TestClient, display: str, **params: Any) -> Any:
     return parsed(response.text)
 
 
-def changes_of(root: Any) -> dict[str, str]:
+def cookie_of(root: Any) -> dict[str, str]:
+    """The cookie Earth adds to the query of its next fetch of the wall document."""
+    return dict(parse_qsl(root.findtext("k:NetworkLinkControl/k:cookie", "", NS)))
+
+
+def changes_of(root: Any, field: str) -> dict[str, str]:
+    """targetId -> the new value of ``field`` (``k:visibility``, ...) in the Update."""
     return {
-        element.get("targetId"): element[0].text
+        element.get("targetId"): element.findtext(field, namespaces=NS)
         for element in root.iterfind("k:NetworkLinkControl/k:Update/k:Change/*", NS)
+        if element.find(field, NS) is not None
     }
 
 
@@ -346,8 +430,9 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     assert float(look_at.findtext("k:range", namespaces=NS)) == pytest.approx(
         expected.range_m, abs=0.1
     )
-    assert set(changes_of(root).values()) == {"1"}  # every group shown, no balloon
-    assert len(changes_of(root)) == len(dataset.groups)
+    assert set(changes_of(root, VISIBILITY).values()) == {"1"}  # every group shown
+    assert len(changes_of(root, VISIBILITY)) == len(dataset.groups)
+    assert changes_of(root, BALLOON) == {}  # no balloon
 
     codes = [PlacedCode.model_validate(p) for p in placed(client, state) if p["display"] == "r2c2"]
     overlays = root.findall(".//k:ScreenOverlay", NS)
@@ -394,21 +479,21 @@ def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:
     off = next(d.id for d in earth_displays(wall) if d.id != on)
 
     root = wall_document(client, on)
-    changes = changes_of(root)
+    changes = changes_of(root, VISIBILITY)
     assert changes[group_feature_id(group)] == "0"
     assert changes[group_feature_id(shown_group.id)] == "1"
-    assert changes[tract_feature_id(geoid)] == "1"
-    assert root.findtext("k:NetworkLinkControl/k:cookie", namespaces=NS) == f"open={geoid}"
+    assert changes_of(root, BALLOON) == {tract_feature_id(geoid): "1"}
+    assert cookie_of(root) == {"open": geoid, "theme": str(dataset.id)}
 
     # Another display opens none, and closes what its Earth says it opened (the cookie)
     other = dataset.tracts[0].geoid
     root = wall_document(client, off, open=other)
-    changes = changes_of(root)
-    assert changes[tract_feature_id(other)] == "0" and changes[tract_feature_id(geoid)] == "0"
-    assert root.find("k:NetworkLinkControl/k:cookie", NS) is None
-    assert tract_feature_id("nonsense") not in changes_of(
-        wall_document(client, off, open="nonsense")
-    )
+    changes = changes_of(root, BALLOON)
+    assert changes == {tract_feature_id(other): "0", tract_feature_id(geoid): "0"}
+    assert cookie_of(root) == {"theme": str(dataset.id)}
+    assert changes_of(wall_document(client, off, open="nonsense"), BALLOON) == {
+        tract_feature_id(geoid): "0"
+    }
 
     # The map Earth loads opens no balloon (each display opens its own) and hides the group
     kmz = earth_get(client, "map.kmz")
@@ -418,6 +503,78 @@ def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:
     assert "<gx:balloonVisibility>1" not in text
     hidden = re.search(rf'<Folder id="{group_feature_id(group)}">.*?<visibility>(\d)<', text, re.S)
     assert hidden and hidden.group(1) == "0"
+
+
+def earth_map(client: TestClient) -> Any:
+    kmz = earth_get(client, "map.kmz")
+    with zipfile.ZipFile(io.BytesIO(kmz.content)) as archive:
+        return parsed(archive.read("doc.kml").decode())
+
+
+def recoloured(the_map: Any, document: Any) -> Any:
+    """``the_map`` after Google Earth applied the document's Update: each Change sets
+    its fields in the element whose id it targets, which must be there."""
+    ids = {element.get("id"): element for element in the_map.iter() if element.get("id")}
+    for changed in document.iterfind("k:NetworkLinkControl/k:Update/k:Change/*", NS):
+        target = ids[changed.get("targetId")]
+        assert target.tag == changed.tag
+        for field in changed:
+            found = target.find(field.tag)
+            if found is None:
+                found = etree.SubElement(target, field.tag)
+            found.text = field.text
+    return the_map
+
+
+def restyled(document: Any) -> int:
+    """How many Changes of the document recolour the map."""
+    return sum(len(changes_of(document, field)) for field in (COLOR, STYLE_URL))
+
+
+def test_the_colouring_follows_the_wall_within_the_refresh_interval(client: TestClient) -> None:
+    """An Earth that loaded the plain map is recoloured by its wall documents'
+    Updates as the wall is, into exactly the map it would load now, and only when its
+    cookie names another colouring than the wall's."""
+    show_census(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    loaded = earth_map(client)  # the map a just-started Earth loaded, plain
+
+    # Its first document (no cookie yet) sets every style, right whatever map it loaded
+    first = wall_document(client, "r2c2")
+    assert cookie_of(first) == {"theme": str(dataset.id)}
+    assert restyled(first) == 2 * (MAX_CLASSES + 1) + len(dataset.tracts)
+    assert look_of(recoloured(loaded, first)) == look_of(earth_map(client))
+    # with the cookie back, nothing to change
+    assert restyled(wall_document(client, "r2c2", **cookie_of(first))) == 0
+
+    themes = [INCOME_THEME, {**INCOME_THEME, "scheme": "YlOrRd"}, None]
+    cookie = cookie_of(first)
+    for theme in themes:
+        assert colour(client, theme).status_code == 200
+        document = wall_document(client, "r2c2", **cookie)
+        assert restyled(document) > 0
+        assert look_of(recoloured(loaded, document)) == look_of(earth_map(client))
+        cookie = cookie_of(document)
+        assert cookie["theme"] != str(dataset.id) if theme else cookie["theme"] == str(dataset.id)
+        assert restyled(wall_document(client, "r2c2", **cookie)) == 0
+        if theme is themes[1]:  # another scheme: the classes' colours, no tract's class
+            assert changes_of(document, STYLE_URL) == {}
+    # plain again: every tract and class slot brown, as the map started
+    assert look_of(loaded) == look_of(earth_map(client))
+    classes, styles = look_of(loaded)
+    assert set(classes) == {(FILL_COLOR, LINE_COLOR)} and set(styles.values()) == {"style-tract"}
+
+
+def test_a_colouring_the_earth_cannot_have_shown_sets_every_style(client: TestClient) -> None:
+    show_census(client)
+    colour(client, INCOME_THEME)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    every = 2 * (MAX_CLASSES + 1) + len(dataset.tracts)
+    for key in ("nonsense", "999", f"{dataset.id}.YlOrRd.quantiles.5.NO_SUCH_VALUE"):
+        assert restyled(wall_document(client, "r2c2", theme=key)) == every
+    themed = wall_document(client, "r2c2")
+    assert cookie_of(themed)["theme"].startswith(f"{dataset.id}.YlGnBu.natural.6.")
+    assert len(etree.tostring(themed)) < 64_000  # a few tens of kB, once
 
 
 def test_the_map_not_on_the_wall_is_the_current_data_set_at_home(client: TestClient) -> None:
@@ -445,6 +602,7 @@ def test_the_map_not_on_the_wall_is_the_current_data_set_at_home(client: TestCli
         ("/apps/census/earth/demo/r2c2.kml?map_refresh=100000", 422, "map_refresh"),
         ("/apps/census/earth/demo/r2c2/wall.kml?fov=200", 422, "fov"),
         (f"/apps/census/earth/demo/r2c2/wall.kml?open={'9' * 65}", 422, "open"),
+        (f"/apps/census/earth/demo/r2c2/wall.kml?theme={'9' * 129}", 422, "theme"),
     ],
 )
 def test_bad_earth_requests(client: TestClient, path: str, status: int, says: str) -> None:
