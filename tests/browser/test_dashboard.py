@@ -61,6 +61,10 @@ def test_the_instructor_colours_the_census_map_from_the_dashboard(
     version = server.version("demo")
     wait_until(lambda: version_of(tile) == version, what="the tile to follow the dashboard")
     expect(tile.locator("body")).to_have_attribute("data-census-theme", "HSG_VAL 4")
+    for zoom in (1.5, 2, 2.5, 3, 3.5):  # codes placed anew each time: the colouring stays
+        zoomed = server.change("demo", {"view": {"center": [0.5, 0.5], "zoom": zoom}})
+        wait_until(lambda: version_of(tile) == zoomed, what="the tile to zoom")  # noqa: B023
+        expect(tile.locator("body")).to_have_attribute("data-census-theme", "HSG_VAL 4")
 
     panel.get_by_label("Value").select_option("")
     panel.get_by_role("button", name="Colour the wall").click()

@@ -19,7 +19,8 @@ export function groupShown(state, groupId) {
 export class CensusViews {
   constructor(wallId, tileId) {
     this.base = `/api/walls/${wallId}/tiles/${tileId}/census`;
-    this.views = new Map();
+    this.views = new Map();  // the map's share per view, the latest few
+    this.themes = new Map();  // the colouring per theme, apart: a pan never drops it
   }
 
   /** The query of the wall's theme (null: the plain map); the same for every tile. */
@@ -47,22 +48,22 @@ export class CensusViews {
 
   /** The wall's theme as loaded (null: the plain map). */
   theme(state) {
-    return this.views.get(CensusViews.themeKeyOf(state)) ?? null;
+    return this.themes.get(CensusViews.themeKeyOf(state)) ?? null;
   }
 
   async load(state) {
     await Promise.all([
-      this.fetchInto(CensusViews.keyOf(state), ""),
-      this.fetchInto(CensusViews.themeKeyOf(state), "/theme"),
+      this.fetchInto(this.views, CensusViews.keyOf(state), ""),
+      this.fetchInto(this.themes, CensusViews.themeKeyOf(state), "/theme"),
     ]);
   }
 
-  async fetchInto(key, path) {
-    if (!key || this.views.has(key)) return;
+  async fetchInto(kept, key, path) {
+    if (!key || kept.has(key)) return;
     const response = await fetch(`${this.base}${path}?${key}`);
     if (!response.ok) throw new Error(`census map${path}: ${response.status}`);
-    this.views.set(key, await response.json());
-    while (this.views.size > KEEP) this.views.delete(this.views.keys().next().value);
+    kept.set(key, await response.json());
+    while (kept.size > KEEP) kept.delete(kept.keys().next().value);
   }
 
   /** Codes of tracts in hidden groups, and cluster codes all of whose tracts are

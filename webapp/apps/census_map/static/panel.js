@@ -100,16 +100,7 @@ document.addEventListener(STATUS_EVENT, async (event) => {
   // a wall seeds the shipped one; an import elsewhere makes another current).
   if (state.app === "census" && state.dataset !== seenDataset) {
     seenDataset = state.dataset;
-    if (state.dataset !== listedCurrent) await $("census-colour").addEventListener("click", async () => {
-  const attribute = $("census-attribute").value;
-  const theme = attribute ? {
-    attribute, scheme: $("census-scheme").value, method: $("census-method").value,
-    classes: Number($("census-classes").value),
-  } : null;
-  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
-});
-loadDatasets();
-loadSchemes();
+    if (state.dataset !== listedCurrent) await loadDatasets();
   }
   await loadGroups(state.app === "census" ? state.dataset : null);
   showTheme();
@@ -122,16 +113,7 @@ $("census-use").addEventListener("click", async () => {
   await api("/api/census/current", {
     method: "POST", body: JSON.stringify({dataset: Number($("census-dataset").value)}),
   });
-  await $("census-colour").addEventListener("click", async () => {
-  const attribute = $("census-attribute").value;
-  const theme = attribute ? {
-    attribute, scheme: $("census-scheme").value, method: $("census-method").value,
-    classes: Number($("census-classes").value),
-  } : null;
-  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
-});
-loadDatasets();
-loadSchemes();
+  await loadDatasets();
 });
 $("census-colour").addEventListener("click", async () => {
   const attribute = $("census-attribute").value;
