@@ -110,10 +110,11 @@ async function refreshDetail() {
 for (const id of ["volume-choice", "volume-mode", "volume-transfer"]) {
   $(id).addEventListener("change", setVolume);
 }
-for (const button of document.querySelectorAll("[data-turn]")) {
+// Its own buttons only: the apps' panels have zoom buttons of their own.
+for (const button of $("volume-panel").querySelectorAll("[data-turn]")) {
   button.addEventListener("click", () => turn(button.dataset.turn, Number(button.dataset.by)));
 }
-for (const button of document.querySelectorAll("[data-zoom]")) {
+for (const button of $("volume-panel").querySelectorAll("[data-zoom]")) {
   button.addEventListener("click", () => zoom(Number(button.dataset.zoom)));
 }
 $("view-reset").addEventListener("click", () =>

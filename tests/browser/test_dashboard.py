@@ -72,3 +72,21 @@ def test_the_instructor_colours_the_census_map_from_the_dashboard(
     assert server.status("demo")["state"]["theme"] is None
     tile.context.close()
     page.close()
+
+
+def test_a_panel_s_zoom_button_makes_one_change(browser: Browser, server: ServerProcess) -> None:
+    """Zoom in on the census panel: one change, the map's zoom times 1.5. The volume
+    panel's buttons once answered every zoom button on the page too, with their own
+    limit (50): from 40, a second change to 50 raced the census panel's to 60."""
+    server.change("demo", {"app": "census", "view": {"center": [0.5, 0.5], "zoom": 40}})
+    page = browser.new_page()
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+    before = server.version("demo")
+    expect(page.locator("#version")).to_have_text(str(before))
+    page.locator("#census-panel [data-zoom='1.5']").click()
+    wait_until(lambda: server.version("demo") > before, timeout=60, what="the zoom")
+    expect(page.locator("#version")).to_have_text(str(before + 1))
+    page.wait_for_timeout(1000)  # a second change, if any, would be in by now
+    assert server.version("demo") == before + 1
+    assert server.status("demo")["state"]["view"]["zoom"] == 60
+    page.close()
