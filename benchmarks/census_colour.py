@@ -22,12 +22,9 @@ from typing import Any
 import httpx
 from playwright.sync_api import Page, sync_playwright
 
-from webapp.apps.census_map.importer import import_files
-from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
+from benchmarks.census_fit import shipped_dataset
 from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Method, Theme
-from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.settings import CONTENT_DIR
 from webapp.testing import CHROMIUM_ARGS, ServerProcess, wait_until
 
@@ -45,16 +42,9 @@ def _ms(seconds: float) -> float:
     return round(seconds * 1000, 2)
 
 
-def _cuts(folder: Path) -> dict[str, float]:
+def _cuts() -> dict[str, float]:
     """Milliseconds to cut the shipped values into classes, per method and count."""
-    url = f"sqlite:///{folder / 'cuts.db'}"
-    upgrade(url)
-    db = Database(url)
-    try:
-        dataset = load(db, import_files(db, shapes=SHIPPED, key=SHIPPED_KEY).dataset_id)
-    finally:
-        db.dispose()
-    assert dataset is not None
+    dataset = shipped_dataset()
     timings = {}
     methods: tuple[Method, ...] = ("quantiles", "equal", "natural")
     for method in methods:
@@ -146,7 +136,7 @@ def run() -> dict[str, Any]:
     if executable is None:
         raise SystemExit("Debian chromium is not installed: run `make test` first")
     with tempfile.TemporaryDirectory() as tmp:
-        result: dict[str, Any] = {"theme": THEME, "cut_ms": _cuts(Path(tmp)), "walls": {}}
+        result: dict[str, Any] = {"theme": THEME, "cut_ms": _cuts(), "walls": {}}
         server = ServerProcess(
             var_dir=Path(tmp) / "var",
             database_url=f"sqlite:///{tmp}/bench.db",

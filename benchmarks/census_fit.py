@@ -62,7 +62,7 @@ def _displays(land: shapely.Geometry, project: Projection, wall: Wall) -> dict[s
     }
 
 
-def _shipped() -> DataSet:
+def shipped_dataset() -> DataSet:
     """The shipped data set as the server has it: imported, then loaded."""
     with tempfile.TemporaryDirectory() as scratch:
         url = f"sqlite:///{Path(scratch) / 'bench.db'}"
@@ -77,7 +77,7 @@ def _shipped() -> DataSet:
 
 
 def run() -> dict[str, Any]:
-    dataset = _shipped()
+    dataset = shipped_dataset()
     geometry = MapGeometry.of(dataset)
     land = shapely.union_all(geometry.shapes)
     walls = load_walls([CONTENT_DIR / "walls"])
