@@ -469,7 +469,14 @@ def legend_picture(server: ServerProcess, tiles: dict[str, Page], wall: Wall) ->
     state = server.status("demo")["state"]
     body = httpx.get(
         f"{server.url}/api/walls/demo/tiles/r1c1/census/theme",
-        params={"dataset": state["dataset"], "layout": state["tag_layout"], **state["theme"]},
+        params={
+            "dataset": state["dataset"],
+            "layout": state["tag_layout"],
+            "cx": state["view"]["center"][0],
+            "cy": state["view"]["center"][1],
+            "zoom": state["view"]["zoom"],
+            **state["theme"],
+        },
     ).json()
     x, y, w, h = body["legend"]["rect"]
     [display] = [d for d in wall.displays if d.rect.intersects(Rect(x, y, w, h))]

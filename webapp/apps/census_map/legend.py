@@ -48,10 +48,15 @@ class ThemeView(BaseModel):
 
 
 def theme_view(
-    shading: Shading, dataset_id: int, geoids: Sequence[str], wall: Wall, codes: Sequence[Rect]
+    shading: Shading,
+    dataset_id: int,
+    geoids: Sequence[str],
+    wall: Wall,
+    codes: Sequence[Rect],
+    on_map: Sequence[Rect] = (),
 ) -> ThemeView:
     """The theme for tiles; ``codes``: the placed codes' footprints, which the legend
-    keeps clear of."""
+    keeps clear of; ``on_map``: the tracts' boxes, which it keeps off where it can."""
     classes = [
         LegendRow(
             fill=band.colour, line=band.line, text=f"{shading.band_range(i)} · {tracts(band.count)}"
@@ -69,7 +74,7 @@ def theme_view(
     lines = [note, *(" " * SWATCH_CHARS + row.text for row in rows)]
     fonts = [label_mm(wall) * scale for scale in LEGEND_SCALES]
     sizes = [balloon_size(shading.title, lines, font) for font in fonts]
-    rect, chosen = legend_rect(wall, sizes, codes) or (None, len(fonts) - 1)
+    rect, chosen = legend_rect(wall, sizes, codes, on_map) or (None, len(fonts) - 1)
     font = fonts[chosen]
     return ThemeView(
         dataset=dataset_id,
@@ -85,24 +90,31 @@ def tracts(count: int) -> str:
 
 
 def legend_rect(
-    wall: Wall, sizes: Sequence[tuple[float, float]], codes: Sequence[Rect]
+    wall: Wall,
+    sizes: Sequence[tuple[float, float]],
+    codes: Sequence[Rect],
+    on_map: Sequence[Rect] = (),
 ) -> tuple[tuple[float, float, float, float], int] | None:
     """Where the legend stands and which of ``sizes`` (largest first) it takes: in the
     bottom-left corner of the menu screen, else of the registration screen, else of
-    any display but the public screen (over the map), as large as the first of those
-    with room allows; clear of every code and its caption and a little inside the
-    display's edge. None when no display has room even for the smallest."""
+    another display but the public screen, off the map (``on_map``: the tracts' boxes)
+    where one has room, over it where none has; as large as the first display with
+    room allows, clear of every code and its caption and a little inside the display's
+    edge. None when no display has room even for the smallest."""
     margin = CLEAR_PX * max(d.mm_per_px for d in wall.displays)
     inset = label_mm(wall) / 2
-    obstacles = [grown(code, margin) for code in codes]
+    clear = [grown(code, margin) for code in codes]
     public = {d.id for d in wall.screen("public")}
-    preferred = [*wall.screen("menu"), *wall.screen("registration")]
-    rest = [d for d in wall.displays if d not in preferred and d.id not in public]
-    for display in [*preferred, *rest]:
+    panels = [*wall.screen("menu"), *wall.screen("registration")]
+    rest = [d for d in wall.displays if d not in panels and d.id not in public]
+    tries = [(d, clear) for d in panels]
+    tries += [(d, [*clear, *on_map]) for d in rest] + [(d, clear) for d in rest]
+    for display, obstacles in tries:
         area = wall.viewport(display.id).scene_rect
+        near = [o for o in obstacles if o.intersects(grown(area, margin))]
         for index, (width, height) in enumerate(sizes):
             padded = (width + 2 * inset, height + 2 * inset)
-            box = place_box(wall, padded, (area.x, area.bottom), obstacles, on=[display.id])
+            box = place_box(wall, padded, (area.x, area.bottom), near, on=[display.id])
             if box is not None:
                 return (box.x + inset, box.y + inset, width, height), index
     return None

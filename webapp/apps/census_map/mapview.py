@@ -324,6 +324,17 @@ def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
     )
 
 
+def tract_boxes(geometry: MapGeometry, wall: Wall, view: View) -> list[Rect]:
+    """Each tract's bounding box in scene mm at ``view``: where the map lies."""
+    project = projection(geometry, wall, view)
+    return [
+        Rect(
+            *project.point(minx, miny), (maxx - minx) * project.scale, (maxy - miny) * project.scale
+        )
+        for minx, miny, maxx, maxy in geometry.bounds
+    ]
+
+
 def label_mm(wall: Wall) -> float:
     """Tract numbers as tall as reads from where people scan."""
     return LABEL_MM_PER_M * wall.seat_distance_m

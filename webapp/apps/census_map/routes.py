@@ -8,7 +8,7 @@ from dataclasses import dataclass, replace
 from functools import partial
 from typing import TYPE_CHECKING, Annotated, Literal, cast
 
-from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, Depends, Form, HTTPException, Query, Request, Response, status
 from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, ValidationError
 from sqlalchemy import select
@@ -43,7 +43,7 @@ from webapp.apps.census_map.earth import (
 )
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
 from webapp.apps.census_map.legend import theme_view
-from webapp.apps.census_map.mapview import tile_view
+from webapp.apps.census_map.mapview import tile_view, tract_boxes
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.store import list_datasets, make_current
 from webapp.apps.census_map.theme import Shading, kept_theme
@@ -100,25 +100,30 @@ class DataSetEntry(BaseModel):
 # --- tiles ---------------------------------------------------------------------------
 
 
+def map_view(cx: float = 0.5, cy: float = 0.5, zoom: float = 1.0) -> View:
+    """The view a tile asks for (its wall state's); 422 for one no view can be."""
+    try:
+        return View(center=(cx, cy), zoom=zoom)
+    except ValidationError as error:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"view: {error.errors()[0]['msg']}"
+        ) from None
+
+
+MapViewDep = Annotated[View, Depends(map_view)]
+
+
 @router.get("/api/walls/{wall_id}/tiles/{tile_id}/census", responses=errors(404))
 async def tile_map(
     wall: WallDep,
     tile: TileDep,
     services: ServicesDep,
     dataset: RowId,
+    view: MapViewDep,
     layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
-    cx: float = 0.5,
-    cy: float = 0.5,
-    zoom: float = 1.0,
 ) -> Response:
     """One tile's share of the census map for a data set, codes layout and view, in the
     tile's native pixels (the tile fetches it before it answers ``ready``)."""
-    try:
-        view = View(center=(cx, cy), zoom=zoom)
-    except ValidationError as error:
-        raise HTTPException(
-            status.HTTP_422_UNPROCESSABLE_CONTENT, f"view: {error.errors()[0]['msg']}"
-        ) from None
     app = census_app(services)
     key = (dataset, wall.id, tile.id, layout, view.center, view.zoom)
     body = app.renders.get(key)
@@ -193,10 +198,12 @@ async def tile_theme(
     scheme: SchemeName,
     method: Method,
     classes: int,
+    view: MapViewDep,
     layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
 ) -> Response:
     """The tracts' classes and the legend for the wall's theme (the state's ``theme``),
-    the same for every tile of the wall: tiles fetch it before they answer ``ready``."""
+    the same for every tile of the wall: tiles fetch it before they answer ``ready``.
+    The view says where the map lies, which the legend keeps off where it can."""
     try:
         theme = Theme(attribute=attribute, scheme=scheme, method=method, classes=classes)
     except ValidationError as error:
@@ -204,7 +211,7 @@ async def tile_theme(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"theme: {error.errors()[0]['msg']}"
         ) from None
     app = census_app(services)
-    key = ("theme", wall.id, dataset, layout, theme)
+    key = ("theme", wall.id, dataset, layout, view.center, view.zoom, theme)
     body = app.renders.get(key)
     if body is None:
         found = await run_in_threadpool(app.dataset, services, dataset)
@@ -216,13 +223,19 @@ async def tile_theme(
             raise HTTPException(
                 status.HTTP_404_NOT_FOUND, f"{found.title} has no value {attribute!r}."
             )
-        body = await run_in_threadpool(_theme_body, app, services, wall, found, layout, theme)
+        body = await run_in_threadpool(_theme_body, app, services, wall, found, layout, view, theme)
         app.renders.put(key, body)
     return Response(body, media_type="application/json")
 
 
 def _theme_body(
-    app: CensusApp, services: Services, wall: Wall, dataset: DataSet, layout_id: int, theme: Theme
+    app: CensusApp,
+    services: Services,
+    wall: Wall,
+    dataset: DataSet,
+    layout_id: int,
+    view: View,
+    theme: Theme,
 ) -> bytes:
     shading = app.shading(dataset, theme)
     assert shading is not None
@@ -230,8 +243,9 @@ def _theme_body(
     codes = [
         Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
     ]
-    view = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes)
-    return view.model_dump_json().encode()
+    on_map = tract_boxes(app.geometry(dataset), wall, view)
+    body = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes, on_map)
+    return body.model_dump_json().encode()
 
 
 # --- phones --------------------------------------------------------------------------

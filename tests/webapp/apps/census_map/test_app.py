@@ -578,7 +578,14 @@ def tile_theme(client: TestClient, state: WallState, tile: str = "r2c1") -> dict
     assert state.theme is not None
     response = client.get(
         f"/api/walls/demo/tiles/{tile}/census/theme",
-        params={"dataset": state.dataset, "layout": state.tag_layout, **state.theme.model_dump()},
+        params={
+            "dataset": state.dataset,
+            "layout": state.tag_layout,
+            "cx": state.view.center[0],
+            "cy": state.view.center[1],
+            "zoom": state.view.zoom,
+            **state.theme.model_dump(),
+        },
     )
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
@@ -653,6 +660,7 @@ def test_colouring_needs_staff_and_the_map_on_the_wall(client: TestClient) -> No
         {"scheme": "Jet"},
         {"classes": 2},
         {"layout": -1},
+        {"zoom": 0},
     ],
 )
 def test_bad_tile_theme_requests(client: TestClient, query: dict[str, Any]) -> None:

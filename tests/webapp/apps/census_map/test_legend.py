@@ -58,6 +58,16 @@ def test_then_over_the_map_but_never_on_the_public_screen(walls: dict[str, Wall]
     assert legend_rect(wall, [(300.0, 200.0)], everything) is None
 
 
+def test_over_the_map_only_where_no_other_display_has_room(walls: dict[str, Wall]) -> None:
+    wall = walls["demo"]
+    full_panels = covering(wall, "r1c3", "r2c1")
+    found = legend_rect(wall, [(300.0, 200.0)], full_panels, covering(wall, "r1c1", "r2c2"))
+    assert found is not None and on_display(wall, found[0]) == "r2c3", "off the map"
+    everywhere = covering(wall, "r1c1", "r2c2", "r2c3")
+    found = legend_rect(wall, [(300.0, 200.0)], full_panels, everywhere)
+    assert found is not None and on_display(wall, found[0]) == "r1c1", "over it, but shown"
+
+
 @pytest.mark.parametrize("wall_id", ["demo", "hiperwall", "kl-3x3", "irregular"])
 def test_tiles_get_every_tract_s_class_and_a_legend_clear_of_codes(
     walls: dict[str, Wall], wall_id: str

@@ -23,13 +23,16 @@ export class CensusViews {
     this.themes = new Map();  // the colouring per theme, apart: a pan never drops it
   }
 
-  /** The query of the wall's theme (null: the plain map); the same for every tile. */
+  /** The query of the wall's theme (null: the plain map); the same for every tile.
+   * The view goes with it: the legend keeps off the map where it can. */
   static themeKeyOf(state) {
     const theme = state?.theme;
     if (state?.app !== "census" || !state.dataset || !theme) return null;
+    const [cx, cy] = state.view?.center ?? [0.5, 0.5];
     return new URLSearchParams({
-      dataset: state.dataset, layout: state.tag_layout ?? 0, attribute: theme.attribute,
-      scheme: theme.scheme, method: theme.method, classes: theme.classes,
+      dataset: state.dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
+      attribute: theme.attribute, scheme: theme.scheme, method: theme.method,
+      classes: theme.classes,
     }).toString();
   }
 
