@@ -6,7 +6,10 @@ Clients in another process keep ``CONNECTIONS`` HTTP/1.1 keep-alive connections 
 for ``SECONDS`` each; the client is raw asyncio (no HTTP library) so it costs the shared
 CPUs as little as possible. A resolution looks the code up, checks it, records the scan
 in the database and renders the app's phone page, so the ratio is what the whole
-path costs against the framework's floor.
+path costs against the framework's floor. Two resolutions are measured: a first scan
+(no cookie: the Student registration code, which makes a visitor each time) and a
+scan by a phone already in the room (its session cookie, one of the setup pattern's
+codes), which is what most scans in a class are.
 
 The aim is a ratio of at least ``TARGET_RATIO``: the scan path should cost little more
 than the framework itself (the code cache and batched scan writes of
@@ -23,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import httpx
 from fastapi import FastAPI
 from starlette.requests import Request
 from starlette.responses import PlainTextResponse
@@ -48,9 +52,10 @@ def app_with_hello() -> FastAPI:
     return app
 
 
-async def _hammer(port: int, path: str, seconds: float) -> tuple[int, int]:
+async def _hammer(port: int, path: str, seconds: float, cookie: str) -> tuple[int, int]:
     """Requests completed (and how many were not 200) on keep-alive connections."""
-    request = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nUser-Agent: bench\r\n\r\n".encode()
+    sent = f"Cookie: {cookie}\r\n" if cookie else ""
+    request = f"GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nUser-Agent: bench\r\n{sent}\r\n".encode()
     deadline = time.perf_counter() + seconds
     done = failed = 0
 
@@ -76,14 +81,15 @@ async def _hammer(port: int, path: str, seconds: float) -> tuple[int, int]:
     return done, failed
 
 
-def _client(port: int, path: str, seconds: float, queue: Any) -> None:
-    queue.put(asyncio.run(_hammer(port, path, seconds)))
+def _client(port: int, path: str, seconds: float, cookie: str, queue: Any) -> None:
+    queue.put(asyncio.run(_hammer(port, path, seconds, cookie)))
 
 
-def measure(port: int, path: str, seconds: float = SECONDS) -> dict[str, float]:
+def measure(port: int, path: str, seconds: float = SECONDS, cookie: str = "") -> dict[str, float]:
+    """Requests per second on ``path`` from another process (``cookie``: the phone's)."""
     queue: Any = multiprocessing.get_context("spawn").Queue()
     process = multiprocessing.get_context("spawn").Process(
-        target=_client, args=(port, path, seconds, queue)
+        target=_client, args=(port, path, seconds, cookie, queue)
     )
     process.start()
     done, failed = queue.get()
@@ -123,20 +129,26 @@ def run() -> dict[str, Any]:
             from webapp.database.connection import Database
 
             db = Database(database_url)
-            code = next(t.code for t in wall_tags(db, "demo") if t.name == "register-student")
+            tags = {t.name: t.code for t in wall_tags(db, "demo")}
             db.dispose()
+            register, setup = tags["register-student"], tags["setup-r1c1"]
+            phone = httpx.get(f"{server.url}/t/{register}", timeout=30)
+            cookie = "; ".join(f"{name}={value}" for name, value in phone.cookies.items())
             measure(server.port, "/hello", 1.0)  # warm up
             hello = measure(server.port, "/hello")
-            resolve = measure(server.port, f"/t/{code}")
+            first = measure(server.port, f"/t/{register}")
+            again = measure(server.port, f"/t/{setup}", cookie=cookie)
         finally:
             server.stop()
-    ratio = resolve["per_second"] / hello["per_second"]
+    ratio = again["per_second"] / hello["per_second"]
     return {
         "connections": CONNECTIONS,
         "seconds": SECONDS,
         "database": "sqlite",
         "hello": hello,
-        "resolve": resolve,
+        "resolve": first,
+        "resolve_in_the_room": again,
+        "first_scan_ratio": round(first["per_second"] / hello["per_second"], 3),
         "ratio": round(ratio, 3),
         "target_ratio": TARGET_RATIO,
         "meets_target": ratio >= TARGET_RATIO,
@@ -144,9 +156,11 @@ def run() -> dict[str, Any]:
 
 
 def summary(result: dict[str, Any]) -> str:
+    first, again = result["resolve"], result["resolve_in_the_room"]
     return (
-        f"   hello {result['hello']['per_second']:.0f}/s, "
-        f"resolve {result['resolve']['per_second']:.0f}/s "
-        f"(failed {result['resolve']['failed']}): ratio {result['ratio']:.2f} "
-        f"(aim >= {result['target_ratio']})"
+        f"   hello {result['hello']['per_second']:.0f}/s; a first scan (registering)"
+        f" {first['per_second']:.0f}/s (failed {first['failed']}, ratio"
+        f" {result['first_scan_ratio']:.2f}); a phone in the room {again['per_second']:.0f}/s"
+        f" (failed {again['failed']}): ratio {result['ratio']:.2f}"
+        f" (aim >= {result['target_ratio']})"
     )
