@@ -7,6 +7,7 @@ import io
 import itertools
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
@@ -59,6 +60,19 @@ def light_share(page: Page) -> float:
 def tract_codes(layout: LayoutInfo) -> set[str]:
     """The codes standing on the map (not on the menu or registration screen)."""
     return {c.code for c in layout.placed if c.display not in ("r1c3", "r2c1")}
+
+
+def map_query(state: dict[str, Any]) -> dict[str, Any]:
+    """What a tile asks for its share of the map (and its colouring) in ``state``."""
+    cx, cy = state["view"]["center"]
+    zoom = state["view"]["zoom"]
+    return {
+        "dataset": state["dataset"],
+        "layout": state["tag_layout"],
+        "cx": cx,
+        "cy": cy,
+        "zoom": zoom,
+    }
 
 
 def shown(page: Page, key: str) -> str:
@@ -270,14 +284,7 @@ def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
     picture = screenshot(tile).astype(float)
     state = census.status("demo")["state"]
     view = httpx.get(
-        f"{census.url}/api/walls/demo/tiles/r2c2/census",
-        params={
-            "dataset": state["dataset"],
-            "layout": state["tag_layout"],
-            "cx": state["view"]["center"][0],
-            "cy": state["view"]["center"][1],
-            "zoom": state["view"]["zoom"],
-        },
+        f"{census.url}/api/walls/demo/tiles/r2c2/census", params=map_query(state)
     ).json()
     fill = np.array([int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5)])
     height, width = picture.shape[:2]
@@ -469,14 +476,7 @@ def legend_picture(server: ServerProcess, tiles: dict[str, Page], wall: Wall) ->
     state = server.status("demo")["state"]
     body = httpx.get(
         f"{server.url}/api/walls/demo/tiles/r1c1/census/theme",
-        params={
-            "dataset": state["dataset"],
-            "layout": state["tag_layout"],
-            "cx": state["view"]["center"][0],
-            "cy": state["view"]["center"][1],
-            "zoom": state["view"]["zoom"],
-            **state["theme"],
-        },
+        params={**map_query(state), **state["theme"]},
     ).json()
     x, y, w, h = body["legend"]["rect"]
     [display] = [d for d in wall.displays if d.rect.intersects(Rect(x, y, w, h))]

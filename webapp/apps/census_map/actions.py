@@ -63,19 +63,24 @@ class MapChanged(Exception):
     """The wall stopped showing the data set a colouring was chosen for."""
 
 
+class NoSuchValue(Exception):
+    """The data set has no value by the name the colouring gives."""
+
+
 async def colour_wall(
     services: Services, wall: Wall, dataset: DataSet, theme: Theme | None
 ) -> None:
     """Colour the wall's tracts by ``theme`` (None: one plain colour), on every tile in
     the same frame (a heavy change: tiles load the classes before the swap). Raises
+    :class:`NoSuchValue` when ``dataset`` lacks the theme's value and
     :class:`MapChanged` when the wall no longer shows ``dataset``."""
-
-    kept = kept_theme(dataset, theme)
+    if theme is not None and kept_theme(dataset, theme) is None:
+        raise NoSuchValue(theme.attribute)
 
     async def colour(state: WallState) -> Update:
         if state.app != APP or state.dataset != dataset.id:
             raise MapChanged
-        return lambda current: current.model_copy(update={"theme": kept})
+        return lambda current: current.model_copy(update={"theme": theme})
 
     await plan_change(services, wall, colour)
 

@@ -19,6 +19,7 @@ from webapp.apps.census_map.actions import (
     GroupHidden,
     MapChanged,
     NoRoom,
+    NoSuchValue,
     colour_wall,
     group_shown,
     open_balloon,
@@ -376,16 +377,11 @@ async def colour_from_phone(
     state, dataset = await pages.shown_dataset(app, services, wall)
     theme = None
     if attribute:
-        if not any(a.key == attribute for a in dataset.settings.attributes):
-            raise HTTPException(
-                status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {attribute!r}."
-            )
-        kept = state.theme or Theme(attribute=attribute)
-        theme = kept.model_copy(update={"attribute": attribute})
-    try:
-        await colour_wall(services, wall, dataset, theme)
-    except MapChanged:
-        raise _map_changed(wall) from None
+        kept = state.theme  # its scheme, method and number of classes
+        theme = (
+            kept.model_copy(update={"attribute": attribute}) if kept else Theme(attribute=attribute)
+        )
+    await _colour(services, wall, dataset, theme)
     back = dataset.tract(tract) if tract else None
     shading = await run_in_threadpool(app.shading, dataset, theme)
     return render(
@@ -398,11 +394,20 @@ async def colour_from_phone(
     )
 
 
-def _map_changed(wall: Wall) -> HTTPException:
-    return HTTPException(
-        status.HTTP_409_CONFLICT,
-        f"{wall.name} changed what it shows meanwhile; look at the wall and try again.",
-    )
+async def _colour(services: Services, wall: Wall, dataset: DataSet, theme: Theme | None) -> None:
+    """Colour the wall (:func:`colour_wall`), its refusals as answers: 404 for a value
+    the data set lacks, 409 when the wall changed what it shows meanwhile."""
+    try:
+        await colour_wall(services, wall, dataset, theme)
+    except NoSuchValue as missing:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {str(missing)!r}."
+        ) from None
+    except MapChanged:
+        raise HTTPException(
+            status.HTTP_409_CONFLICT,
+            f"{wall.name} changed what it shows meanwhile; look at the wall and try again.",
+        ) from None
 
 
 # --- Google Earth --------------------------------------------------------------------
@@ -698,15 +703,7 @@ async def choose_theme(wall: WallDep, choice: ThemeChoice, services: ServicesDep
     """Colour the wall's tracts by one of the data set's values (the dashboard); every
     tile changes in the same frame. 409 when the census map is not on the wall."""
     _, dataset = await pages.shown_dataset(census_app(services), services, wall)
-    theme = choice.theme
-    if theme is not None and kept_theme(dataset, theme) is None:
-        raise HTTPException(
-            status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {theme.attribute!r}."
-        )
-    try:
-        await colour_wall(services, wall, dataset, theme)
-    except MapChanged:
-        raise _map_changed(wall) from None
+    await _colour(services, wall, dataset, choice.theme)
     return choice
 
 

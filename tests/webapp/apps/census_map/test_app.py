@@ -51,18 +51,20 @@ def placed(client: TestClient, state: WallState) -> list[dict[str, Any]]:
     return list(layout.placed)
 
 
-def tile_map(client: TestClient, state: WallState, tile: str = "r1c2") -> dict[str, Any]:
+def map_query(state: WallState) -> dict[str, Any]:
+    """What a tile asks for its share of the map (and its colouring) in ``state``."""
     cx, cy = state.view.center
-    response = client.get(
-        f"/api/walls/demo/tiles/{tile}/census",
-        params={
-            "dataset": state.dataset,
-            "layout": state.tag_layout,
-            "cx": cx,
-            "cy": cy,
-            "zoom": state.view.zoom,
-        },
-    )
+    return {
+        "dataset": state.dataset,
+        "layout": state.tag_layout,
+        "cx": cx,
+        "cy": cy,
+        "zoom": state.view.zoom,
+    }
+
+
+def tile_map(client: TestClient, state: WallState, tile: str = "r1c2") -> dict[str, Any]:
+    response = client.get(f"/api/walls/demo/tiles/{tile}/census", params=map_query(state))
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
     return body
@@ -566,11 +568,9 @@ def test_a_restart_keeps_the_map_its_groups_and_its_codes(client: TestClient) ->
 INCOME_THEME = {"attribute": "HH_INC", "scheme": "YlGnBu", "method": "natural", "classes": 6}
 
 
-def colour(client: TestClient, theme: dict[str, Any] | None, **headers: str) -> Any:
+def colour(client: TestClient, theme: dict[str, Any] | None) -> Any:
     return client.post(
-        "/api/census/walls/demo/theme",
-        json={"theme": theme},
-        headers=headers or operator_headers(client),
+        "/api/census/walls/demo/theme", json={"theme": theme}, headers=operator_headers(client)
     )
 
 
@@ -578,14 +578,7 @@ def tile_theme(client: TestClient, state: WallState, tile: str = "r2c1") -> dict
     assert state.theme is not None
     response = client.get(
         f"/api/walls/demo/tiles/{tile}/census/theme",
-        params={
-            "dataset": state.dataset,
-            "layout": state.tag_layout,
-            "cx": state.view.center[0],
-            "cy": state.view.center[1],
-            "zoom": state.view.zoom,
-            **state.theme.model_dump(),
-        },
+        params={**map_query(state), **state.theme.model_dump()},
     )
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
@@ -667,7 +660,7 @@ def test_bad_tile_theme_requests(client: TestClient, query: dict[str, Any]) -> N
     show_census(client)
     colour(client, INCOME_THEME)
     state = state_of(client)
-    params = {"dataset": state.dataset, "layout": state.tag_layout, **INCOME_THEME, **query}
+    params = {**map_query(state), **INCOME_THEME, **query}
     response = client.get("/api/walls/demo/tiles/r1c1/census/theme", params=params)
     assert response.status_code in (404, 422), response.text
     assert response.headers["content-type"].startswith("application/json")
