@@ -555,11 +555,8 @@ OpenedQuery = Annotated[str | None, Query(alias="open", max_length=64)]
 ColouredQuery = Annotated[str | None, Query(alias="theme", max_length=128)]
 
 
-def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
-    """The wall, when ``display_id`` is one of its displays Google Earth can drive."""
-    wall = services.walls.get(wall_id)
-    if wall is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
+def _earth_display(wall: Wall, display_id: str) -> None:
+    """404 unless ``display_id`` is one of the wall's displays Google Earth can drive."""
     if display_id not in {d.id for d in earth_displays(wall)}:
         role = screen_role(wall, display_id)
         detail = (
@@ -569,14 +566,13 @@ def _earth_wall(services: Services, wall_id: str, display_id: str) -> Wall:
             else f"Wall {wall.id!r} has no display {display_id!r}."
         )
         raise HTTPException(status.HTTP_404_NOT_FOUND, detail)
-    return wall
 
 
 @router.get("/apps/census/earth/{wall_id}/map.kmz", responses=errors(404))
-async def earth_map(wall_id: str, services: ServicesDep) -> Response:
+async def earth_map(wall: WallDep, services: ServicesDep) -> Response:
     """The map Google Earth walls load: census.kmz with no balloon open (each display
     opens the one on it) and a style for every class (each display recolours them)."""
-    inputs = await _kml_of(services, wall_id)
+    inputs = await _kml_of(services, wall.id)
     inputs = replace(inputs, open_balloons=frozenset(), all_classes=True)
     body = await run_in_threadpool(inputs.cached, census_app(services), "kmz")
     return Response(body, media_type=KMZ_TYPE)
@@ -584,7 +580,7 @@ async def earth_map(wall_id: str, services: ServicesDep) -> Response:
 
 @router.get("/apps/census/earth/{wall_id}/{display_id}.kml", responses=errors(404))
 async def earth_opener(
-    wall_id: str,
+    wall: WallDep,
     display_id: str,
     services: ServicesDep,
     fov: FovQuery = DEFAULT_FOV,
@@ -592,7 +588,7 @@ async def earth_opener(
     map_refresh: RefreshQuery = DEFAULT_MAP_REFRESH_S,
 ) -> Response:
     """What the Google Earth on one display opens: the map and its wall document."""
-    wall = _earth_wall(services, wall_id, display_id)
+    _earth_display(wall, display_id)
     options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
     return Response(
         opener_kml(services.base_url, wall, display_id, options),
@@ -604,7 +600,7 @@ async def earth_opener(
 @router.get("/apps/census/earth/{wall_id}/{display_id}/wall.kml", responses=errors(404))
 async def earth_display(
     request: Request,
-    wall_id: str,
+    wall: WallDep,
     display_id: str,
     services: ServicesDep,
     fov: FovQuery = DEFAULT_FOV,
@@ -614,8 +610,8 @@ async def earth_display(
     """One display's wall document, fetched every few seconds by its Google Earth: the
     view, groups, balloon and colouring (an Update of the map) and the codes on the
     display. ``open`` and ``theme`` come from the previous document's cookie."""
-    _earth_wall(services, wall_id, display_id)
-    shown = await _map_now(services, wall_id)
+    _earth_display(wall, display_id)
+    shown = await _map_now(services, wall.id)
     app = census_app(services)
     geometry = await run_in_threadpool(app.geometry, shown.dataset)
     text = await run_in_threadpool(
@@ -641,15 +637,14 @@ async def earth_display(
 
 @router.get("/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png", responses=errors(404))
 async def earth_caption(
-    wall_id: str, layout_id: RowId, code: str, services: ServicesDep
+    wall: WallDep, layout_id: RowId, code: str, services: ServicesDep
 ) -> Response:
     """A placed code's caption as Google Earth draws it under the code (a layout never
     changes, so neither does its image)."""
-    wall = services.walls.get(wall_id)
-    record = await run_in_threadpool(get_layout, services.db, wall_id, layout_id) if wall else None
+    record = await run_in_threadpool(get_layout, services.db, wall.id, layout_id)
     found = next((p for p in record.placed if p["code"] == code), None) if record else None
     placed = PlacedCode.model_validate(found) if found else None
-    if wall is None or placed is None or not placed.label or placed.caption is None:
+    if placed is None or not placed.label or placed.caption is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
     _, _, width, height = mounted_box(wall, placed.display, placed.caption)
     body = await run_in_threadpool(caption_png, placed.label, (width, height))
