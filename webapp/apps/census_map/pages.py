@@ -16,7 +16,7 @@ from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_gro
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
 from webapp.apps.census_map.rules import APP, INDEX_TAG
-from webapp.apps.census_map.theme import describe
+from webapp.apps.census_map.theme import Shading, describe
 from webapp.database.models import TagRecord
 from webapp.deps import limit_action
 from webapp.engine.wall_state import WallState, read_state
@@ -83,8 +83,11 @@ async def tract_here(
     wall's colouring, and Publish; an instructor can colour the wall by a value here."""
     state, dataset = await shown_dataset(app, services, wall)
     tract = tract_of(dataset, geoid)
-    code = await run_in_threadpool(index_code, services, wall)
-    shading = await run_in_threadpool(app.shading, dataset, state.theme)
+
+    def look_up() -> tuple[str | None, Shading | None]:  # one thread hop for both
+        return index_code(services, wall), app.shading(dataset, state.theme)
+
+    code, shading = await run_in_threadpool(look_up)
     return render(
         request,
         "census/here.html",
