@@ -113,6 +113,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.templates = Jinja2Templates(
         directory=[TEMPLATES_DIR, *(a.templates for a in services.apps.values() if a.templates)]
     )
+    app.state.templates.env.auto_reload = False  # no stat() of every template per page
     app.state.templates.env.filters["markdown"] = markdown_html
     app.state.templates.env.filters["markdown_inline"] = markdown_inline
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)

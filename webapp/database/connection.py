@@ -45,6 +45,13 @@ class Base(DeclarativeBase):
     metadata = MetaData(naming_convention=NAMING_CONVENTION)
 
 
+SQLITE_POOL_SIZE = 48
+"""Connections a SQLite engine keeps open: as many as threads can hold sessions at once
+(the thread pool's 40 and the walls' own 8). An overflow connection is closed when it
+is returned, so a smaller pool opened a file, and ran the pragmas, for every busy
+request; an open SQLite connection costs a file handle and its page cache."""
+
+
 def make_engine(url: str) -> Engine:
     """An engine for ``url``; for SQLite, create the parent folder and enable WAL.
 
@@ -55,6 +62,7 @@ def make_engine(url: str) -> Engine:
     kwargs: dict[str, Any] = {"pool_pre_ping": parsed.get_backend_name() != "sqlite"}
     if parsed.get_backend_name() == "sqlite":
         kwargs["connect_args"] = {"check_same_thread": False, "timeout": 30}
+        kwargs |= {"pool_size": SQLITE_POOL_SIZE, "max_overflow": SQLITE_POOL_SIZE}
         if parsed.database and parsed.database != ":memory:":
             Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
     engine = create_engine(url, **kwargs)
