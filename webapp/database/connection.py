@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 from annotated_types import Interval
-from sqlalchemy import Engine, MetaData, create_engine, event, text
+from sqlalchemy import Connection, Engine, MetaData, create_engine, event, text
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import (
     ArgumentError,
@@ -94,6 +94,16 @@ class Database:
         """A session committed on success and rolled back on error."""
         with self.sessions() as session, session.begin():
             yield session
+
+    @contextmanager
+    def reading(self) -> Iterator[Connection]:
+        """A connection for the reads on a phone's path, which are most of what its
+        pages cost. A Core statement built once (a module constant, its values as
+        ``bindparam``) runs on it in about a third of the time the same read takes
+        through an ORM session: no unit of work, identity map or instances, and no
+        statement to build and match to its compiled form. Nothing is written."""
+        with self.engine.connect() as connection:
+            yield connection
 
     def ping(self) -> bool:
         """True when the database answers a trivial query."""

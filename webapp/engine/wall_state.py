@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from sqlalchemy import delete, select, update
+from sqlalchemy import bindparam, delete, select, update
 from sqlalchemy.exc import IntegrityError, OperationalError
 from sqlalchemy.orm import Session
 
@@ -149,13 +149,19 @@ def now_ms() -> int:
     return time.time_ns() // 1_000_000
 
 
+_STATE_OF_WALL = select(WallStateRecord.version, WallStateRecord.state).where(
+    WallStateRecord.wall_id == bindparam("wall_id")
+)
+"""Every page of a phone reads it: built once (see :meth:`Database.reading`)."""
+
+
 def read_state(db: Database, wall_id: str) -> tuple[int, WallState]:
     """The wall's current version and state (version 0 and defaults if never changed)."""
-    with db.session() as session:
-        record = session.get(WallStateRecord, wall_id)
-        if record is None:
-            return 0, WallState()
-        return record.version, WallState.model_validate(record.state)
+    with db.reading() as connection:
+        row = connection.execute(_STATE_OF_WALL, {"wall_id": wall_id}).first()
+    if row is None:
+        return 0, WallState()
+    return row.version, WallState.model_validate(row.state)
 
 
 def events_since(db: Database, wall_id: str, version: int) -> list[Change] | None:

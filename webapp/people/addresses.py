@@ -16,7 +16,9 @@ from __future__ import annotations
 import ipaddress
 from collections.abc import Sequence
 from ipaddress import IPv4Address, IPv4Network, IPv6Address, IPv6Network
+from typing import Any, TypeVar
 
+from sqlalchemy import Row
 from starlette.datastructures import Headers
 from starlette.requests import HTTPConnection
 from starlette.types import ASGIApp, Receive, Scope, Send
@@ -24,6 +26,8 @@ from starlette.types import ASGIApp, Receive, Scope, Send
 from webapp.database.models import AddressRuleRecord
 
 Network = IPv4Network | IPv6Network
+Rule = TypeVar("Rule", AddressRuleRecord, Row[Any])
+"""An address rule as a record, or as the row a phone's request reads."""
 Address = IPv4Address | IPv6Address
 
 
@@ -100,12 +104,12 @@ def parse_network(text: str) -> Network:
         raise ValueError(f"{text!r} is not an address or network like 10.1.0.0/16") from None
 
 
-def matching_rule(address: str, rules: Sequence[AddressRuleRecord]) -> AddressRuleRecord | None:
+def matching_rule(address: str, rules: Sequence[Rule]) -> Rule | None:
     """The most specific rule whose network holds ``address`` (None when none does)."""
     parsed = _address(address)
     if parsed is None:
         return None
-    best: tuple[int, AddressRuleRecord] | None = None
+    best: tuple[int, Rule] | None = None
     for rule in rules:
         network = parse_network(rule.network)
         inside = network.version == parsed.version and parsed in network

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fastapi.concurrency import run_in_threadpool
-from sqlalchemy import select, update
+from sqlalchemy import Row, bindparam, select, update
 from starlette.requests import HTTPConnection
 
 from webapp.database.connection import Database
@@ -108,15 +108,20 @@ class Person:
         return f"{self.display_name} ({ROLE_LABELS[self.role].lower()})"
 
 
+# Every request of a phone reads these: built once (see Database.reading).
+_VISITOR = select(VisitorRecord.__table__).where(VisitorRecord.id == bindparam("id"))
+_RULES = select(AddressRuleRecord.__table__)
+
+
 def load_person(db: Database, visitor: Visitor, address: str, settings: Settings) -> Person:
     """The person behind ``visitor`` coming from ``address``.
 
     A cookie whose session id no longer matches (copied before a rotation, or
     kept past a sign-out elsewhere) is treated as a new, anonymous visitor.
     """
-    with db.session() as session:
-        record = session.get(VisitorRecord, visitor.id)
-        rules = session.scalars(select(AddressRuleRecord)).all()
+    with db.reading() as connection:
+        record = connection.execute(_VISITOR, {"id": visitor.id}).first()
+        rules = connection.execute(_RULES).all()
     if record is not None and record.session_id != visitor.session_id:
         visitor, record = Visitor.fresh(), None
     return _person(visitor, record, matching_rule(address, rules), settings)
@@ -124,8 +129,8 @@ def load_person(db: Database, visitor: Visitor, address: str, settings: Settings
 
 def _person(
     visitor: Visitor,
-    record: VisitorRecord | None,
-    rule: AddressRuleRecord | None,
+    record: VisitorRecord | Row[Any] | None,
+    rule: AddressRuleRecord | Row[Any] | None,
     settings: Settings,
 ) -> Person:
     role: Role = _role(record.role if record else "student")

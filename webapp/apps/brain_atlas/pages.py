@@ -39,7 +39,6 @@ from webapp.markdown import markdown_html
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.roles import USER_GROUPS, UserGroup
 from webapp.people.visitors import Visitor
-from webapp.tags.registry import find
 from webapp.templating import render
 
 if TYPE_CHECKING:
@@ -72,11 +71,12 @@ class RoundChanged(Exception):
         self.tag = tag
 
 
-def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
+async def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
     """A brain pin of this wall by its code (switched off ones too: a pin the wall no
-    longer shows may still be answered); 404 otherwise."""
+    longer shows may still be answered); 404 otherwise. From the scan path's cache of
+    codes: every answer of a room looks its pin up."""
     normal = normalize_code(code)
-    tag = find(services.db, normal) if normal else None
+    tag = (await services.codes.resolve(normal)).tag if normal else None
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a pin of this wall's brain.")
     return tag
@@ -222,10 +222,9 @@ async def answer(
     text: str,
 ) -> Response:
     """Store the visitor's answer, judged now, and go on to their progress."""
+    tag = await tag_of(services, wall, code)
     try:
-        pin, refused = await run_in_threadpool(
-            store_answer, app, services, wall, code, person, text
-        )
+        pin, refused = await run_in_threadpool(store_answer, app, services, wall, tag, person, text)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     if refused is not None:
@@ -237,11 +236,11 @@ async def answer(
 
 
 def store_answer(
-    app: BrainApp, services: Services, wall: Wall, code: str, person: Person, text: str
+    app: BrainApp, services: Services, wall: Wall, tag: TagRecord, person: Person, text: str
 ) -> tuple[Pin, tuple[Progress, str] | None]:
-    """Judge and store an answer to the pin of ``code`` (in a worker thread); when the
+    """Judge and store an answer to the pin ``tag`` (in a worker thread); when the
     quiz refuses it, the visitor's progress and why."""
-    pin = pin_of(app, services, wall, tag_of(services, wall, code))
+    pin = pin_of(app, services, wall, tag)
     correct = app.answer_key(pin.tag_set).judge(pin.region.id, text[:1_000])
     try:
         if mode_of(pin.state) != "quiz":
@@ -276,8 +275,9 @@ async def revealed(
             status.HTTP_403_FORBIDDEN,
             "Only instructors see answers early: students see them when the round closes.",
         )
+    tag = await tag_of(services, wall, code)
     try:
-        pin, guide = await run_in_threadpool(pin_and_guide, app, services, wall, code)
+        pin, guide = await run_in_threadpool(pin_and_guide, app, services, wall, tag)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     return render(
@@ -292,10 +292,10 @@ async def revealed(
 
 
 def pin_and_guide(
-    app: BrainApp, services: Services, wall: Wall, code: str
+    app: BrainApp, services: Services, wall: Wall, tag: TagRecord
 ) -> tuple[Pin, RoundGuide]:
-    """A pin by its code and its round's guide (in a worker thread)."""
-    pin = pin_of(app, services, wall, tag_of(services, wall, code))
+    """A pin and its round's guide (in a worker thread)."""
+    pin = pin_of(app, services, wall, tag)
     return pin, app.guide(services, wall, pin.round, pin.tag_set, pin.state)
 
 

@@ -24,9 +24,9 @@ from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from typing import Literal, get_args
+from typing import Any, Literal, get_args
 
-from sqlalchemy import func, select, update
+from sqlalchemy import Connection, Row, bindparam, func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -145,7 +145,7 @@ def clean_answer(text: str) -> str:
 # --- rounds --------------------------------------------------------------------------
 
 
-def _round(record: BrainQuizRoundRecord) -> Round:
+def _round(record: BrainQuizRoundRecord | Row[Any]) -> Round:
     reveal: Reveal = "finish" if record.reveal == "finish" else "close"
     return Round(
         wall_id=record.wall_id,
@@ -158,10 +158,31 @@ def _round(record: BrainQuizRoundRecord) -> Round:
     )
 
 
+# A phone's pages read these: built once (see Database.reading).
+_ROUND = select(BrainQuizRoundRecord.__table__).where(
+    BrainQuizRoundRecord.wall_id == bindparam("wall_id"),
+    BrainQuizRoundRecord.number == bindparam("number"),
+)
+_ANSWERS = select(
+    BrainAnswerRecord.region_id, BrainAnswerRecord.answer, BrainAnswerRecord.correct
+).where(
+    BrainAnswerRecord.wall_id == bindparam("wall_id"),
+    BrainAnswerRecord.round == bindparam("number"),
+    BrainAnswerRecord.visitor_id == bindparam("visitor_id"),
+    BrainAnswerRecord.tag_set == bindparam("tag_set"),
+)
+_FINISHED = select(BrainQuizFinishRecord.visitor_id).where(
+    BrainQuizFinishRecord.wall_id == bindparam("wall_id"),
+    BrainQuizFinishRecord.round == bindparam("number"),
+    BrainQuizFinishRecord.visitor_id == bindparam("visitor_id"),
+    BrainQuizFinishRecord.tag_set == bindparam("tag_set"),
+)
+
+
 def get_round(db: Database, wall_id: str, number: int) -> Round | None:
-    with db.session() as session:
-        record = session.get(BrainQuizRoundRecord, (wall_id, number))
-        return _round(record) if record is not None else None
+    with db.reading() as connection:
+        row = connection.execute(_ROUND, {"wall_id": wall_id, "number": number}).first()
+    return _round(row) if row is not None else None
 
 
 def start_round(
@@ -281,24 +302,18 @@ def _claim_open(session: Session, wall_id: str, number: int) -> None:
 
 
 def progress(db: Database, wall_id: str, number: int, visitor_id: str, tag_set: str) -> Progress:
-    with db.session() as session:
-        return _progress(session, wall_id, number, visitor_id, tag_set)
+    with db.reading() as connection:
+        return _progress(connection, wall_id, number, visitor_id, tag_set)
 
 
 def _progress(
-    session: Session, wall_id: str, number: int, visitor_id: str, tag_set: str
+    reader: Session | Connection, wall_id: str, number: int, visitor_id: str, tag_set: str
 ) -> Progress:
-    rows = session.scalars(
-        select(BrainAnswerRecord).where(
-            BrainAnswerRecord.wall_id == wall_id,
-            BrainAnswerRecord.round == number,
-            BrainAnswerRecord.visitor_id == visitor_id,
-            BrainAnswerRecord.tag_set == tag_set,
-        )
-    )
-    answers = {r.region_id: Answer(r.region_id, r.answer, r.correct) for r in rows}
-    finished = session.get(BrainQuizFinishRecord, (wall_id, number, visitor_id, tag_set))
-    return Progress(answers, finished is not None)
+    """The visitor's answers and whether they finished (in a session that writes them,
+    or on a connection that only reads)."""
+    key = {"wall_id": wall_id, "number": number, "visitor_id": visitor_id, "tag_set": tag_set}
+    answers = {row.region_id: Answer(*row) for row in reader.execute(_ANSWERS, key)}
+    return Progress(answers, reader.execute(_FINISHED, key).first() is not None)
 
 
 def record_answer(

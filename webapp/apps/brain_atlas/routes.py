@@ -70,7 +70,7 @@ async def pin(
     request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, code: str
 ) -> Response:
     """A pin's page again (from the progress page), without counting a scan."""
-    tag = await run_in_threadpool(pages.tag_of, services, wall, code)
+    tag = await pages.tag_of(services, wall, code)
     return await pages.pin_page(brain_app(services), request, services, wall, tag, person)
 
 
@@ -121,7 +121,7 @@ async def literature(
     """The research group's literature search for a pin's region (tutor mode only:
     the query names the region)."""
     app = brain_app(services)
-    tag = await run_in_threadpool(pages.tag_of, services, wall, code)
+    tag = await pages.tag_of(services, wall, code)
     region = await pages.tutor_region(app, services, wall, tag)
     if not app.has_research(region):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no literature list.")
