@@ -185,7 +185,7 @@ def _store(
                 **{k: v for k, v in fields.items() if k in ("authority", "authorized_role")},
             )
         session.flush()
-        rules = session.scalars(select(AddressRuleRecord)).all()
+        rules = session.execute(_RULES).all()
     return _person(visitor, record, matching_rule(address, rules), settings)
 
 
@@ -194,8 +194,8 @@ def address_grant(db: Database, address: str, settings: Settings) -> str | None:
     instructor, when the deployment lets address rules grant roles at all."""
     if not settings.address_rules_grant_roles:
         return None
-    with db.session() as session:
-        rules = session.scalars(select(AddressRuleRecord)).all()
+    with db.reading() as connection:
+        rules = connection.execute(_RULES).all()
     rule = matching_rule(address, rules)
     return f"address:{rule.network}" if rule is not None and rule.role == "instructor" else None
 

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal, get_args
 
-from sqlalchemy import Connection, Row, bindparam, func, select, update
+from sqlalchemy import Connection, Row, bindparam, func, insert, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -158,7 +158,7 @@ def _round(record: BrainQuizRoundRecord | Row[Any]) -> Round:
     )
 
 
-# A phone's pages read these: built once (see Database.reading).
+# A phone's pages and answers run these: built once (see Database.reading).
 _ROUND = select(BrainQuizRoundRecord.__table__).where(
     BrainQuizRoundRecord.wall_id == bindparam("wall_id"),
     BrainQuizRoundRecord.number == bindparam("number"),
@@ -177,6 +177,27 @@ _FINISHED = select(BrainQuizFinishRecord.visitor_id).where(
     BrainQuizFinishRecord.visitor_id == bindparam("visitor_id"),
     BrainQuizFinishRecord.tag_set == bindparam("tag_set"),
 )
+_CLAIM_OPEN = (
+    update(BrainQuizRoundRecord)
+    .where(
+        BrainQuizRoundRecord.wall_id == bindparam("of_wall"),
+        BrainQuizRoundRecord.number == bindparam("of_round"),
+        BrainQuizRoundRecord.closed_at.is_(None),
+    )
+    .values(last_answer_at=bindparam("now"))
+)
+_CHANGE_ANSWER = (
+    update(BrainAnswerRecord)
+    .where(
+        BrainAnswerRecord.wall_id == bindparam("of_wall"),
+        BrainAnswerRecord.round == bindparam("of_round"),
+        BrainAnswerRecord.visitor_id == bindparam("of_visitor"),
+        BrainAnswerRecord.tag_set == bindparam("of_set"),
+        BrainAnswerRecord.region_id == bindparam("of_region"),
+    )
+    .values(answer=bindparam("text"), correct=bindparam("is_correct"))
+)
+_NEW_ANSWER = insert(BrainAnswerRecord)
 
 
 def get_round(db: Database, wall_id: str, number: int) -> Round | None:
@@ -278,21 +299,15 @@ def _latest_number(session: Session, wall_id: str) -> int | None:
     return None if number is None else int(number)
 
 
-def _claim_open(session: Session, wall_id: str, number: int) -> None:
+def _claim_open(writer: Session | Connection, wall_id: str, number: int) -> None:
     """Take the round's row for this transaction, or QuizError when it is closed.
 
     Writing the row first holds its lock until the answer is stored (PostgreSQL) or
     takes the database's write lock (SQLite): closing the round waits for us, and we
     see a close that came first.
     """
-    claimed = session.execute(
-        update(BrainQuizRoundRecord)
-        .where(
-            BrainQuizRoundRecord.wall_id == wall_id,
-            BrainQuizRoundRecord.number == number,
-            BrainQuizRoundRecord.closed_at.is_(None),
-        )
-        .values(last_answer_at=datetime.now(UTC))
+    claimed = writer.execute(
+        _CLAIM_OPEN, {"of_wall": wall_id, "of_round": number, "now": datetime.now(UTC)}
     )
     if claimed.rowcount != 1:  # type: ignore[attr-defined]
         raise QuizError("This round is closed: answers are no longer taken.")
@@ -345,35 +360,37 @@ def _store_answer(
     text: str,
     correct: bool,
 ) -> Progress:
-    with db.session() as session:
-        _claim_open(session, wall_id, number)
-        if session.get(BrainQuizFinishRecord, (wall_id, number, visitor_id, tag_set)):
+    key = {"wall_id": wall_id, "number": number, "visitor_id": visitor_id, "tag_set": tag_set}
+    with db.engine.begin() as connection:  # every answer of a room: Core, statements built once
+        _claim_open(connection, wall_id, number)
+        if connection.execute(_FINISHED, key).first() is not None:
             raise QuizError("You have finished this quiz: your answers are final.")
-        row = session.scalar(
-            select(BrainAnswerRecord).where(
-                BrainAnswerRecord.wall_id == wall_id,
-                BrainAnswerRecord.round == number,
-                BrainAnswerRecord.visitor_id == visitor_id,
-                BrainAnswerRecord.tag_set == tag_set,
-                BrainAnswerRecord.region_id == region_id,
-            )
+        changed = connection.execute(
+            _CHANGE_ANSWER,
+            {
+                "of_wall": wall_id,
+                "of_round": number,
+                "of_visitor": visitor_id,
+                "of_set": tag_set,
+                "of_region": region_id,
+                "text": text,
+                "is_correct": correct,
+            },
         )
-        if row is None:
-            session.add(
-                BrainAnswerRecord(
-                    wall_id=wall_id,
-                    round=number,
-                    visitor_id=visitor_id,
-                    tag_set=tag_set,
-                    region_id=region_id,
-                    answer=text,
-                    correct=correct,
-                )
+        if changed.rowcount == 0:
+            connection.execute(
+                _NEW_ANSWER,
+                {
+                    "wall_id": wall_id,
+                    "round": number,
+                    "visitor_id": visitor_id,
+                    "tag_set": tag_set,
+                    "region_id": region_id,
+                    "answer": text,
+                    "correct": correct,
+                },
             )
-        else:
-            row.answer, row.correct = text, correct
-        session.flush()
-        return _progress(session, wall_id, number, visitor_id, tag_set)
+        return _progress(connection, wall_id, number, visitor_id, tag_set)
 
 
 def finish(
