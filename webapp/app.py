@@ -123,6 +123,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         if wall_app.static:
             app.mount(static_url(wall_app.name), StaticFiles(directory=wall_app.static))
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
+    # Routes are tried in order, each at a cost: what phones ask for most (scans and
+    # their app's pages) is tried first.
+    app.include_router(resolve.router)
+    for wall_app in services.apps.values():
+        if (app_router := wall_app.router()) is not None:
+            app.include_router(app_router)
     for router in (
         health.router,
         pages.router,
@@ -130,7 +136,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         pairing.router,
         dashboard.router,
         public.router,
-        resolve.router,
         scan.router,
         tags.router,
         walls.router,
@@ -138,9 +143,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         ws.router,
     ):
         app.include_router(router)
-    for wall_app in services.apps.values():
-        if (app_router := wall_app.router()) is not None:
-            app.include_router(app_router)
     _add_error_pages(app)
     _document_errors(app, services)
     return app
