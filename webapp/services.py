@@ -9,7 +9,9 @@ from redis.asyncio import Redis
 
 from wall_client.layout import Wall
 from webapp.apps import WallApp
+from webapp.caching import SizedCache
 from webapp.database.connection import Database
+from webapp.database.models import TagLayoutRecord
 from webapp.engine.hub import WallHub
 from webapp.people.counters import Counters, MemoryCounters, RedisCounters
 from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
@@ -17,9 +19,12 @@ from webapp.people.signin import SignInThrottle
 from webapp.people.tokens import Tokens
 from webapp.people.visitors import Visitor
 from webapp.settings import Settings
+from webapp.tags.registry import LAYOUTS_KEPT, get_layout
 from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.urls import tile_url
 from webapp.volume.catalog import VolumeCatalog
+
+LAYOUTS_CACHED = 4 * LAYOUTS_KEPT
 
 
 @dataclass
@@ -40,6 +45,7 @@ class Services:
     password_checks: CapacityLimiter = field(init=False)
     volumes: VolumeCatalog = field(init=False)
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
+    layouts: SizedCache[TagLayoutRecord] = field(init=False)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db, bus=self.hub.bus)
@@ -57,6 +63,7 @@ class Services:
         # what it bounds is this process's memory).
         self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
         self.tokens = Tokens(self.secret)
+        self.layouts = SizedCache(LAYOUTS_CACHED)
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
@@ -81,6 +88,19 @@ class Services:
     @property
     def secret(self) -> str:
         return self.settings.resolved_secret_key
+
+    def layout(self, wall_id: str, layout_id: int | None) -> TagLayoutRecord | None:
+        """The wall's layout ``layout_id`` (None: no such layout of this wall). Layouts
+        never change (a new placement is a new row), so they are kept once read: a
+        phone's page may read where its code stands, each parse costing milliseconds.
+        Thread-safe; the records are detached and only read."""
+        if not layout_id:
+            return None
+        key = (wall_id, layout_id)
+        record = self.layouts.get(key)
+        if record is None and (record := get_layout(self.db, wall_id, layout_id)) is not None:
+            self.layouts.put(key, record)
+        return record
 
     def tile_token(self, wall_id: str) -> str:
         return self.tokens.tile(wall_id)

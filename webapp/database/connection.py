@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, ParamSpec, TypeVar
 
 from annotated_types import Interval
 from sqlalchemy import Connection, Engine, MetaData, create_engine, event, text
@@ -19,6 +19,10 @@ from sqlalchemy.exc import (
     SQLAlchemyError,
 )
 from sqlalchemy.orm import DeclarativeBase, Session, sessionmaker
+from starlette.concurrency import run_in_threadpool
+
+P = ParamSpec("P")
+T = TypeVar("T")
 
 # Stable constraint names keep Alembic autogenerate and SQLite batch mode honest.
 NAMING_CONVENTION = {
@@ -88,6 +92,17 @@ class Database:
         self.url = url
         self.engine = make_engine(url)
         self.sessions = sessionmaker(self.engine, expire_on_commit=False)
+        self.embedded = self.engine.dialect.name == "sqlite"
+
+    async def read(self, function: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
+        """Run ``function``, a phone's short read, for a coroutine: in a worker thread
+        for a database server (its round trips must not hold the event loop), but
+        right here for SQLite. A read of the embedded file (a tenth of a millisecond,
+        never waiting for a lock in WAL mode) costs less than the hand-off to a
+        thread and back, which phones paid twice a page."""
+        if self.embedded:
+            return function(*args, **kwargs)
+        return await run_in_threadpool(function, *args, **kwargs)
 
     @contextmanager
     def session(self) -> Iterator[Session]:

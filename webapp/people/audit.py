@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import select
+from sqlalchemy import Connection, insert, select
 from sqlalchemy.orm import Session
 
 from webapp.database.connection import Database
@@ -12,7 +12,7 @@ from webapp.database.models import AuditRecord
 
 
 def audit(
-    session: Session,
+    writer: Session | Connection,
     action: str,
     *,
     actor: str = "",
@@ -21,8 +21,8 @@ def audit(
     **detail: Any,
 ) -> None:
     """Add one entry in the caller's transaction, so it lands with the change it records."""
-    session.add(
-        AuditRecord(
+    writer.execute(
+        insert(AuditRecord).values(
             action=action,
             actor=actor[:120],
             visitor_id=visitor_id,

@@ -28,7 +28,7 @@ from tag_service.verify import Decoded, NotAnImage, TooManyPixels, decode_image,
 from webapp.deps import ServicesDep
 from webapp.engine.wall_state import read_state
 from webapp.services import Services
-from webapp.tags.registry import find, get_layout
+from webapp.tags.registry import find
 from webapp.templating import render
 
 router = APIRouter(include_in_schema=False)
@@ -183,7 +183,7 @@ def _what_it_marks(services: Services, code: str) -> tuple[str, str]:
     wall = services.walls.get(tag.wall_id)
     wall_name = wall.name if wall is not None else tag.wall_id
     _, state = read_state(services.db, tag.wall_id)
-    layout = get_layout(services.db, tag.wall_id, state.tag_layout) if state.tag_layout else None
+    layout = services.layout(tag.wall_id, state.tag_layout)
     display = next(
         (p["display"] for p in (layout.placed if layout else []) if p["code"] == code), None
     )

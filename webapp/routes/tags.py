@@ -22,7 +22,6 @@ from webapp.tags.registry import (
     TagSpec,
     anchor_of,
     find,
-    get_layout,
     issue,
     payload_of,
     tag_sets,
@@ -95,7 +94,7 @@ async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> Tag
 async def list_tag_sets(wall: WallDep, services: ServicesDep) -> TagSetsInfo:
     sets = await run_in_threadpool(tag_sets, services.db, wall.id)
     _, state = await run_in_threadpool(read_state, services.db, wall.id)
-    layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
+    layout = await run_in_threadpool(services.layout, wall.id, state.tag_layout)
     return TagSetsInfo(
         wall=wall.id,
         active=state.tag_set,
@@ -150,7 +149,7 @@ async def get_wall_layout(
     Public: the codes stand on the wall for anyone in the room to see. Layouts never
     change once made, so they are cached for good.
     """
-    record = await run_in_threadpool(get_layout, services.db, wall.id, layout_id)
+    record = await run_in_threadpool(services.layout, wall.id, layout_id)
     if record is None:
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, f"Wall {wall.id!r} has no layout {layout_id}."

@@ -40,7 +40,7 @@ from webapp.engine.wall_state import WallState
 from webapp.people.roles import UserGroup
 from webapp.publishing import Block, Publication
 from webapp.settings import Settings
-from webapp.tags.registry import TagSpec, anchored_code_side_mm, get_layout, preview, wall_tags
+from webapp.tags.registry import TagSpec, anchored_code_side_mm, preview, wall_tags
 from webapp.volume.build import build_store, open_source
 
 if TYPE_CHECKING:
@@ -158,7 +158,7 @@ class BrainApp:
         found = self._guides.get(key)
         if found is not None:
             return found
-        layout = get_layout(services.db, wall.id, state.tag_layout) if state.tag_layout else None
+        layout = services.layout(wall.id, state.tag_layout)
         placed = {code["code"] for code in layout.placed} if layout is not None else set()
         pins = {
             int(tag.params["pin"]): tag.code

@@ -163,7 +163,7 @@ async def pin_page(
     """A scanned pin: the quiz question, the region's tutor page, or word that a new
     round has started."""
     try:
-        pin, now = await run_in_threadpool(pin_and_progress, app, services, wall, tag, person)
+        pin, now = await services.db.read(pin_and_progress, app, services, wall, tag, person)
     except RoundChanged:
         return round_changed_page(request, wall, tag)
     if mode_of(pin.state) == "tutor":
@@ -313,7 +313,7 @@ async def progress_page(
 ) -> Response:
     """How far the visitor is and where the open pins are; the correct names when
     the round's rule says so."""
-    facts = await run_in_threadpool(progress_facts, app, services, wall, person, tag_set)
+    facts = await services.db.read(progress_facts, app, services, wall, person, tag_set)
     if facts is None:
         return render(request, "brain/no_round.html", wall=wall)
     state, quiz_round, now, guide = facts

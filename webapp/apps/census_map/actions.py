@@ -21,7 +21,6 @@ from webapp.choropleth.classes import Theme
 from webapp.engine.changes import Update, change_wall, plan_change
 from webapp.engine.wall_state import Balloon, WallState, now_ms
 from webapp.schemas import PlacedCode
-from webapp.tags.registry import get_layout
 
 if TYPE_CHECKING:
     from webapp.apps.census_map.app import CensusApp
@@ -125,7 +124,7 @@ async def open_balloon(
         hidden = hidden_group(state, dataset, tract)
         if hidden is not None:
             raise GroupHidden(hidden)
-        layout = await run_in_threadpool(get_layout, services.db, wall.id, state.tag_layout)
+        layout = await run_in_threadpool(services.layout, wall.id, state.tag_layout)
         geometry = await run_in_threadpool(app.geometry, dataset)
         now = now_ms()
         open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]

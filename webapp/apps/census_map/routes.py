@@ -67,7 +67,6 @@ from webapp.deps import (
 from webapp.engine.wall_state import View, WallState, now_ms, read_state
 from webapp.schemas import PlacedCode, errors
 from webapp.services import Services
-from webapp.tags.registry import get_layout
 from webapp.templating import render
 
 router = APIRouter(tags=["census"])
@@ -152,7 +151,7 @@ def _tile_body(
 ) -> bytes:
     dataset = app.dataset(services, dataset_id)
     assert dataset is not None
-    record = get_layout(services.db, wall.id, layout_id) if layout_id else None
+    record = services.layout(wall.id, layout_id)
     placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
     codes = _census_tags(services, [p.code for p in placed])
     tracts = {tag.params["geoid"]: code for code, tag in codes.items() if tag.action == "tract"}
@@ -240,7 +239,7 @@ def _theme_body(
 ) -> bytes:
     shading = app.shading(dataset, theme)
     assert shading is not None
-    record = get_layout(services.db, wall.id, layout_id) if layout_id else None
+    record = services.layout(wall.id, layout_id)
     codes = [
         Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
     ]
@@ -641,7 +640,7 @@ async def earth_caption(
 ) -> Response:
     """A placed code's caption as Google Earth draws it under the code (a layout never
     changes, so neither does its image)."""
-    record = await run_in_threadpool(get_layout, services.db, wall.id, layout_id)
+    record = await run_in_threadpool(services.layout, wall.id, layout_id)
     found = next((p for p in record.placed if p["code"] == code), None) if record else None
     placed = PlacedCode.model_validate(found) if found else None
     if placed is None or not placed.label or placed.caption is None:

@@ -15,13 +15,13 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from fastapi import APIRouter, Response
-from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import ROLES, Display, Wall
 from webapp.apps import Scan, static_url
+from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing import Block, Publication
-from webapp.tags.registry import TagSpec, get_layout
+from webapp.tags.registry import TagSpec
 from webapp.templating import render
 
 if TYPE_CHECKING:
@@ -108,13 +108,16 @@ class PatternApp:
 
 async def _placement_of(scan: Scan) -> tuple[dict[str, Any] | None, Display | None]:
     """Where the scanned code stands in the wall's current layout (None: not placed)."""
-    db = scan.services.db
-    _, state = await run_in_threadpool(read_state, db, scan.wall.id)
-    layout = await run_in_threadpool(get_layout, db, scan.wall.id, state.tag_layout)
+    layout = await scan.services.db.read(_current_layout, scan.services, scan.wall.id)
     placed = next(
         (p for p in (layout.placed if layout else []) if p["code"] == scan.tag.code), None
     )
     return placed, scan.wall.display(placed["display"]) if placed else None
+
+
+def _current_layout(services: Services, wall_id: str) -> TagLayoutRecord | None:
+    _, state = read_state(services.db, wall_id)
+    return services.layout(wall_id, state.tag_layout)
 
 
 def _side_by_side(displays: list[Display]) -> list[tuple[Display, Display]]:
