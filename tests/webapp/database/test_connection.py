@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import pytest
+from sqlalchemy import event, select
 
-from webapp.database.connection import Database, make_engine
+from webapp.database.connection import SQLITE_POOL_SIZE, Database, make_engine
 from webapp.database.migrate import upgrade
+from webapp.database.models import WallStateRecord
 
 
 def test_ping_answers_when_the_database_does(database_url: str) -> None:
@@ -48,3 +51,48 @@ def test_only_server_connections_are_pinged_before_use(tmp_path: Path) -> None:
     finally:
         sqlite.dispose()
         server.dispose()
+
+
+def test_a_sqlite_engine_keeps_a_connection_for_every_thread(tmp_path: Path) -> None:
+    """As many threads as may hold a session at once find an open connection: none is
+    opened (its pragmas run) again and again while a room's requests keep them busy."""
+    db = Database(f"sqlite:///{tmp_path / 'x.db'}")
+    opened: list[object] = []
+    event.listen(db.engine, "connect", lambda connection, _record: opened.append(connection))
+    try:
+        held = [db.engine.connect() for _ in range(SQLITE_POOL_SIZE)]
+        for connection in held:
+            connection.close()
+        for _ in range(3):
+            held = [db.engine.connect() for _ in range(SQLITE_POOL_SIZE)]
+            for connection in held:
+                connection.close()
+        assert len(opened) == SQLITE_POOL_SIZE
+    finally:
+        db.dispose()
+
+
+async def test_short_reads_stay_on_the_event_loop_with_sqlite_only(database_url: str) -> None:
+    """SQLite's reads run where they are awaited (cheaper than a thread hop); a database
+    server's go to a worker thread, whose round trips must not hold the event loop."""
+    db = Database(database_url)
+    try:
+        where = await db.read(threading.get_ident)
+        embedded = db.engine.dialect.name == "sqlite"
+        assert db.embedded is embedded
+        assert (where == threading.get_ident()) is embedded
+    finally:
+        db.dispose()
+
+
+def test_a_reading_connection_sees_what_sessions_committed(database_url: str) -> None:
+    upgrade(database_url)
+    db = Database(database_url)
+    try:
+        with db.session() as session:
+            session.add(WallStateRecord(wall_id="demo", version=3, state={"app": "brain"}))
+        with db.reading() as connection:
+            row = connection.execute(select(WallStateRecord.version)).one()
+        assert row.version == 3
+    finally:
+        db.dispose()
