@@ -128,8 +128,8 @@ def load_person(db: Database, visitor: Visitor, address: str, settings: Settings
 
 def _person(
     visitor: Visitor,
-    record: VisitorRecord | Row[Any] | None,
-    rule: AddressRuleRecord | Row[Any] | None,
+    record: Row[Any] | None,
+    rule: Row[Any] | None,
     settings: Settings,
 ) -> Person:
     role: Role = _role(record.role if record else "student")

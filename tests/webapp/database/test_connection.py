@@ -96,3 +96,27 @@ def test_a_reading_connection_sees_what_sessions_committed(database_url: str) ->
         assert row.version == 3
     finally:
         db.dispose()
+
+
+async def test_the_reads_of_one_page_share_a_connection(database_url: str) -> None:
+    """Every reading within one ``read`` is the same connection (one check-out, one ping
+    for a server); each reading of its own checks one out."""
+    db = Database(database_url)
+
+    def connections() -> set[int]:
+        seen = set()
+        for _ in range(3):
+            with db.reading() as connection:
+                seen.add(id(connection))
+        return seen
+
+    try:
+        assert len(await db.read(connections)) == 1
+        with db.reading() as outer, db.reading() as inner:
+            assert inner is outer
+        with db.reading() as first:
+            pass
+        with db.reading() as second:
+            assert second is not first
+    finally:
+        db.dispose()
