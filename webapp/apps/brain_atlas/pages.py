@@ -83,13 +83,13 @@ async def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
 
 
 async def wall_state(services: Services, wall: Wall) -> WallState:
-    _, state = await run_in_threadpool(read_state, services.db, wall.id)
+    _, state = await services.db.read(read_state, services.db, wall.id)
     return state
 
 
 def current_round(app: BrainApp, services: Services, wall: Wall) -> tuple[WallState, Round | None]:
-    """The wall's state and the quiz round it names (runs in a worker thread: a page
-    does its database work in one hop, each hop costs a phone's request time)."""
+    """The wall's state and the quiz round it names (synchronous: a page reads all it
+    needs in one :meth:`~webapp.database.connection.Database.read`)."""
     _, state = read_state(services.db, wall.id)
     return state, app.round_on_wall(services, wall.id, state)
 
@@ -97,12 +97,12 @@ def current_round(app: BrainApp, services: Services, wall: Wall) -> tuple[WallSt
 async def round_now(
     app: BrainApp, services: Services, wall: Wall
 ) -> tuple[WallState, Round | None]:
-    return await run_in_threadpool(current_round, app, services, wall)
+    return await services.db.read(current_round, app, services, wall)
 
 
 def pin_of(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Pin:
     """What ``tag`` marks in the round on the wall; RoundChanged for an old round's
-    (in a worker thread)."""
+    (synchronous, like :func:`current_round`)."""
     state, quiz_round = current_round(app, services, wall)
     if quiz_round is None or tag.params.get("round") != quiz_round.number:
         raise RoundChanged(tag)
@@ -130,7 +130,7 @@ async def tutor_subject(
     """The region a pin shows in tutor mode; None while a quiz round runs (then no
     pin may be named anywhere) or for an earlier round's code."""
     try:
-        pin = await run_in_threadpool(pin_of, app, services, wall, tag)
+        pin = await services.db.read(pin_of, app, services, wall, tag)
     except RoundChanged:
         return None
     if pin.state.app != APP or mode_of(pin.state) != "tutor" or pin.round.open:
@@ -174,7 +174,7 @@ async def pin_page(
 def pin_and_progress(
     app: BrainApp, services: Services, wall: Wall, tag: TagRecord, person: Person
 ) -> tuple[Pin, Progress]:
-    """The pin and how far the visitor is in its round (in a worker thread)."""
+    """The pin and how far the visitor is in its round (one ``db.read``)."""
     pin = pin_of(app, services, wall, tag)
     return pin, progress(services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
 
@@ -353,7 +353,7 @@ async def progress_page(
 def progress_facts(
     app: BrainApp, services: Services, wall: Wall, person: Person, tag_set: TagSetName
 ) -> tuple[WallState, Round, Progress, RoundGuide] | None:
-    """What the progress page shows, read in one worker-thread hop; None before the
+    """What the progress page shows, read in one ``db.read``; None before the
     quiz's first round."""
     state, quiz_round = current_round(app, services, wall)
     if quiz_round is None:
