@@ -17,9 +17,11 @@ process (:class:`MemoryBus`) or in all that share the wall (:class:`RedisBus`).
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
+import types
 from abc import ABC, abstractmethod
-from collections.abc import AsyncIterator, Callable, Coroutine
+from collections.abc import AsyncIterator, Callable, Coroutine, Generator
 from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from typing import Any, cast
 
@@ -45,23 +47,68 @@ class WallBusy(Exception):
     """Another change held the wall for longer than a change waits for it."""
 
 
+Write = Callable[[str], Coroutine[Any, Any, None]]
+"""How a connection writes one message to its socket."""
+
+
 class Subscription:
-    """One connection's bounded inbox for one wall."""
+    """One connection's bounded inbox for one wall.
+
+    A connection that can write on the publisher's turn (:meth:`write_through`) gets each
+    message written as it is offered, while nothing is queued before it: a published
+    frame reaches the tiles ahead of whatever else is ready to run on the event loop,
+    without a task switch per tile. What arrives while a write waits (a socket that
+    pushes back) queues, in order, for the connection's own loop (:meth:`next`).
+    """
 
     def __init__(self, maxsize: int) -> None:
         self.maxsize = maxsize
         # Unbounded underneath so the overflow marker always fits; ``offer`` bounds it.
         self._queue: asyncio.Queue[str | None] = asyncio.Queue()
         self.overflowed = False
+        self._write: Write | None = None
+        self._writing: asyncio.Task[None] | None = None
+        self._failure: Exception | None = None
+
+    def write_through(self, write: Write | None) -> None:
+        """Write each message offered from now on with ``write`` when nothing is queued
+        or being written before it (``None``: stop, and abandon a write still waiting).
+        The connection's ``write`` must keep its own writes in order (a FIFO lock), so
+        that one started here and one of :meth:`next`'s messages never swap places."""
+        if write is None and self._writing is not None:
+            self._writing.cancel()
+        self._write = write
 
     def offer(self, message: str) -> None:
-        """Queue ``message``, or mark the subscriber as too slow to keep."""
+        """Write ``message`` now (see :meth:`write_through`), or queue it, or mark the
+        subscriber as too slow to keep."""
         if self.overflowed:
             return
-        if self._queue.qsize() >= self.maxsize:
+        if self._write is not None and self._writing is None and self._queue.empty():
+            self._write_now(self._write, message)
+        elif self._queue.qsize() >= self.maxsize:
             self.fall_behind()
         else:
             self._queue.put_nowait(message)
+
+    def _write_now(self, write: Write, message: str) -> None:
+        try:
+            self._writing = run_now(write(message))
+        except Exception as error:  # one socket's failure is its connection's, not the publisher's
+            self._fail(error)
+            return
+        if self._writing is not None:
+            self._writing.add_done_callback(self._written)
+
+    def _written(self, writing: asyncio.Task[None]) -> None:
+        self._writing = None
+        if not writing.cancelled() and isinstance(error := writing.exception(), Exception):
+            self._fail(error)
+
+    def _fail(self, error: Exception) -> None:
+        """A write failed: :meth:`next` raises ``error`` after what is queued."""
+        self._failure = error
+        self.fall_behind()
 
     def fall_behind(self) -> None:
         """Mark the subscriber as having missed messages: after what is queued,
@@ -71,10 +118,11 @@ class Subscription:
             self._queue.put_nowait(None)
 
     async def next(self) -> str:
-        """The next message; raises ``SubscriberTooSlow`` once the queue overflowed."""
+        """The next queued message; raises ``SubscriberTooSlow`` once the queue overflowed,
+        or what a write on the publisher's turn raised."""
         message = await self._queue.get()
         if message is None:
-            raise SubscriberTooSlow
+            raise self._failure or SubscriberTooSlow()
         return message
 
     def drain(self) -> list[str]:
@@ -85,6 +133,38 @@ class Subscription:
             if message is not None:
                 messages.append(message)
         return messages
+
+
+def run_now(coroutine: Coroutine[Any, Any, None]) -> asyncio.Task[None] | None:
+    """Run ``coroutine`` on the caller's turn up to its first wait: ``None`` when it
+    finished there, otherwise a task that carries on from that wait (what Python 3.12's
+    eager tasks do). Raises what the coroutine raised before waiting."""
+    try:
+        awaited = coroutine.send(None)
+    except StopIteration:
+        return None
+    return asyncio.get_running_loop().create_task(_carry_on(coroutine, awaited))
+
+
+async def _carry_on(coroutine: Coroutine[Any, Any, None], awaited: Any) -> None:
+    await _resume(coroutine, awaited)
+
+
+@types.coroutine
+def _resume(coroutine: Coroutine[Any, Any, None], awaited: Any) -> Generator[Any, Any, None]:
+    """Hand a started coroutine's waits to the task awaiting this, and its wake-ups
+    (or cancellation) back to the coroutine, until it returns."""
+    while True:
+        try:
+            yield awaited
+        except BaseException as error:  # the task's cancellation, passed on
+            resume = functools.partial(coroutine.throw, error)
+        else:
+            resume = functools.partial(coroutine.send, None)
+        try:
+            awaited = resume()
+        except StopIteration:
+            return
 
 
 EVENTS = "events"

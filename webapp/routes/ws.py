@@ -197,11 +197,17 @@ class Connection:
                 raise CloseConnection(CLOSE_POLICY, "the tile token was rotated")
 
     async def write_loop(self, subscription: Subscription) -> None:
+        """Frames are written as they are published (``Subscription.write_through``);
+        this loop writes those that queued while the socket pushed back, and ends the
+        connection when a write failed or the socket fell too far behind."""
+        subscription.write_through(self.send)
         try:
             while True:
                 await self.send(await subscription.next())
         except SubscriberTooSlow:
             raise CloseConnection(CLOSE_TRY_AGAIN, "too slow: reconnect for a snapshot") from None
+        finally:
+            subscription.write_through(None)
 
     async def receive(self) -> Hello | Ping | Ready | Applied:
         """The next frame as a message; anything malformed closes this socket."""

@@ -30,6 +30,7 @@ from webapp.engine.bus import (
     Subscription,
     WallBusy,
     lock_key,
+    run_now,
     stream_key,
 )
 from webapp.engine.hub import WallHub
@@ -112,6 +113,154 @@ async def soon(condition: Callable[[], bool]) -> None:
     async with asyncio.timeout(BOUND_S):
         while not condition():
             await asyncio.sleep(0.02)
+
+
+# --- writing on the publisher's turn ---------------------------------------------
+
+
+class Socket:
+    """A connection's writes as ``Subscription.write_through`` sees them: in order
+    (a FIFO lock), waiting while the socket pushes back (``writable`` clear)."""
+
+    def __init__(self) -> None:
+        self.written: list[str] = []
+        self.writable = asyncio.Event()
+        self.writable.set()
+        self.lock = asyncio.Lock()
+        self.broken = False
+
+    async def write(self, message: str) -> None:
+        async with self.lock:
+            await self.writable.wait()
+            if self.broken:
+                raise ConnectionResetError("the peer went away")
+            self.written.append(message)
+
+    async def write_queued(self, subscription: Subscription) -> None:
+        """The connection's own loop: writes what queued while a write waited."""
+        while True:
+            await self.write(await subscription.next())
+
+
+async def test_run_now_finishes_a_coroutine_that_never_waits_on_the_callers_turn() -> None:
+    done: list[str] = []
+
+    async def work() -> None:
+        done.append("done")
+
+    assert run_now(work()) is None
+    assert done == ["done"]
+
+
+async def test_run_now_carries_on_from_the_first_wait_in_a_task() -> None:
+    steps: list[str] = []
+    go_on = asyncio.Event()
+
+    async def work() -> None:
+        steps.append("before")
+        await go_on.wait()
+        await asyncio.sleep(0)
+        steps.append("after")
+
+    rest = run_now(work())
+    assert steps == ["before"] and rest is not None
+    go_on.set()
+    async with asyncio.timeout(BOUND_S):
+        await rest
+    assert steps == ["before", "after"]
+
+
+async def test_run_now_passes_cancellation_to_the_waiting_coroutine() -> None:
+    seen: list[str] = []
+
+    async def work() -> None:
+        try:
+            await asyncio.Event().wait()
+        except asyncio.CancelledError:
+            seen.append("cancelled")
+            raise
+
+    rest = run_now(work())
+    assert rest is not None
+    await asyncio.sleep(0)
+    rest.cancel()
+    with pytest.raises(asyncio.CancelledError):
+        await rest
+    assert seen == ["cancelled"]
+
+
+async def test_run_now_raises_what_the_coroutine_raised_before_waiting() -> None:
+    async def work() -> None:
+        raise ValueError("bad")
+
+    with pytest.raises(ValueError, match="bad"):
+        run_now(work())
+
+
+async def test_a_writing_subscriber_gets_a_frame_before_other_ready_work() -> None:
+    bus, socket = MemoryBus(8), Socket()
+    order: list[str] = []
+    async with bus.subscribe("a") as subscription:
+        subscription.write_through(socket.write)
+        asyncio.get_running_loop().call_soon(order.append, "work already ready")
+        await bus.publish("a", "frame")
+        order.extend(socket.written)
+        await asyncio.sleep(0)
+    assert order == ["frame", "work already ready"]
+    assert subscription.drain() == []  # written, not queued
+
+
+async def test_frames_published_while_a_write_waits_follow_it_in_order() -> None:
+    bus, socket = MemoryBus(8), Socket()
+    async with bus.subscribe("a") as subscription:
+        subscription.write_through(socket.write)
+        writer = asyncio.create_task(socket.write_queued(subscription))
+        socket.writable.clear()  # the peer reads slowly
+        for index in range(4):
+            await bus.publish("a", str(index))
+        assert socket.written == []
+        socket.writable.set()
+        await soon(lambda: len(socket.written) == 4)
+        await bus.publish("a", "4")
+        assert socket.written == ["0", "1", "2", "3", "4"]  # the last on the publisher's turn
+        writer.cancel()
+
+
+async def test_a_socket_that_keeps_pushing_back_falls_behind() -> None:
+    bus, socket = MemoryBus(2), Socket()
+    async with bus.subscribe("a") as subscription:
+        subscription.write_through(socket.write)
+        socket.writable.clear()
+        for index in range(4):  # one write waiting, two queued, one too many
+            await bus.publish("a", str(index))
+        assert subscription.overflowed
+        assert [await subscription.next(), await subscription.next()] == ["1", "2"]
+        with pytest.raises(SubscriberTooSlow):
+            await subscription.next()
+        subscription.write_through(None)  # the connection ends: its waiting write goes
+        await asyncio.sleep(0)
+        socket.writable.set()
+        await asyncio.sleep(0)
+        assert socket.written == []
+
+
+@pytest.mark.parametrize("when", ["at once", "after waiting"])
+async def test_a_failed_write_ends_that_connection_only(when: str) -> None:
+    bus, broken, healthy = MemoryBus(8), Socket(), Socket()
+    broken.broken = True
+    async with bus.subscribe("a") as failing, bus.subscribe("a") as other:
+        failing.write_through(broken.write)
+        other.write_through(healthy.write)
+        if when == "after waiting":
+            broken.writable.clear()
+        await bus.publish("a", "frame")  # the publisher never sees the failure
+        broken.writable.set()
+        assert healthy.written == ["frame"]
+        with pytest.raises(ConnectionResetError):
+            async with asyncio.timeout(BOUND_S):
+                await failing.next()
+        await bus.publish("a", "later")
+        assert healthy.written == ["frame", "later"] and broken.written == []
 
 
 # --- both buses ------------------------------------------------------------------
