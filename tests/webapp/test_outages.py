@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Callable
+from contextlib import ExitStack
 from pathlib import Path
 
+import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import create_engine, text
-from sqlalchemy.engine import make_url
+from sqlalchemy.engine import Engine, make_url
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 
 from tests.conftest import (
     POSTGRES_URL,
@@ -74,6 +77,39 @@ def test_a_database_outage_is_503_not_500(
         assert page.headers["retry-after"] == api.headers["retry-after"] == "5"
         assert phone.get("/me").status_code == 200, "and back when the database is"
         assert phone.get("/api/walls/demo/status", headers=operator).status_code == 200
+
+
+def exhaust_pool(engine: Engine, connections: ExitStack) -> None:
+    """Check out every connection ``engine``'s pool has, into ``connections``."""
+    with pytest.raises(PoolTimeout):
+        while True:
+            connections.enter_context(engine.connect())
+
+
+def test_a_server_out_of_connections_is_503_not_500(
+    settings: Settings, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A process so loaded that a change waits out the pool's timeout for a connection
+    (every one checked out by other requests) answers 503 with Retry-After, as for a
+    database that does not answer, not a 500 with a traceback; the change was not
+    made, and goes through once connections are free again."""
+    upgrade(settings.resolved_database_url)
+    app = create_app(settings)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        operator = operator_headers(client)
+        start = client.get("/api/walls/hiperwall/status", headers=operator).json()["version"]
+        engine = services_of(client).db.engine
+        monkeypatch.setattr(engine.pool, "_timeout", 0.2)  # not the 30 s a server waits
+        with ExitStack() as connections:
+            exhaust_pool(engine, connections)
+            change = {"layers": {"grid": False}}
+            answer = client.post("/api/walls/hiperwall/state", json=change, headers=operator)
+        assert answer.status_code == 503 and answer.headers["retry-after"] == "5"
+        assert answer.json() == {"detail": "The database is not answering. Try again in a moment."}
+        status = client.get("/api/walls/hiperwall/status", headers=operator).json()
+        assert status["version"] == start, "the change waited and was not made"
+        again = client.post("/api/walls/hiperwall/state", json=change, headers=operator)
+        assert again.status_code == 200 and again.json()["version"] == start + 1
 
 
 def test_a_redis_outage_is_503_not_500(

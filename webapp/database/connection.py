@@ -20,6 +20,7 @@ from sqlalchemy.exc import (
     OperationalError,
     SQLAlchemyError,
 )
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 from sqlalchemy.orm import DeclarativeBase, Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
@@ -154,10 +155,15 @@ class Database:
 
 def is_outage(error: SQLAlchemyError) -> bool:
     """True when ``error`` means the database cannot be reached or used right now (down,
-    restarting, out of connections, a lost connection), not that a query was wrong."""
+    restarting, out of connections, a lost connection), not that a query was wrong.
+
+    Out of connections includes this process's own pool: a session that waited the
+    pool's timeout (30 s) for a connection while every one was checked out (a server
+    loaded beyond what it answers in time) raises ``sqlalchemy.exc.TimeoutError``
+    before its transaction began, so it changed nothing; trying again is right."""
     if isinstance(error, DBAPIError) and error.connection_invalidated:
         return True
-    return isinstance(error, OperationalError | InterfaceError)
+    return isinstance(error, OperationalError | InterfaceError | PoolTimeout)
 
 
 def database_problem(error: Exception, url: str) -> str:

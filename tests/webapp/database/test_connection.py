@@ -6,9 +6,11 @@ import threading
 from pathlib import Path
 
 import pytest
-from sqlalchemy import event, select
+from sqlalchemy import create_engine, event, select
+from sqlalchemy.exc import OperationalError, ProgrammingError, SQLAlchemyError
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 
-from webapp.database.connection import SQLITE_POOL_SIZE, Database, make_engine
+from webapp.database.connection import SQLITE_POOL_SIZE, Database, is_outage, make_engine
 from webapp.database.migrate import upgrade
 from webapp.database.models import WallStateRecord
 
@@ -39,6 +41,21 @@ def test_the_postgres_run_really_uses_postgres(database_url: str) -> None:
         assert db.ping()
     finally:
         db.dispose()
+
+
+def test_a_pool_out_of_connections_is_an_outage(database_url: str) -> None:
+    """Waiting the pool's timeout for a connection (all checked out) is the server out
+    of connections: try again (503), not a wrong query (500)."""
+    engine = create_engine(database_url, pool_size=1, max_overflow=0, pool_timeout=0.05)
+    try:
+        with engine.connect(), pytest.raises(PoolTimeout) as waited:
+            engine.connect()
+        assert is_outage(waited.value)
+    finally:
+        engine.dispose()
+    wrong: SQLAlchemyError = ProgrammingError("SELECT nonsense", {}, Exception("syntax"))
+    assert not is_outage(wrong)
+    assert is_outage(OperationalError("SELECT 1", {}, Exception("server closed")))
 
 
 def test_only_server_connections_are_pinged_before_use(tmp_path: Path) -> None:
