@@ -20,7 +20,10 @@ memory; the generator's CPU and lateness (how late phones started against their
 schedule: whether the generator kept up); and the cores other processes kept busy
 meanwhile (the machine is shared: a figure taken beside others' work says so). After
 the hall, each step alone (``STEP_PHONES`` fresh phones one after another) gives
-what one request of that step costs the server.
+what one request of that step costs the server; and, measured the same way, the least
+request the server answers (``floor``: ``GET /healthz``, through the same middleware,
+routing, worker thread and pool to one ``SELECT 1``), for the same machine at the same
+hour: each step's ``floor_multiple`` is its CPU in floors.
 
 A profile (py-spy, sampling the thread that holds the GIL) sorts the server's CPU by
 what it was doing (``WORK``), during the hall and for each step alone.
@@ -467,7 +470,16 @@ def cpu_by_step(
     def progress_page(browser: httpx.Client, index: int) -> httpx.Response:
         return browser.get(progress[index])
 
-    steps = {"register": register, "scan": scan, "answer": answer, "progress": progress_page}
+    def floor(browser: httpx.Client, _index: int) -> httpx.Response:
+        return browser.get("/healthz")
+
+    steps = {
+        "register": register,
+        "scan": scan,
+        "answer": answer,
+        "progress": progress_page,
+        "floor": floor,  # on connections the steps opened, as the scans and answers are
+    }
     figures: dict[str, dict[str, Any]] = {}
     try:
         for step, make in steps.items():
@@ -495,6 +507,10 @@ def cpu_by_step(
     finally:
         for browser in phones:
             browser.close()
+    for step in steps:
+        figures[step]["floor_multiple"] = round(
+            figures[step]["server_cpu_ms"] / max(figures["floor"]["server_cpu_ms"], 1e-3), 1
+        )
     return figures
 
 
@@ -935,6 +951,11 @@ def summary(result: dict[str, Any]) -> str:
             f"server {figures['server_cpu_ms_per_request']} ms CPU/request, "
             f"{figures['server_memory']['rss_mb']} MB; last tile p99 {load.get('p99')} ms"
         )
+        alone = ", ".join(
+            f"{name} {step['server_cpu_ms']} ms ({step['floor_multiple']} floors)"
+            for name, step in figures["server_cpu_by_step_alone"].items()
+        )
+        lines.append(f"      each step alone, server CPU: {alone}")
     return "\n".join(lines)
 
 
