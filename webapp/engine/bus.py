@@ -385,6 +385,7 @@ class RedisBus(EventBus):
         self.lock_expiry_s = lock_expiry_s
         self.lock_wait_s = lock_wait_s
         self._readers: dict[tuple[str, str], _WallReader] = {}
+        self._stopping: set[asyncio.Future[None]] = set()  # readers whose last subscriber left
 
     @property
     def reading(self) -> frozenset[str]:
@@ -419,7 +420,7 @@ class RedisBus(EventBus):
             reader.subscriptions.discard(subscription)
             if not reader.subscriptions and self._readers.get(name) is reader:
                 del self._readers[name]
-                await reader.stop()
+                await self._stop(reader)
 
     async def _open(self, reader: _WallReader) -> None:
         """Start ``reader`` at the stream's current end."""
@@ -600,3 +601,13 @@ class RedisBus(EventBus):
         self._readers.clear()
         for reader in readers:
             await reader.stop()
+        await asyncio.gather(*self._stopping)
+
+    async def _stop(self, reader: _WallReader) -> None:
+        """Stop a reader its last subscriber left. The stop outlives that subscriber's
+        own cancellation (a connection closed twice over), and :meth:`close` waits for
+        it: a reader cut off halfway would read Redis for ever."""
+        stopping = asyncio.ensure_future(reader.stop())
+        self._stopping.add(stopping)
+        stopping.add_done_callback(self._stopping.discard)
+        await asyncio.shield(stopping)

@@ -29,6 +29,7 @@ from webapp.engine.bus import (
     SubscriberTooSlow,
     Subscription,
     WallBusy,
+    _WallReader,
     lock_key,
     run_now,
     stream_key,
@@ -349,6 +350,44 @@ async def test_a_wall_is_read_while_it_has_subscribers(redis_buses: MakeBus) -> 
             assert bus.reading == {"a", "b"}
         assert bus.reading == {"a"}
     assert bus.reading == set()
+
+
+async def test_a_reader_left_while_its_subscriber_is_cancelled_again_is_still_stopped(
+    redis_buses: MakeBus, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A connection cancelled twice over (as ``cancel_and_wait`` does) while its wall's
+    reader stops does not leave the reader reading Redis for ever: closing the bus
+    waits for it."""
+    bus: RedisBus = redis_buses()  # type: ignore[assignment]
+    readers: list[_WallReader] = []
+    slow_start = asyncio.Event()
+    stop = _WallReader.stop
+
+    async def slow_stop(reader: _WallReader) -> None:
+        readers.append(reader)
+        slow_start.set()
+        await asyncio.sleep(0.2)  # a Redis slow to answer
+        await stop(reader)
+
+    monkeypatch.setattr(_WallReader, "stop", slow_stop)
+    entered = asyncio.Event()
+
+    async def connection() -> None:
+        async with bus.subscribe("a"):
+            entered.set()
+            await asyncio.Event().wait()
+
+    task = asyncio.create_task(connection())
+    async with asyncio.timeout(BOUND_S):
+        await entered.wait()
+        task.cancel()
+        await slow_start.wait()
+        task.cancel()  # again, halfway through the reader's stop
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        await bus.close()
+    (reader,) = readers
+    assert reader.reading is not None and reader.reading.done()
 
 
 async def test_concurrent_changes_through_two_processes_arrive_in_version_order(
