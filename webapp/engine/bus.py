@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
+import inspect
 import logging
 import types
 from abc import ABC, abstractmethod
@@ -106,9 +107,12 @@ class Subscription:
             self._fail(error)
 
     def _fail(self, error: Exception) -> None:
-        """A write failed: :meth:`next` raises ``error`` after what is queued."""
+        """A write failed: :meth:`next` raises ``error`` next (what is queued would go
+        to a socket that is gone)."""
         self._failure = error
-        self.fall_behind()
+        self.overflowed = True
+        self.drain()
+        self._queue.put_nowait(None)
 
     def fall_behind(self) -> None:
         """Mark the subscriber as having missed messages: after what is queued,
@@ -143,7 +147,24 @@ def run_now(coroutine: Coroutine[Any, Any, None]) -> asyncio.Task[None] | None:
         awaited = coroutine.send(None)
     except StopIteration:
         return None
-    return asyncio.get_running_loop().create_task(_carry_on(coroutine, awaited))
+    rest = asyncio.get_running_loop().create_task(_carry_on(coroutine, awaited))
+    rest.add_done_callback(lambda _: _unwind(coroutine))
+    return rest
+
+
+def _unwind(coroutine: Coroutine[Any, Any, None]) -> None:
+    """A task cancelled before its first step never resumed its coroutine: throw the
+    cancellation in, so that its waits and locks let go of it."""
+    if inspect.getcoroutinestate(coroutine) != inspect.CORO_SUSPENDED:  # it ran to its end
+        return
+    try:
+        coroutine.throw(asyncio.CancelledError())
+    except (asyncio.CancelledError, StopIteration):
+        return
+    except Exception:
+        log.exception("a write abandoned by its task failed as it unwound")
+        return
+    coroutine.close()  # it waited again: abandon it there
 
 
 async def _carry_on(coroutine: Coroutine[Any, Any, None], awaited: Any) -> None:
@@ -601,7 +622,8 @@ class RedisBus(EventBus):
         self._readers.clear()
         for reader in readers:
             await reader.stop()
-        await asyncio.gather(*self._stopping)
+        while self._stopping:  # not gather: cancelling close must not cut a stop short
+            await asyncio.wait(set(self._stopping))
 
     async def _stop(self, reader: _WallReader) -> None:
         """Stop a reader its last subscriber left. The stop outlives that subscriber's

@@ -226,6 +226,9 @@ class Connection:
 
     async def send(self, text: str) -> None:
         async with self.send_lock:
+            if self.websocket.application_state == WebSocketState.DISCONNECTED:
+                # a write ahead of this one found the peer gone
+                raise WebSocketDisconnect(1006)
             await self.websocket.send_text(text)
 
     async def close(self, code: int, reason: str) -> None:

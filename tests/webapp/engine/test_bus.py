@@ -190,6 +190,25 @@ async def test_run_now_passes_cancellation_to_the_waiting_coroutine() -> None:
     assert seen == ["cancelled"]
 
 
+async def test_run_now_unwinds_a_coroutine_whose_task_was_cancelled_before_it_ran() -> None:
+    lock, seen = asyncio.Lock(), []
+
+    async def work() -> None:
+        async with lock:
+            try:
+                await asyncio.Event().wait()
+            except asyncio.CancelledError:
+                seen.append("cancelled")
+                raise
+
+    rest = run_now(work())
+    assert rest is not None and lock.locked()
+    rest.cancel()  # in the same turn: the task never takes a step
+    with pytest.raises(asyncio.CancelledError):
+        await rest
+    assert seen == ["cancelled"] and not lock.locked()
+
+
 async def test_run_now_raises_what_the_coroutine_raised_before_waiting() -> None:
     async def work() -> None:
         raise ValueError("bad")
@@ -239,7 +258,7 @@ async def test_a_socket_that_keeps_pushing_back_falls_behind() -> None:
         with pytest.raises(SubscriberTooSlow):
             await subscription.next()
         subscription.write_through(None)  # the connection ends: its waiting write goes
-        await asyncio.sleep(0)
+        await soon(lambda: not socket.lock.locked())
         socket.writable.set()
         await asyncio.sleep(0)
         assert socket.written == []
@@ -255,13 +274,18 @@ async def test_a_failed_write_ends_that_connection_only(when: str) -> None:
         if when == "after waiting":
             broken.writable.clear()
         await bus.publish("a", "frame")  # the publisher never sees the failure
+        await bus.publish("a", "queued behind it")
         broken.writable.set()
-        assert healthy.written == ["frame"]
+        assert healthy.written == ["frame", "queued behind it"]
+        taken = []  # by the connection's loop before the failure was known
         with pytest.raises(ConnectionResetError):
             async with asyncio.timeout(BOUND_S):
-                await failing.next()
+                while True:
+                    taken.append(await failing.next())
+        assert taken == ([] if when == "at once" else ["queued behind it"])
         await bus.publish("a", "later")
-        assert healthy.written == ["frame", "later"] and broken.written == []
+        assert healthy.written == ["frame", "queued behind it", "later"]
+        assert broken.written == []
 
 
 # --- both buses ------------------------------------------------------------------

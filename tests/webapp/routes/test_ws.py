@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
+from typing import Any, cast
 
 import pytest
 from fastapi.testclient import TestClient
-from starlette.websockets import WebSocketDisconnect
+from starlette.websockets import WebSocketDisconnect, WebSocketState
 
 from tests.conftest import TEST_SECRET
 from tests.conftest import operator_headers as operator
@@ -15,6 +17,7 @@ from webapp.database.migrate import upgrade
 from webapp.engine.bus import RedisBus
 from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
 from webapp.people.security import tile_token
+from webapp.routes.ws import Connection
 from webapp.settings import Settings
 
 TOKEN = tile_token(TEST_SECRET, "demo")
@@ -217,6 +220,18 @@ def test_slow_tile_is_dropped_and_resyncs(client: TestClient) -> None:
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello"})
         assert ws.receive_json()["type"] == "snapshot"
+
+
+async def test_a_frame_for_a_peer_already_gone_is_a_disconnect() -> None:
+    """A frame written on the publisher's turn may find the peer gone while the
+    connection's own loop waits to send another: that one ends the connection as a
+    disconnect, which it handles quietly, not as Starlette's error for a closed socket."""
+    websocket = SimpleNamespace(application_state=WebSocketState.DISCONNECTED)
+    connection = Connection(
+        cast(Any, websocket), cast(Any, SimpleNamespace(hub=None)), cast(Any, None), None
+    )
+    with pytest.raises(WebSocketDisconnect):
+        await connection.send("frame")
 
 
 # --- several server processes on one Redis (TAGWALL_BUS=redis) -----------------------
