@@ -23,7 +23,7 @@ from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.matching import answer_key
 from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.views import load_views
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 from webapp.tags.registry import anchored_code_side_mm
 
 WALLS = ("demo", "hiperwall")

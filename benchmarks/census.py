@@ -30,11 +30,11 @@ from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
 from webapp.apps.census_map.rules import APP, CENSUS_SET
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
-from webapp.apps.core import CoreApp
+from webapp.apps.registration.app import CoreApp
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import View, WallState
-from webapp.settings import CONTENT_DIR
 from webapp.tags.registry import (
     anchored_code_side_mm,
     anchored_footprint_mm,

@@ -25,8 +25,8 @@ from playwright.sync_api import Page, sync_playwright
 from benchmarks.census_fit import shipped_dataset
 from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Method, Theme
-from webapp.settings import CONTENT_DIR
-from webapp.testing import CHROMIUM_ARGS, ServerProcess, wait_until
+from webapp.cli.testing import CHROMIUM_ARGS, ServerProcess, wait_until
+from webapp.core.settings import CONTENT_DIR
 
 THEME: dict[str, str | int] = {
     "attribute": "HSG_VAL",

@@ -25,10 +25,10 @@ from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, Projection, projection
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import View
-from webapp.settings import CONTENT_DIR
 
 COVERED_SHARE = 0.1  # of a display's active area the tracts must cover for it to count
 STAGE_MARGIN = 0.03  # the rule before the fit: of the stage, kept free on every side

@@ -56,7 +56,7 @@ from typing import Any
 import httpx
 
 from benchmarks.measuring import POSTGRES_URL, REDIS_URL, cpu_seconds, percentile, unreachable
-from webapp.testing import ServerProcess, free_port
+from webapp.cli.testing import ServerProcess, free_port
 
 WALL = "hiperwall"
 TILES = [f"r{row}c{col}" for row in range(1, 6) for col in range(1, 11)]
@@ -171,7 +171,7 @@ def floor(scratch: Path, command: Callable[[int], list[str]]) -> Iterator[Target
 
 
 def starlette_floor(scratch: Path) -> AbstractContextManager[Target]:
-    # uvicorn as `tagwall serve` runs it (webapp.cli.serve; 4096: TAGWALL_MAX_FRAME_BYTES)
+    # uvicorn as `tagwall serve` runs it (webapp.cli.commands.serve; 4096: TAGWALL_MAX_FRAME_BYTES)
     return floor(
         scratch,
         lambda port: [
@@ -223,7 +223,7 @@ def tagwall_memory(scratch: Path) -> AbstractContextManager[Target]:
 def tagwall_redis(scratch: Path, redis_url: str, postgres_url: str) -> Iterator[Target]:
     from redis import Redis
 
-    from webapp.testing import fresh_database
+    from webapp.cli.testing import fresh_database
 
     prefix = f"tagwall-bench:{uuid.uuid4().hex[:12]}"
     env = {"TAGWALL_BUS": "redis", "TAGWALL_REDIS_URL": redis_url, "TAGWALL_REDIS_PREFIX": prefix}

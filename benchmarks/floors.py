@@ -4,7 +4,7 @@ Two bare servers speak just enough of the tile protocol for ``benchmarks.fanout`
 clients: a websocket at any path answers the client's ``hello`` with a
 ``{"type":"snapshot"}`` and is kept; ``POST /publish`` stamps the time and sends one
 event, of the size of a tagwall light event, to every kept socket; ``GET /healthz``
-answers 200 (what ``webapp.testing.ServerProcess`` waits for).
+answers 200 (what ``webapp.cli.testing.ServerProcess`` waits for).
 
 * ``starlette_app``: Starlette under uvicorn, run as ``tagwall serve`` runs it
   (``python -m uvicorn benchmarks.floors:starlette_app --port P``), one ``send_text``

@@ -78,7 +78,7 @@ from benchmarks.measuring import (
 )
 
 if TYPE_CHECKING:
-    from webapp.testing import ServerProcess
+    from webapp.cli.testing import ServerProcess
 
 PHONE_WALL = "demo"
 TILE_WALL = "hiperwall"
@@ -365,7 +365,7 @@ def memory_mb(pids: Sequence[int]) -> dict[str, float]:
 def bench_database(base_url: str | None, scratch: Path) -> Iterator[str]:
     """SQLite in ``scratch``, or a new PostgreSQL database on ``base_url``'s server,
     dropped afterwards."""
-    from webapp.testing import fresh_database
+    from webapp.cli.testing import fresh_database
 
     if base_url and not base_url.startswith("postgresql"):
         raise SystemExit(f"--database-url: a postgresql+psycopg:// URL, not {base_url}")
@@ -570,8 +570,8 @@ def server_env(scenario: Scenario) -> dict[str, str]:
 def hall_server(scenario: Scenario) -> Iterator[tuple[ServerProcess, HallCodes]]:
     """One ``tagwall serve`` of the scenario on a database of its own, the brain atlas on
     the phones' wall; and what its phones scan."""
+    from webapp.cli.testing import ServerProcess
     from webapp.database.migrate import upgrade
-    from webapp.testing import ServerProcess
 
     with (
         tempfile.TemporaryDirectory(prefix="tagwall-hall-") as scratch,
@@ -740,7 +740,7 @@ def _load(
 # not claim code of ours below it, which no rule names: that is "other code of ours:
 # MODULE". Frames read ``function (path)``, the path from its package (py-spy).
 WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("logging", ("(logging/", "(webapp/logs.py")),
+    ("logging", ("(logging/", "(webapp/core/logs.py")),
     (
         "brain: QR symbols encoded to size the pins' clearance "
         "(registry.anchored_code_side_mm from BrainApp.declare_tags)",
@@ -764,11 +764,11 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("scan log and code cache (tags.scanning)", ("(webapp/tags/scanning.py",)),
     ("code and tag lookups (tags.registry)", ("(webapp/tags/registry.py",)),
     ("wall state commits and hub (the tiles' light changes)", ("(webapp/engine/",)),
-    ("tile websockets", ("(webapp/routes/ws.py", "(websockets/")),
+    ("tile websockets", ("(webapp/server/routes/ws.py", "(websockets/")),
     ("person loading (people.person)", ("(webapp/people/person.py", "get_person (")),
     (
         "templates (Jinja rendering)",
-        ("(webapp/templating.py", "(jinja2/", "(markupsafe/", ".html)"),
+        ("(webapp/web/templating.py", "(jinja2/", "(markupsafe/", ".html)"),
     ),
     ("rate limits", ("(webapp/people/ratelimit.py", "action_allowed (")),
     (
@@ -777,7 +777,7 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
             "visitor_of (",
             "_from_cookie",
             "_serializer",
-            "SessionCookieMiddleware.cookie",
+            "cookie_header",
             "send_with_cookie",
             "(itsdangerous/",
         ),
@@ -791,7 +791,7 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("Starlette (routing, requests, responses)", ("(starlette/",)),
     ("uvicorn / httptools / h11 (HTTP parsing, writes)", ("(uvicorn/", "(httptools/", "(h11/")),
     (
-        "thread hand-offs (run_in_threadpool: queue, wake-ups, call_soon_threadsafe)",
+        "thread hand-offs (run_blocking: queue, wake-ups, call_soon_threadsafe)",
         ("(anyio/", "(threading.py", "(queue.py"),
     ),
     ("event loop (uvloop in C: sockets, callbacks; asyncio)", ("(asyncio/", "(uvloop/")),
@@ -807,7 +807,7 @@ OUTER = {
     "FastAPI (dependencies, validation, serialisation)",
     "Starlette (routing, requests, responses)",
     "uvicorn / httptools / h11 (HTTP parsing, writes)",
-    "thread hand-offs (run_in_threadpool: queue, wake-ups, call_soon_threadsafe)",
+    "thread hand-offs (run_blocking: queue, wake-ups, call_soon_threadsafe)",
     "event loop (uvloop in C: sockets, callbacks; asyncio)",
 }
 

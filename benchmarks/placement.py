@@ -15,7 +15,7 @@ from typing import Any
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm, symbol_modules
 from wall_client.config import load_wall
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 TAGS = 1_000
 DISTANCES_M = (3.0, 0.6)

@@ -31,10 +31,10 @@ from fastapi import FastAPI
 from starlette.requests import Request
 from starlette.responses import PlainTextResponse
 
-from webapp.app import create_app
+from webapp.cli.testing import ServerProcess
 from webapp.database.migrate import upgrade
+from webapp.server.app import create_app
 from webapp.tags.registry import wall_tags
-from webapp.testing import ServerProcess
 
 CONNECTIONS = 16
 SECONDS = 5.0

@@ -23,12 +23,12 @@ from typing import Any
 import httpx
 from sqlalchemy import func, select
 
+from webapp.cli.testing import ServerProcess
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.models import AuditRecord
 from webapp.people.accounts import add_account
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess
 
 BURST = 30
 FREE_ATTEMPTS = 3

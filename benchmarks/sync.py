@@ -23,14 +23,14 @@ from typing import Any
 
 from playwright.sync_api import Page, sync_playwright
 
-from webapp.settings import CONTENT_DIR
-from webapp.testing import (
+from webapp.cli.testing import (
     CHROMIUM_ARGS,
     RECORD_SHOWN,
     ServerProcess,
     skewed_clock,
     wait_until,
 )
+from webapp.core.settings import CONTENT_DIR
 
 WALL = "demo"
 TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]

@@ -3,8 +3,8 @@
 from alembic import context
 
 import webapp.database.models  # noqa: F401  (registers the tables)
+from webapp.core.settings import Settings
 from webapp.database.connection import Base, make_engine
-from webapp.settings import Settings
 
 config = context.config
 url = config.get_main_option("sqlalchemy.url") or Settings().resolved_database_url

@@ -27,14 +27,14 @@ from fastapi import FastAPI
 from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 
-from webapp.app import create_app
+from webapp.cli.testing import fresh_database, wait_until
+from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.people.accounts import add_account
-from webapp.services import Services
-from webapp.settings import CONTENT_DIR, Settings
+from webapp.server.app import create_app
+from webapp.server.services import Services
 from webapp.tags.registry import TagSpec, wall_tags
-from webapp.testing import fresh_database, wait_until
 from webapp.volume.build import build_store, open_source
 
 TEST_SECRET = "test-secret-key-not-for-production"
@@ -243,7 +243,7 @@ def settings(tmp_path: Path, database_url: str) -> Settings:
         apply_lead_ms=50,
         swap_timeout_ms=500,
         # Tests act faster than people: a phone counts as settled at once. The abuse
-        # limits' own tests (tests/webapp/routes/test_limits.py) use the default.
+        # limits' own tests (tests/webapp/server/routes/test_limits.py) use the default.
         visitor_settle_s=0,
     )
 

@@ -19,10 +19,10 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import TEST_SECRET
+from webapp.cli.testing import ServerProcess
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.migrate import upgrade
 from webapp.people.security import operator_token
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess
 
 EXAMPLES_PER_OPERATION = 10
 SEED = 1

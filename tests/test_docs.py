@@ -12,10 +12,10 @@ from fastapi.testclient import TestClient
 
 from tests.conftest import routes_of
 from wall_client.config import config_keys
-from webapp.cli import main
+from webapp.cli.commands import main
+from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.engine import protocol
 from webapp.engine.wall_state import HEAVY_FIELDS, WallState
-from webapp.settings import PROJECT_ROOT, Settings
 
 DOCS = PROJECT_ROOT / "docs"
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from webapp.settings import PROJECT_ROOT
+from webapp.core.settings import PROJECT_ROOT
 
 PACKAGES = ("webapp", "wall_client", "tag_service")
 
@@ -104,7 +104,13 @@ def _in(module: str, *rooms: str) -> bool:
 
 
 LOWER_ROOMS = ("webapp.engine", "webapp.tags", "webapp.people", "webapp.database")
-UPPER_ROOMS = ("webapp.apps", "webapp.routes", "webapp.deps", "webapp.app", "webapp.cli")
+UPPER_ROOMS = (
+    "webapp.apps.contract",
+    "webapp.server.routes",
+    "webapp.web.deps",
+    "webapp.server.app",
+    "webapp.cli.commands",
+)
 
 
 @pytest.mark.parametrize(
@@ -112,7 +118,11 @@ UPPER_ROOMS = ("webapp.apps", "webapp.routes", "webapp.deps", "webapp.app", "web
     [
         (("tag_service", "wall_client"), ("webapp",), "the pure rules know no web app"),
         (LOWER_ROOMS, UPPER_ROOMS, "the engine, tags, people and database serve the layers above"),
-        (("webapp.apps",), ("webapp.routes", "webapp.app", "webapp.cli"), "apps plug in below"),
+        (
+            ("webapp.apps.contract",),
+            ("webapp.server.routes", "webapp.server.app", "webapp.cli.commands"),
+            "apps plug in below",
+        ),
     ],
 )
 def test_imports_run_one_way(rooms: tuple[str, ...], never: tuple[str, ...], why: str) -> None:

@@ -1,6 +1,6 @@
 // The public screen on a tile: what visitors published, shown full-screen over the
 // scene. The HTML comes from the wall state, where only the server puts it, rendered
-// with autoescaping from plain text (webapp/publishing.py); the page's CSP forbids
+// with autoescaping from plain text (webapp/publishing/publication.py); the page's CSP forbids
 // inline script besides.
 //
 // Any publication shows whole: its title on top and its byline at the bottom always,
@@ -147,7 +147,7 @@ export class PublicScreen {
   /**
    * @param {HTMLElement} element the box over the scene
    * @param {object} layout the server's ScreenLayout: box [w, h] px, min_font_px,
-   *   max_font_px, words_per_minute, page_min_ms (webapp/publishing.py)
+   *   max_font_px, words_per_minute, page_min_ms (webapp/publishing/publication.py)
    */
   constructor(element, layout) {
     this.element = element;

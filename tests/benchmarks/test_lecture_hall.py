@@ -59,17 +59,22 @@ def test_tile_latency_is_the_last_tiles_and_missed_events_stand_apart() -> None:
 
 def test_a_sample_goes_to_the_code_of_ours_that_called_the_library() -> None:
     loop = "Runner.run (asyncio/runners.py)"
-    wrapper = "SessionCookieMiddleware.__call__ (webapp/people/visitors.py)"
-    route = "resolve (webapp/routes/resolve.py)"
+    wrapper = "SessionCookieMiddleware.__call__ (webapp/web/middleware.py)"
+    route = "resolve (webapp/server/routes/resolve.py)"
     assert work_of(
-        [loop, wrapper, "render (webapp/templating.py)", "Template.render (jinja2/environment.py)"]
+        [
+            loop,
+            wrapper,
+            "render (webapp/web/templating.py)",
+            "Template.render (jinja2/environment.py)",
+        ]
     ) == ("templates (Jinja rendering)")
     assert work_of([loop, wrapper, route, "find (webapp/tags/registry.py)"]) == (
         "code and tag lookups (tags.registry)"
     )
     # a middleware's __call__ claims only its own time, not what it wraps
     assert work_of([loop, wrapper]) == "session cookie (visitors middleware, itsdangerous)"
-    assert work_of([loop, wrapper, route]) == "other code of ours: webapp/routes/resolve.py"
+    assert work_of([loop, wrapper, route]) == "other code of ours: webapp/server/routes/resolve.py"
     assert work_of([loop]).startswith("event loop")
     assert work_of(["Buffer.append_bits (segno/encoder.py)"]) == "unattributed (partial stacks)"
 

@@ -15,8 +15,8 @@ import pytest
 from playwright.sync_api import Browser, Page, sync_playwright
 
 from tests.conftest import TEST_SECRET
-from webapp.settings import CONTENT_DIR
-from webapp.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
+from webapp.cli.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
+from webapp.core.settings import CONTENT_DIR
 
 
 def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:

@@ -16,7 +16,7 @@ from typing import Any
 
 from playwright.sync_api import Page
 
-from webapp.settings import PROJECT_ROOT
+from webapp.core.settings import PROJECT_ROOT
 
 PHONE_WIDTHS = (360, 390, 430)
 MIN_TARGET_PX = 44

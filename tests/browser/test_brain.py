@@ -23,11 +23,11 @@ from wall_client.config import load_wall
 from wall_client.layout import Rect, apply_affine
 from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.views import load_views
-from webapp.check import fetch_layout
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess, wait_until
+from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
-from webapp.schemas import LayoutInfo
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess, wait_until
+from webapp.server.schemas import LayoutInfo
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 FREE = ["r1c1", "r2c2", "r2c3"]  # the displays that are no designated screen

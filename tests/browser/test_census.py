@@ -20,12 +20,12 @@ from tests.browser.conftest import open_tiles, serve, version_of
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine
 from webapp.apps.census_map.mapview import COLOURS
-from webapp.check import fetch_layout
 from webapp.choropleth.palettes import contrast_ratio
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess, wait_until
+from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
-from webapp.schemas import LayoutInfo
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess, wait_until
+from webapp.server.schemas import LayoutInfo
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}

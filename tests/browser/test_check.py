@@ -12,12 +12,12 @@ import sys
 from pathlib import Path
 
 from wall_client.config import load_wall
-from webapp.check import CheckReport, check_wall, fetch_layout
+from webapp.cli.check import CheckReport, check_wall, fetch_layout
+from webapp.cli.testing import ServerProcess
+from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token, tile_token
-from webapp.schemas import LayoutInfo, PlacedCode
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess
-from webapp.urls import tile_path
+from webapp.server.schemas import LayoutInfo, PlacedCode
+from webapp.web.urls import tile_path
 
 
 def run_check(server: ServerProcess, *args: str) -> subprocess.CompletedProcess[str]:

@@ -5,8 +5,8 @@ from __future__ import annotations
 from playwright.sync_api import Browser, expect
 
 from tests.browser.conftest import open_tiles, version_of
+from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
-from webapp.testing import ServerProcess, wait_until
 
 
 def test_switching_a_layer_on_the_dashboard_changes_the_tiles(

@@ -22,10 +22,10 @@ from playwright.sync_api import Browser
 from sqlalchemy import select
 
 from tests.browser.conftest import open_tiles, serve, version_of
+from webapp.cli.testing import ServerProcess, wait_until
 from webapp.database.connection import Database
 from webapp.database.models import PublicationRecord, WallEventRecord
 from webapp.tags.registry import wall_tags
-from webapp.testing import ServerProcess, wait_until
 
 STUDENTS = 16
 TILES = ["r1c1", "r1c2", "r2c1"]

@@ -12,13 +12,13 @@ import pytest
 from websockets.sync.client import connect
 
 from tests.browser.conftest import serve
+from webapp.cli.testing import ServerProcess, wait_until
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.engine.protocol import CLOSE_POLICY
 from webapp.people.address_rules import add_rule
 from webapp.people.security import operator_token, tile_token
 from webapp.tags.registry import wall_tags
-from webapp.testing import ServerProcess, wait_until
 
 
 def tagwall(server: ServerProcess, *args: str) -> str:

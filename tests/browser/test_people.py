@@ -14,11 +14,11 @@ from playwright.sync_api import Browser, BrowserContext, Locator, Page, expect
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles
 from tests.conftest import TEST_PASSWORD
-from webapp.check import fetch_layout
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess
 from webapp.database.connection import Database
 from webapp.people.accounts import add_account
 from webapp.people.security import operator_token
-from webapp.testing import ServerProcess
 
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
 

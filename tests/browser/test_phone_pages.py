@@ -26,11 +26,11 @@ from tests.browser.phone_audit import PHONE_WIDTHS, SERIOUS, Fit, axe_violations
 from tests.webapp.apps.census_map.test_acs import INCOME, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import write_shapefile
 from webapp.apps.census_map.importer import import_files
-from webapp.check import fetch_layout
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess
+from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.people.security import operator_token
-from webapp.settings import Settings
-from webapp.testing import ServerProcess
 
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
 WALL = "demo"

@@ -26,9 +26,9 @@ from PIL import Image
 from playwright.sync_api import Browser, BrowserContext, Page, expect
 
 from tests.browser.conftest import serve
-from webapp.check import fetch_layout
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess, skewed_clock, wait_until
 from webapp.people.security import operator_token
-from webapp.testing import ServerProcess, skewed_clock, wait_until
 
 WALL = "demo"
 # content/walls/*.toml: each wall's public display and its native resolution

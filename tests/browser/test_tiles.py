@@ -9,7 +9,7 @@ import pytest
 from playwright.sync_api import Browser, Page
 
 from tests.browser.conftest import open_tiles, version_of
-from webapp.testing import RECORD_SHOWN, ServerProcess, wait_until
+from webapp.cli.testing import RECORD_SHOWN, ServerProcess, wait_until
 
 DEMO_TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 

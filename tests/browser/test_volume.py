@@ -10,9 +10,9 @@ from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
 from tests.browser.conftest import open_tiles, version_of
+from webapp.cli.testing import ServerProcess, wait_until
+from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
-from webapp.settings import CONTENT_DIR
-from webapp.testing import ServerProcess, wait_until
 from webapp.volume.build import build_store, open_source
 
 MNI = CONTENT_DIR / "brain_atlas" / "mni_icbm152_t1_tal_nlin_sym_09a.nii.gz"

@@ -32,9 +32,9 @@ from playwright.sync_api import Browser, Page
 from tests.browser.conftest import serve, version_of
 from wall_client.layout import Affine, compose_affine, invert_affine
 from webapp.apps.brain_atlas.views import load_views
-from webapp.check import fetch_layout
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
-from webapp.testing import ServerProcess, wait_until
 
 Mask = npt.NDArray[np.bool_]
 RGB = npt.NDArray[np.int16]

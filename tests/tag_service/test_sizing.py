@@ -12,7 +12,7 @@ from tag_service.sizing import (
     symbol_modules,
 )
 from wall_client.config import load_wall
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 
 def test_module_size_is_about_distance_over_305() -> None:

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from webapp.apps import WallApp
 from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.census_map.app import CensusApp
-from webapp.apps.core import CoreApp
+from webapp.apps.contract import WallApp
 from webapp.apps.pattern.app import PatternApp
+from webapp.apps.registration.app import CoreApp
 
 
 def builtin_apps() -> dict[str, WallApp]:

@@ -22,7 +22,8 @@ from sqlalchemy.exc import (
 )
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 from sqlalchemy.orm import DeclarativeBase, Session, sessionmaker
-from starlette.concurrency import run_in_threadpool
+
+from webapp.core.threads import run_blocking
 
 P = ParamSpec("P")
 T = TypeVar("T")
@@ -107,7 +108,7 @@ class Database:
         ``function`` shares one connection: one check-out (and, for a server, one
         ping) for the page's reads."""
         shared = partial(self._reading_through, function, *args, **kwargs)
-        return shared() if self.embedded else await run_in_threadpool(shared)
+        return shared() if self.embedded else await run_blocking(shared)
 
     def _reading_through(self, function: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
         with self.reading():

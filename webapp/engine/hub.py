@@ -23,10 +23,12 @@ from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from anyio import CapacityLimiter, to_thread
+from anyio import CapacityLimiter
 
+from webapp.core.tasks import cancel_and_wait
+from webapp.core.threads import run_blocking_within
 from webapp.database.connection import Database
-from webapp.engine.bus import EVENTS, BusUnavailable, EventBus, cancel_and_wait, follow
+from webapp.engine.bus.base import EVENTS, BusUnavailable, EventBus, follow
 from webapp.engine.presence import TILES, Presence, TilesHeard, TileStatus
 from webapp.engine.protocol import Event, Prepare, Swap
 from webapp.engine.wall_state import Change, WallState, commit_change, now_ms
@@ -97,7 +99,7 @@ class WallHub:
         catch-up never queue behind them."""
         if self._threads is None:
             self._threads = CapacityLimiter(WALL_THREADS)
-        return await to_thread.run_sync(function, *args, limiter=self._threads)
+        return await run_blocking_within(self._threads, function, *args)
 
     async def watch(self, wall_ids: Iterable[str]) -> None:
         """Follow the walls' tile reports and prepared changes, and announce this
@@ -116,7 +118,7 @@ class WallHub:
             await event.wait()
 
     def placing(self, wall_id: str) -> AbstractAsyncContextManager[None]:
-        """Held by the door (``webapp.engine.changes``) through a whole change, placing its
+        """Held by the door (``webapp.door.changes``) through a whole change, placing its
         codes included, so two changes of one wall never interleave (a layout always
         matches its view) and publication order is version order. The bus holds the
         wall: within this process, and across every process sharing the bus."""
@@ -125,7 +127,7 @@ class WallHub:
     async def commit(self, wall_id: str, update: Callable[[WallState], WallState]) -> Change | None:
         """Bump the version, persist, then publish.
 
-        Only the door (``webapp.engine.changes``) calls this, holding
+        Only the door (``webapp.door.changes``) calls this, holding
         :meth:`placing`: that hold, not a lock of the hub's, makes publication order
         equal commit order, in every process of the wall.
         """

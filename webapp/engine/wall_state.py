@@ -1,7 +1,7 @@
 """The authoritative state of a wall and the one function that changes it.
 
 Tiles are pure renderers: they draw the state they are sent. Every change goes
-through the door (``webapp.engine.changes``) to :func:`commit_change`, which bumps the wall's
+through the door (``webapp.door.changes``) to :func:`commit_change`, which bumps the wall's
 version and persists the new state with the event that describes it; only then is the
 event published.
 """
@@ -56,7 +56,7 @@ class Balloon(BaseModel):
 
 class PublicItem(BaseModel):
     """What the public screen shows: server-rendered, already escaped HTML
-    (see ``webapp.publishing``)."""
+    (see ``webapp.publishing.publication``)."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -107,7 +107,7 @@ class StatePatch(BaseModel):
     view: View | None = None
     layers: dict[str, bool] | None = None
     balloons: list[Balloon] | None = Field(default=None, max_length=100)
-    # ``public`` changes only through ``webapp.publishing``, which renders it safely.
+    # ``public`` changes only through ``webapp.publishing.publication``, which renders it safely.
     public_policy: PublicPolicy | None = None
     volume: VolumeLayer | None = None  # null takes the volume off the wall
 

@@ -1,10 +1,10 @@
 """Where a request comes from, and which address rule covers it.
 
-:class:`ClientAddressMiddleware` is the one place that decides a connection's client
-address (and scheme) for HTTP and websockets alike: the peer's, or behind a proxy
-listed in ``TAGWALL_TRUSTED_PROXIES`` the one its ``X-Forwarded-For`` names. Everything
-else reads :func:`address_of`. The ASGI server must not rewrite them first, so
-``tagwall serve`` runs uvicorn without its proxy headers.
+The client address middleware (:mod:`webapp.web.middleware`) is the one place that
+decides a connection's client address (and scheme) for HTTP and websockets alike: the
+peer's, or behind a proxy listed in ``TAGWALL_TRUSTED_PROXIES`` the one its
+``X-Forwarded-For`` names. Everything else reads :func:`address_of`. The ASGI server
+must not rewrite them first, so ``tagwall serve`` runs uvicorn without its proxy headers.
 
 An address is a weak identity (a whole school may share one NAT address), so rules
 give defaults freely but grant a role only when the deployment switches that on
@@ -19,9 +19,7 @@ from ipaddress import IPv4Address, IPv4Network, IPv6Address, IPv6Network
 from typing import Any, TypeVar
 
 from sqlalchemy import Row
-from starlette.datastructures import Headers
 from starlette.requests import HTTPConnection
-from starlette.types import ASGIApp, Receive, Scope, Send
 
 from webapp.database.models import AddressRuleRecord
 
@@ -58,37 +56,14 @@ def client_address(peer: str, forwarded_for: str | None, trusted: Sequence[Netwo
     return peer
 
 
-class ClientAddressMiddleware:
-    """Puts the client's address (and, from a trusted proxy, ``X-Forwarded-Proto``'s
-    scheme) into every HTTP and websocket connection's scope."""
-
-    def __init__(self, app: ASGIApp, trusted: Sequence[Network]) -> None:
-        self.app = app
-        self.trusted = list(trusted)
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if self.trusted and scope["type"] in ("http", "websocket"):
-            peer = scope["client"][0] if scope.get("client") else ""
-            peer_address = _address(peer)
-            if peer_address is not None and _is_trusted(peer_address, self.trusted):
-                headers = Headers(scope=scope)
-                scope = dict(scope)
-                scope["client"] = (
-                    client_address(peer, headers.get("x-forwarded-for"), self.trusted),
-                    0,
-                )
-                proto = headers.get("x-forwarded-proto", "").strip().lower()
-                if proto in ("http", "https"):
-                    secure = proto == "https"
-                    web = scope["type"] == "http"
-                    scope["scheme"] = (
-                        ("https" if secure else "http") if web else ("wss" if secure else "ws")
-                    )
-        await self.app(scope, receive, send)
+def is_trusted_peer(peer: str, trusted: Sequence[Network]) -> bool:
+    """Whether ``peer`` is one of the proxies whose forwarding headers count."""
+    address = _address(peer)
+    return address is not None and _is_trusted(address, trusted)
 
 
 def address_of(connection: HTTPConnection) -> str:
-    """The client address of a request or websocket (set by the middleware above)."""
+    """The client address of a request or websocket (set by the client address middleware)."""
     return connection.client.host if connection.client else ""
 
 

@@ -10,7 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
-from webapp.people.counters import Counters, Hit, SlidingWindow
+from webapp.people.counters.base import Counters, Hit, SlidingWindow
 
 if TYPE_CHECKING:
     from webapp.people.visitors import Visitor

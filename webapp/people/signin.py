@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 from itsdangerous import BadSignature, URLSafeSerializer
 
-from webapp.people.counters import Backoff, Counters, Strike
+from webapp.people.counters.base import Backoff, Counters, Strike
 
 DEVICE_COOKIE = "tagwall_device"
 DEVICE_MAX_AGE_S = 365 * 24 * 3600

@@ -3,8 +3,8 @@
 The cookie carries no privilege by itself: roles live in the database under the
 visitor id and count only while the cookie's session id matches the stored one
 (see :mod:`webapp.people.person`). A request's visitor is kept in ``request.state``;
-:class:`SessionCookieMiddleware` writes the cookie whenever it is new or rotated,
-so no route has to remember to.
+the session cookie middleware (:mod:`webapp.web.middleware`) writes the cookie
+whenever it is new or rotated, so no route has to remember to.
 """
 
 from __future__ import annotations
@@ -14,9 +14,7 @@ import time
 from dataclasses import dataclass, replace
 
 from itsdangerous import BadSignature, URLSafeSerializer
-from starlette.datastructures import MutableHeaders
 from starlette.requests import HTTPConnection
-from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 SESSION_COOKIE = "tagwall_session"
 SESSION_MAX_AGE_S = 365 * 24 * 3600
@@ -91,32 +89,12 @@ def adopt(request: HTTPConnection, visitor: Visitor) -> None:
     request.state.visitor = visitor
 
 
-class SessionCookieMiddleware:
-    """Writes the session cookie of a new or rotated visitor (HttpOnly, SameSite=Lax,
+def cookie_header(visitor: Visitor, secret: str, *, https: bool) -> str:
+    """The ``Set-Cookie`` value of ``visitor``'s session cookie (HttpOnly, SameSite=Lax,
     Secure under https)."""
-
-    def __init__(self, app: ASGIApp, secret: str) -> None:
-        self.app = app
-        self.secret = secret
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http":
-            await self.app(scope, receive, send)
-            return
-
-        async def send_with_cookie(message: Message) -> None:
-            visitor = scope.get("state", {}).get("visitor")
-            if message["type"] == "http.response.start" and visitor and visitor.changed:
-                headers = MutableHeaders(scope=message)
-                headers.append("set-cookie", self.cookie(visitor, https=scope["scheme"] == "https"))
-            await send(message)
-
-        await self.app(scope, receive, send_with_cookie)
-
-    def cookie(self, visitor: Visitor, *, https: bool) -> str:
-        value = _serializer(self.secret).dumps([visitor.id, visitor.session_id, visitor.issued])
-        secure = "; Secure" if https else ""
-        return (
-            f"{SESSION_COOKIE}={value}; Max-Age={SESSION_MAX_AGE_S}; Path=/; "
-            f"HttpOnly; SameSite=Lax{secure}"
-        )
+    value = _serializer(secret).dumps([visitor.id, visitor.session_id, visitor.issued])
+    secure = "; Secure" if https else ""
+    return (
+        f"{SESSION_COOKIE}={value}; Max-Age={SESSION_MAX_AGE_S}; Path=/; "
+        f"HttpOnly; SameSite=Lax{secure}"
+    )

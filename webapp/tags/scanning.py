@@ -26,14 +26,15 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel
 from sqlalchemy import insert, select
 from sqlalchemy.exc import SQLAlchemyError
 
+from webapp.core.tasks import cancel_and_wait
+from webapp.core.threads import run_blocking
 from webapp.database.connection import Database
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
-from webapp.engine.bus import BusUnavailable, EventBus, Subscription, cancel_and_wait, follow
+from webapp.engine.bus.base import BusUnavailable, EventBus, Subscription, follow
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import is_live, shown_in
 
@@ -98,7 +99,7 @@ class CodeDirectory:
         facts = self._facts.get(code)
         if facts is None or time.monotonic() - facts.loaded_at > self.ttl_s:
             generation = self._generation
-            facts = await run_in_threadpool(self._load, code)
+            facts = await run_blocking(self._load, code)
             if generation == self._generation:
                 self._facts[code] = facts
                 self._facts.move_to_end(code)
@@ -221,7 +222,7 @@ class ScanLog:
         while True:
             await asyncio.sleep(self.interval_s)
             try:
-                await run_in_threadpool(self.flush)
+                await run_blocking(self.flush)
             except SQLAlchemyError as error:
                 if not failing:
                     log.warning("could not record scans (%s); will retry", type(error).__name__)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from webapp.caching import SizedCache
+from webapp.core.caching import SizedCache
 from webapp.volume.store import META_FILE, VolumeStore
 from webapp.volume.tiles import EncodedTile
 

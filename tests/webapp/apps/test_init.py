@@ -8,8 +8,8 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import services_of
-from webapp.apps import WallApp, static_url
 from webapp.apps.builtin import builtin_apps
+from webapp.apps.contract import WallApp, static_url
 
 APPS = builtin_apps()
 IMPORTED = re.compile(r'^import .* from "([^"]+)";', re.MULTILINE)

@@ -18,25 +18,22 @@ from redis.asyncio.lock import Lock
 from redis.exceptions import RedisError
 
 from tests.conftest import RedisCable
+from webapp.core.settings import PROJECT_ROOT
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.redis import connect_redis
-from webapp.engine.bus import (
+from webapp.engine.bus.base import (
     BusUnavailable,
     EventBus,
-    MemoryBus,
-    RedisBus,
     SubscriberTooSlow,
     Subscription,
     WallBusy,
-    _WallReader,
-    lock_key,
     run_now,
-    stream_key,
 )
+from webapp.engine.bus.memory import MemoryBus
+from webapp.engine.bus.redis import RedisBus, _WallReader, lock_key, stream_key
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import StatePatch
-from webapp.settings import PROJECT_ROOT
 
 MakeBus = Callable[..., EventBus]
 BOUND_S = 30  # what "soon" means on a loaded machine; the tests prove order, not speed

@@ -13,7 +13,9 @@ from tests.conftest import RedisCable
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.redis import connect_redis
-from webapp.engine.bus import EventBus, MemoryBus, RedisBus, Subscription
+from webapp.engine.bus.base import EventBus, Subscription
+from webapp.engine.bus.memory import MemoryBus
+from webapp.engine.bus.redis import RedisBus
 from webapp.engine.hub import TileStatus, WallHub
 from webapp.engine.protocol import Prepare
 from webapp.engine.wall_state import StatePatch, View, now_ms, read_state

@@ -8,7 +8,9 @@ from collections.abc import AsyncIterator
 import pytest
 
 from webapp.database.redis import connect_redis
-from webapp.people.counters import Counters, MemoryCounters, RedisCounters
+from webapp.people.counters.base import Counters
+from webapp.people.counters.memory import MemoryCounters
+from webapp.people.counters.redis import RedisCounters
 
 
 @pytest.fixture(params=["memory", "redis"])

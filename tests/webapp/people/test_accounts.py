@@ -6,6 +6,7 @@ import pytest
 from sqlalchemy import select
 
 from tests.conftest import TEST_PASSWORD
+from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import AccountRecord, AuditRecord, VisitorRecord
 from webapp.people.accounts import (
@@ -18,7 +19,6 @@ from webapp.people.accounts import (
 )
 from webapp.people.person import Person, grant, load_person
 from webapp.people.visitors import Visitor
-from webapp.settings import Settings
 
 HERE = "127.0.0.1"
 

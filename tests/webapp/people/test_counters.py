@@ -8,14 +8,9 @@ import asyncio
 
 import pytest
 
-from webapp.people.counters import (
-    Backoff,
-    Counters,
-    MemoryCounters,
-    RedisCounters,
-    SlidingWindow,
-    Strike,
-)
+from webapp.people.counters.base import Backoff, Counters, SlidingWindow, Strike
+from webapp.people.counters.memory import MemoryCounters
+from webapp.people.counters.redis import RedisCounters
 
 # --- sliding windows: at most so many hits a window --------------------------------
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 from sqlalchemy import select
 
+from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import AddressRuleRecord, AuditRecord, VisitorRecord
 from webapp.people.person import (
@@ -20,7 +21,6 @@ from webapp.people.person import (
     update_profile,
 )
 from webapp.people.visitors import Visitor
-from webapp.settings import Settings
 
 HERE = "127.0.0.1"
 

@@ -7,7 +7,8 @@ import asyncio
 
 import pytest
 
-from webapp.people.counters import Counters, RedisCounters
+from webapp.people.counters.base import Counters
+from webapp.people.counters.redis import RedisCounters
 from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, retry_after_s
 
 

@@ -1,7 +1,7 @@
 """The sign-in throttle's rules, on both counter stores: failures slow whoever fails,
 each address counts once on an account, a known browser is throttled on its own, and
 on Redis every process sees the same failures. (As an attacker meets it through the
-login form: tests/webapp/routes/test_signin.py.)"""
+login form: tests/webapp/server/routes/test_signin.py.)"""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ import asyncio
 
 import pytest
 
-from webapp.people.counters import Counters, RedisCounters
+from webapp.people.counters.base import Counters
+from webapp.people.counters.redis import RedisCounters
 from webapp.people.signin import (
     ACCOUNT_FREE_CLIENTS,
     Attempt,

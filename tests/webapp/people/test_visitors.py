@@ -6,7 +6,8 @@ from __future__ import annotations
 from fastapi import FastAPI, Request
 from fastapi.testclient import TestClient
 
-from webapp.people.visitors import SESSION_COOKIE, SessionCookieMiddleware, adopt, visitor_of
+from webapp.people.visitors import SESSION_COOKIE, adopt, visitor_of
+from webapp.web.middleware import SessionCookieMiddleware
 
 SECRET = "visitor-test-secret"
 

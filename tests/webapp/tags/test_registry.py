@@ -11,10 +11,10 @@ from tag_service.codes import ALPHABET, CODE_LENGTH, modules_across, symbol_vari
 from tests.conftest import tag_spec
 from wall_client.config import load_wall
 from wall_client.layout import Wall
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
-from webapp.schemas import TagUpdate
-from webapp.settings import CONTENT_DIR
+from webapp.server.schemas import TagUpdate
 from webapp.tags.registry import (
     LAYOUTS_KEPT,
     declare,

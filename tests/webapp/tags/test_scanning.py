@@ -14,11 +14,14 @@ from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from tests.conftest import tag_spec
+from webapp.core.tasks import cancel_and_wait
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.database.models import TagRecord, WallStateRecord
 from webapp.database.redis import connect_redis
-from webapp.engine.bus import EventBus, MemoryBus, RedisBus, cancel_and_wait
+from webapp.engine.bus.base import EventBus
+from webapp.engine.bus.memory import MemoryBus
+from webapp.engine.bus.redis import RedisBus
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import issue
 from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog, scans_of

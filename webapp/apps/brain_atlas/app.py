@@ -11,7 +11,6 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
-from webapp.apps import Scan
 from webapp.apps.brain_atlas import commands, pages, routes
 from webapp.apps.brain_atlas.content import (
     ATLAS_DIR,
@@ -35,16 +34,17 @@ from webapp.apps.brain_atlas.rules import (
     pin_tag,
 )
 from webapp.apps.brain_atlas.views import ViewPreset, load_views
-from webapp.caching import SizedCache
+from webapp.apps.contract import Scan
+from webapp.core.caching import SizedCache
+from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState
 from webapp.people.roles import UserGroup
-from webapp.publishing import Block, Publication
-from webapp.settings import Settings
+from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec, anchored_code_side_mm, preview, wall_tags
 from webapp.volume.build import build_store, open_source
 
 if TYPE_CHECKING:
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 
 FOLDER = Path(__file__).parent

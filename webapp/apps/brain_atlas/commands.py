@@ -10,7 +10,7 @@ import click
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
 from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache
 from webapp.apps.brain_atlas.views import load_views, showing
-from webapp.console import EXIT_USAGE
+from webapp.cli.console import EXIT_USAGE
 
 
 @click.group()

@@ -17,7 +17,7 @@ from typing import Literal, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 ATLAS_DIR = CONTENT_DIR / "brain_atlas"
 REGION_ID = r"^[a-z0-9]+(-[a-z0-9]+)*$"

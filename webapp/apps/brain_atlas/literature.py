@@ -26,7 +26,7 @@ import httpx
 from pydantic import BaseModel, ConfigDict, Field
 
 from webapp.apps.brain_atlas.content import AtlasContent, Reference
-from webapp.settings import Settings
+from webapp.core.settings import Settings
 
 log = logging.getLogger(__name__)
 

@@ -14,12 +14,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
-from fastapi.concurrency import run_in_threadpool
 from fastapi.responses import RedirectResponse
 
 from tag_service.codes import normalize_code
 from wall_client.layout import Wall
-from webapp.apps import Scan
 from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
@@ -32,18 +30,20 @@ from webapp.apps.brain_atlas.rules import (
     set_of_group,
     set_on_wall,
 )
+from webapp.apps.contract import Scan
+from webapp.core.markdown import markdown_html
+from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
-from webapp.engine.changes import change_wall
+from webapp.door.changes import change_wall
 from webapp.engine.wall_state import WallState, read_state
-from webapp.markdown import markdown_html
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.roles import USER_GROUPS, UserGroup
 from webapp.people.visitors import Visitor
-from webapp.templating import render
+from webapp.web.templating import render
 
 if TYPE_CHECKING:
     from webapp.apps.brain_atlas.app import BrainApp, RoundGuide
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 SUMMARY_PARAGRAPHS = 2  # of a tutor text, on the phone; the public screen shows it all
 
@@ -224,7 +224,7 @@ async def answer(
     """Store the visitor's answer, judged now, and go on to their progress."""
     tag = await tag_of(services, wall, code)
     try:
-        pin, refused = await run_in_threadpool(store_answer, app, services, wall, tag, person, text)
+        pin, refused = await run_blocking(store_answer, app, services, wall, tag, person, text)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     if refused is not None:
@@ -277,7 +277,7 @@ async def revealed(
         )
     tag = await tag_of(services, wall, code)
     try:
-        pin, guide = await run_in_threadpool(pin_and_guide, app, services, wall, tag)
+        pin, guide = await run_blocking(pin_and_guide, app, services, wall, tag)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     return render(
@@ -393,7 +393,7 @@ async def finished(
     try:
         if quiz_round is None:
             raise QuizError("The quiz has not started yet.")
-        await run_in_threadpool(
+        await run_blocking(
             finish,
             services.db,
             wall.id,
@@ -463,7 +463,7 @@ async def join_group(
     if group not in USER_GROUPS:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no user group {group!r}.")
     chosen: UserGroup = group
-    updated = await run_in_threadpool(
+    updated = await run_blocking(
         update_profile,
         services.db,
         person,
@@ -507,14 +507,14 @@ async def audience_switch(
     state, quiz_round = await round_now(app, services, wall)
     if state.app != APP or set_on_wall(state) == wanted:
         return "same"
-    if not await run_in_threadpool(audience_switches, services.db, wall.id):
+    if not await run_blocking(audience_switches, services.db, wall.id):
         return "instructor"
     if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
         return "quiz"
     if await services.action_allowed("group", visitor, address, wall.id) is not None:
         return "wait"
     cooldown = services.settings.brain_group_switch_cooldown
-    if not await run_in_threadpool(claim_audience_switch, services.db, wall.id, cooldown):
+    if not await run_blocking(claim_audience_switch, services.db, wall.id, cooldown):
         return "wait"
     await show_set(services, wall, wanted)
     return "switched"

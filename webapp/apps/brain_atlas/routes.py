@@ -8,7 +8,6 @@ from datetime import datetime
 from typing import TYPE_CHECKING, Annotated, Literal, cast
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
-from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel, ConfigDict, Field
 
 from webapp.apps.brain_atlas import pages
@@ -33,13 +32,14 @@ from webapp.apps.brain_atlas.rules import (
     mode_of,
     set_on_wall,
 )
+from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
-from webapp.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
-from webapp.engine.changes import change_wall
+from webapp.door.changes import change_wall
 from webapp.engine.wall_state import WallState
-from webapp.schemas import errors
-from webapp.services import Services
-from webapp.templating import render
+from webapp.server.schemas import errors
+from webapp.server.services import Services
+from webapp.web.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
+from webapp.web.templating import render
 
 router = APIRouter(tags=["brain"])
 
@@ -57,7 +57,7 @@ def brain_app(services: Services) -> BrainApp:
 async def quiz_step(step: Callable[..., Round], *args: object) -> Round:
     """Run a change of rounds in a worker thread; what cannot be done now is a 409."""
     try:
-        return await run_in_threadpool(step, *args)
+        return await run_blocking(step, *args)
     except QuizError as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
 
@@ -223,7 +223,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
         assert quiz_round is not None
         numbered = sorted(app.pins(quiz_round, tag_set).items())
         regions = [region for _, region in numbered]
-        stats = await run_in_threadpool(
+        stats = await run_blocking(
             statistics, services.db, wall.id, quiz_round.number, tag_set, regions
         )
         quiz[tag_set] = SetStats(
@@ -246,7 +246,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
         mode=mode_of(state),
         tag_set=set_on_wall(state),
         presets=[PresetEntry(id=v.id, name=v.name) for v in app.views],
-        audience_switches=await run_in_threadpool(audience_switches, services.db, wall.id),
+        audience_switches=await run_blocking(audience_switches, services.db, wall.id),
         round=None if quiz_round is None else RoundStatus.model_validate(quiz_round),
         quiz=quiz,
     )
@@ -271,9 +271,7 @@ async def control(
     if state.app != APP and not only_audience:
         raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
     if choice.audience_switches is not None:
-        await run_in_threadpool(
-            allow_audience_switches, services.db, wall.id, choice.audience_switches
-        )
+        await run_blocking(allow_audience_switches, services.db, wall.id, choice.audience_switches)
     if choice.reveal is not None and quiz_round is not None and quiz_round.open:
         await quiz_step(set_reveal, services.db, wall.id, quiz_round.number, choice.reveal)
     switching = choice.mode is not None and choice.mode != mode_of(state)
@@ -345,7 +343,7 @@ async def answers_csv(
     if round_number is None:
         _, quiz_round = await pages.round_now(brain_app(services), services, wall)
         round_number = quiz_round.number if quiz_round is not None else 1
-    body = await run_in_threadpool(export_csv, services.db, wall.id, round_number)
+    body = await run_blocking(export_csv, services.db, wall.id, round_number)
     return Response(
         body,
         media_type="text/csv; charset=utf-8",

@@ -1,6 +1,6 @@
 """What phones do to the census map on the wall: flip a tract group, open a balloon.
 
-Each is one state change through the door (``webapp.engine.changes``); a balloon is placed
+Each is one state change through the door (``webapp.door.changes``); a balloon is placed
 while the door holds the wall, so two opened at once never land on each other.
 """
 
@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from fastapi.concurrency import run_in_threadpool
-
 from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
@@ -18,13 +16,14 @@ from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Theme
-from webapp.engine.changes import Update, change_wall, plan_change
+from webapp.core.threads import run_blocking
+from webapp.door.changes import Update, change_wall, plan_change
 from webapp.engine.wall_state import Balloon, WallState, now_ms
-from webapp.schemas import PlacedCode
+from webapp.server.schemas import PlacedCode
 
 if TYPE_CHECKING:
     from webapp.apps.census_map.app import CensusApp
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 MAX_BALLOONS = 8
 LINE_HEIGHT = 1.35  # of the font size
@@ -124,8 +123,8 @@ async def open_balloon(
         hidden = hidden_group(state, dataset, tract)
         if hidden is not None:
             raise GroupHidden(hidden)
-        layout = await run_in_threadpool(services.layout, wall.id, state.tag_layout)
-        geometry = await run_in_threadpool(app.geometry, dataset)
+        layout = await run_blocking(services.layout, wall.id, state.tag_layout)
+        geometry = await run_blocking(app.geometry, dataset)
         now = now_ms()
         open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
         others = open_[-(MAX_BALLOONS - 1) :]  # the oldest goes when too many are open
@@ -135,7 +134,7 @@ async def open_balloon(
             for placed in (layout.placed if layout else [])
         ]
         obstacles = codes + [grown(Rect(*b.rect), margin) for b in others if b.rect]
-        targets = await run_in_threadpool(
+        targets = await run_blocking(
             pointer_targets, geometry, wall, state.view, tract.geoid, obstacles, margin
         )
         title = dataset.tract_title(tract)
@@ -143,7 +142,7 @@ async def open_balloon(
         font = label_mm(wall) * BALLOON_FONT_OF_LABEL
         keep_clear = 2 * label_mm(wall)  # the dot and the tract around it stay visible
         size = balloon_size(title, lines, font)
-        anchor, box = await run_in_threadpool(
+        anchor, box = await run_blocking(
             _place_balloon, wall, size, targets, obstacles, keep_clear, codes
         )
         opened = Balloon(
@@ -198,7 +197,7 @@ def _pointer_length(box: Rect, anchor: tuple[float, float]) -> float:
 async def switch_dataset(app: CensusApp, services: Services, dataset_id: int) -> None:
     """Show ``dataset_id`` on every wall the census map is on (codes placed again; the
     colouring kept where the data set has its value)."""
-    dataset = await run_in_threadpool(app.dataset, services, dataset_id)
+    dataset = await run_blocking(app.dataset, services, dataset_id)
     for wall in services.walls.values():
 
         def show(state: WallState) -> WallState:

@@ -11,22 +11,23 @@ from typing import TYPE_CHECKING, Any
 
 import click
 from fastapi import APIRouter, Response
-from fastapi.concurrency import run_in_threadpool
 
 from wall_client.layout import Wall
-from webapp.apps import Scan, static_url
-from webapp.apps.census_map import commands, pages, routes
+from webapp.apps.census_map import commands, pages
 from webapp.apps.census_map.charts import ChartStats, charts_for
 from webapp.apps.census_map.dataset import DataSet, Tract
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.mapview import MapGeometry, tract_codes
+from webapp.apps.census_map.routes import datasets, earth, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.store import DataSets, current_id
 from webapp.apps.census_map.theme import Shading, kept_theme, shade
-from webapp.caching import SizedCache
+from webapp.apps.contract import Scan, static_url
 from webapp.choropleth.classes import Theme
+from webapp.core.caching import SizedCache
+from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import WallState, read_state
-from webapp.publishing import Block, Publication
+from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import (
     TagSpec,
     anchored_code_side_mm,
@@ -35,7 +36,7 @@ from webapp.tags.registry import (
 )
 
 if TYPE_CHECKING:
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 FOLDER = Path(__file__).parent
 KEPT_GEOMETRIES = 4
@@ -249,15 +250,18 @@ class CensusApp:
     async def tract_on_wall(
         self, services: Services, wall: Wall, geoid: str
     ) -> tuple[WallState, DataSet | None, Tract | None]:
-        _, state = await run_in_threadpool(read_state, services.db, wall.id)
-        dataset = await run_in_threadpool(self.shown, services, state)
+        _, state = await run_blocking(read_state, services.db, wall.id)
+        dataset = await run_blocking(self.shown, services, state)
         return state, dataset, dataset.tract(geoid) if dataset else None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "census/panel.html"
 
     def router(self) -> APIRouter | None:
-        return routes.router
+        router = APIRouter()
+        for room in (phones, tiles, earth, datasets):  # phones' paths first: most asked for
+            router.include_router(room.router)
+        return router
 
     def commands(self) -> list[click.Command]:
         return [commands.census, commands.earth]

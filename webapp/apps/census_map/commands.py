@@ -24,7 +24,7 @@ from webapp.apps.census_map.earth import (
 )
 from webapp.apps.census_map.importer import CensusImportError, import_files
 from webapp.apps.census_map.store import list_datasets
-from webapp.console import (
+from webapp.cli.console import (
     current_tokens,
     fail,
     load_configured_walls,
@@ -32,7 +32,7 @@ from webapp.console import (
     open_database,
     pick_wall,
 )
-from webapp.settings import Settings
+from webapp.core.settings import Settings
 
 
 @click.group()

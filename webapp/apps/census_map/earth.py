@@ -65,7 +65,7 @@ from webapp.apps.census_map.theme import Shading
 from webapp.choropleth.classes import Theme
 from webapp.database.connection import Database
 from webapp.engine.wall_state import Balloon, View, WallState
-from webapp.schemas import PlacedCode
+from webapp.server.schemas import PlacedCode
 from webapp.tags.registry import get_layout
 
 EARTH_RADIUS_M = 6_371_008.8  # the mean radius (IUGG): Earth draws a sphere at this scale

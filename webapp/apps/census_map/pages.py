@@ -7,34 +7,34 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
-from fastapi.concurrency import run_in_threadpool
 from sqlalchemy import select
 
 from wall_client.layout import Wall
-from webapp.apps import Scan
 from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
 from webapp.apps.census_map.rules import APP, INDEX_TAG
 from webapp.apps.census_map.theme import Shading, describe
+from webapp.apps.contract import Scan
+from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
-from webapp.deps import limit_action
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person
 from webapp.people.visitors import Visitor
-from webapp.templating import render
+from webapp.web.deps import limit_action
+from webapp.web.templating import render
 
 if TYPE_CHECKING:
     from webapp.apps.census_map.app import CensusApp
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 
 async def shown_dataset(
     app: CensusApp, services: Services, wall: Wall
 ) -> tuple[WallState, DataSet]:
     """The data set on the wall; 409 when the census map is not on it now."""
-    _, state = await run_in_threadpool(read_state, services.db, wall.id)
-    dataset = await run_in_threadpool(app.shown, services, state) if state.app == APP else None
+    _, state = await run_blocking(read_state, services.db, wall.id)
+    dataset = await run_blocking(app.shown, services, state) if state.app == APP else None
     if dataset is None:
         raise HTTPException(
             status.HTTP_409_CONFLICT, f"The census map is not on {wall.name} at the moment."
@@ -87,7 +87,7 @@ async def tract_here(
     def look_up() -> tuple[str | None, Shading | None]:  # one thread hop for both
         return index_code(services, wall), app.shading(dataset, state.theme)
 
-    code, shading = await run_in_threadpool(look_up)
+    code, shading = await run_blocking(look_up)
     return render(
         request,
         "census/here.html",

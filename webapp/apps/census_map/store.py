@@ -24,9 +24,9 @@ from webapp.apps.census_map.dataset import (
     county_of,
     tract_label,
 )
+from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.models import CensusDataSetRecord, CensusTractRecord
-from webapp.settings import CONTENT_DIR
 
 SHIPPED = CONTENT_DIR / "census" / "sacramento-2000.geojson"
 SHIPPED_KEY = "GEOID"

@@ -17,15 +17,15 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps import Scan, static_url
+from webapp.apps.contract import Scan, static_url
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import WallState, read_state
-from webapp.publishing import Block, Publication
+from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
-from webapp.templating import render
+from webapp.web.templating import render
 
 if TYPE_CHECKING:
-    from webapp.services import Services
+    from webapp.server.services import Services
 
 FOLDER = Path(__file__).parent
 SETUP_SET = "setup"

@@ -12,14 +12,14 @@ from fastapi.testclient import TestClient
 from markupsafe import escape
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
-from webapp.app import create_app
 from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import get_round
+from webapp.core.markdown import markdown_html
+from webapp.core.settings import Settings
 from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import WallState, events_since, read_state
-from webapp.markdown import markdown_html
-from webapp.settings import Settings
+from webapp.server.app import create_app
 from webapp.tags.registry import get_layout, wall_tags
 
 

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from webapp.apps.brain_atlas.content import ATLAS_DIR, check, load_content
 from webapp.apps.brain_atlas.matching import answer_key
-from webapp.cli import main
+from webapp.cli.commands import main
 
 TEXT = "A text long enough to be a real paragraph about this part of the brain."
 

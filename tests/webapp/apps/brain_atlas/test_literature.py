@@ -22,7 +22,7 @@ from webapp.apps.brain_atlas.literature import (
     format_authors,
     literature_for,
 )
-from webapp.settings import Settings
+from webapp.core.settings import Settings
 
 EUTILS = Path(__file__).parent / "eutils"
 HIPPOCAMPUS_PMIDS = ["13406589", "5124915", "4727084", "9809557"]

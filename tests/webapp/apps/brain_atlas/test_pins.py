@@ -40,8 +40,8 @@ from webapp.apps.brain_atlas.pins import (
     visible_regions,
 )
 from webapp.apps.brain_atlas.views import ViewPreset
+from webapp.core.settings import CONTENT_DIR
 from webapp.engine.wall_state import View
-from webapp.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer, lookup_table
 from webapp.volume.render import Camera, Footprint, clip_box, scene_to_plane, slice_depth
 from webapp.volume.store import VolumeMeta

@@ -19,7 +19,7 @@ from webapp.apps.brain_atlas.views import (
     load_views,
     showing,
 )
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 from webapp.volume.layer import VolumeLayer
 
 COMFORTABLE = 100.0  # mm²: every region shows at least this large in its best preset

@@ -17,7 +17,7 @@ from webapp.apps.census_map.dataset import (
     county_of,
     tract_label,
 )
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 SHIPPED = CONTENT_DIR / "census" / "sacramento-2000.geojson"
 

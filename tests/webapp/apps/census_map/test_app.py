@@ -19,7 +19,7 @@ from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import projection, shown_area
 from webapp.apps.census_map.store import list_datasets
 from webapp.engine.wall_state import View, WallState, read_state
-from webapp.schemas import PlacedCode
+from webapp.server.schemas import PlacedCode
 from webapp.tags.registry import get_layout, wall_tags
 
 
@@ -548,7 +548,7 @@ def test_the_index_switches_groups_too(client: TestClient) -> None:
 
 
 def test_a_restart_keeps_the_map_its_groups_and_its_codes(client: TestClient) -> None:
-    from webapp.app import create_app
+    from webapp.server.app import create_app
 
     show_census(client)
     codes = census_codes(client)
@@ -730,7 +730,7 @@ def test_google_earth_gets_the_wall_s_colours(client: TestClient) -> None:
 def test_a_colouring_survives_a_restart_and_leaves_with_a_data_set_without_its_value(
     client: TestClient, tmp_path: Path
 ) -> None:
-    from webapp.app import create_app
+    from webapp.server.app import create_app
 
     show_census(client)
     colour(client, INCOME_THEME)

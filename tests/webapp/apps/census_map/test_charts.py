@@ -35,7 +35,7 @@ from webapp.apps.census_map.dataset import (
     county_of,
     tract_label,
 )
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 SVG = "{http://www.w3.org/2000/svg}"
 SHIPPED = CONTENT_DIR / "census" / "sacramento-2000"

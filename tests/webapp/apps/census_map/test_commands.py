@@ -15,7 +15,7 @@ from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
-from webapp.cli import main
+from webapp.cli.commands import main
 from webapp.database.connection import Database
 from webapp.people.security import operator_token
 

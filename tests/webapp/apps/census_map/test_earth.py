@@ -63,9 +63,9 @@ from webapp.apps.census_map.mapview import MapGeometry, projection
 from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Theme
 from webapp.choropleth.palettes import MAX_CLASSES
+from webapp.core.settings import CONTENT_DIR
 from webapp.engine.wall_state import Balloon, View
-from webapp.schemas import PlacedCode
-from webapp.settings import CONTENT_DIR
+from webapp.server.schemas import PlacedCode
 
 NS = {"k": "http://www.opengis.net/kml/2.2", "gx": "http://www.google.com/kml/ext/2.2"}
 VISIBILITY, BALLOON = "k:visibility", "gx:balloonVisibility"

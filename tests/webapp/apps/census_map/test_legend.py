@@ -11,7 +11,7 @@ from webapp.apps.census_map.legend import LEGEND_SCALES, legend_rect, theme_view
 from webapp.apps.census_map.mapview import label_mm
 from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Theme
-from webapp.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR
 
 
 @pytest.fixture(scope="module")

@@ -28,8 +28,8 @@ from webapp.apps.census_map.mapview import (
     tract_codes,
 )
 from webapp.choropleth.palettes import contrast_ratio
+from webapp.core.settings import CONTENT_DIR
 from webapp.engine.wall_state import View
-from webapp.settings import CONTENT_DIR
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,489 @@
+"""The privilege matrix: anonymous, student, instructor and admin against every endpoint.
+
+Every request carries its session's CSRF token, so what is tested here is the role;
+CSRF has its own tests. A route added without a row here fails
+``test_the_matrix_covers_every_route``.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import urlencode
+
+import pytest
+from fastapi import FastAPI
+from fastapi.testclient import TestClient
+from starlette.websockets import WebSocketDisconnect
+
+from tests.conftest import (
+    TEST_PASSWORD,
+    build_test_volume,
+    csrf_of,
+    register_student,
+    routes_of,
+    services_of,
+    sign_in,
+)
+from webapp.engine.wall_state import commit_change, read_state
+from webapp.people.accounts import add_account
+from webapp.people.address_rules import add_rule
+from webapp.tags.registry import get_layout, wall_tags
+from webapp.volume.layer import VolumeLayer
+
+ROLES = ("anonymous", "student", "instructor", "admin")
+OK, LOGIN = "ok", "login"  # any success (2xx, or a redirect not to sign in); sent to sign in
+PUBLIC = (OK, OK, OK, OK)
+STAFF_PAGE = (LOGIN, LOGIN, OK, OK)
+ADMIN_PAGE = (LOGIN, LOGIN, 403, OK)
+STAFF_API = (401, 401, OK, OK)
+
+
+@dataclass(frozen=True)
+class Row:
+    method: str
+    route: str  # the route's template, for the coverage check
+    url: str
+    expected: tuple[object, object, object, object]
+    form: dict[str, str] | None = None  # "{role}" in a value becomes the role
+    json: Any = None
+    files: dict[str, tuple[str, bytes, str]] | None = None
+
+
+def matrix(client: TestClient) -> list[Row]:
+    db = services_of(client).db
+    tags = {t.name: t.code for t in wall_tags(db, "demo")}
+    setup = tags["setup-r1c1"]
+    _, state = read_state(db, "demo")
+    spare = add_account(db, "spare", "instructor", TEST_PASSWORD, actor="test")
+    rule = add_rule(
+        db, "10.200.0.0/16", role=None, user_group="k5", info_class=None, note="", actor="test"
+    )
+    tag = {"app": "pattern", "action": "locate", "anchor": [100.0, 100.0]}
+    volume = VolumeLayer(volume=build_test_volume(services_of(client).settings))
+    commit_change(db, "demo", lambda s: s.model_copy(update={"volume": volume}), keep_events=100)
+    scene = json.dumps({"view": {}, "volume": volume.model_dump()})
+    tile_volume = "/api/walls/demo/tiles/r1c1/volume"
+    # the census map on another wall, so the demo wall's rows keep their codes
+    census = client.post(
+        "/api/walls/kl-3x3/state",
+        json={"app": "census"},
+        headers={"Authorization": f"Bearer {services_of(client).operator_token}"},
+    )
+    assert census.status_code == 200, census.text
+    dataset = read_state(db, "kl-3x3")[1].dataset
+    group = next(t.params["group"] for t in wall_tags(db, "kl-3x3") if t.action == "toggle")
+    tract = "/apps/census/kl-3x3/tracts/06061022001"
+    census_state = read_state(db, "kl-3x3")[1]
+    layout = get_layout(db, "kl-3x3", census_state.tag_layout)
+    assert layout is not None
+    captioned = next(p for p in layout.placed if p.get("label") and p.get("caption"))
+    theme = {"attribute": "HH_INC", "scheme": "Blues", "method": "quantiles", "classes": 5}
+    tile_theme = (
+        f"/api/walls/kl-3x3/tiles/r2c2/census/theme?dataset={dataset}"
+        f"&layout={census_state.tag_layout}&{urlencode(theme)}"
+    )
+    # the brain atlas on a third wall, in quiz mode
+    brain = client.post(
+        "/api/walls/irregular/state",
+        json={"app": "brain"},
+        headers={"Authorization": f"Bearer {services_of(client).operator_token}"},
+    )
+    assert brain.status_code == 200, brain.text
+    pin_code = next(t.code for t in wall_tags(db, "irregular") if t.action == "pin" and t.active)
+    pin = f"/apps/brain/irregular/pins/{pin_code}"
+    return [
+        Row("GET", "/", "/", PUBLIC),
+        Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
+        Row("GET", "/wall/{wall_id}/overview", "/wall/demo/overview", PUBLIC),
+        Row("GET", "/wall/{wall_id}/tile/{tile_id}", "/wall/demo/tile/r1c1", (403,) * 4),
+        Row("GET", "/healthz", "/healthz", PUBLIC),
+        Row("GET", "/scan", "/scan", PUBLIC),
+        Row("POST", "/scan", "/scan", (415,) * 4, files={"photo": ("a.txt", b"no", "text/plain")}),
+        Row("GET", "/login", "/login", PUBLIC),
+        Row(
+            "POST",
+            "/login",
+            "/login",
+            (401,) * 4,
+            form={"username": "x-{role}", "password": "wrong"},
+        ),
+        Row("GET", "/login/operator", "/login/operator?token=wrong", (403,) * 4),
+        Row("GET", "/me", "/me", PUBLIC),
+        Row("POST", "/me", "/me", PUBLIC, form={"user_group": "k5", "info_class": "1"}),
+        Row("GET", "/api/walls", "/api/walls", PUBLIC),
+        Row("GET", "/api/walls/{wall_id}", "/api/walls/demo", PUBLIC),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/layouts/{layout_id}",
+            f"/api/walls/demo/layouts/{state.tag_layout}",
+            PUBLIC,
+        ),
+        Row("GET", "/codes/{name}", f"/codes/{setup}.svg", PUBLIC),
+        Row("GET", "/t/{code}", f"/t/{setup}", PUBLIC),
+        Row("GET", "/T/{code}", f"/T/{setup}", PUBLIC),
+        Row("GET", "/p/{token}", "/p/" + "A" * 26, (404,) * 4),
+        Row("GET", "/P/{token}", "/P/" + "A" * 26, (404,) * 4),
+        Row("POST", "/p/{token}", "/p/" + "A" * 26, (404,) * 4, form={}),
+        Row("POST", "/publish", "/publish", PUBLIC, form={"code": setup}),
+        Row("GET", "/dashboard", "/dashboard", STAFF_PAGE),
+        Row("GET", "/dashboard/admin", "/dashboard/admin", ADMIN_PAGE),
+        Row(
+            "POST",
+            "/dashboard/admin/accounts",
+            "/dashboard/admin/accounts",
+            ADMIN_PAGE,
+            form={"username": "newcomer", "role": "instructor", "password": TEST_PASSWORD},
+        ),
+        Row(
+            "POST",
+            "/dashboard/admin/accounts/{username}/remove",
+            f"/dashboard/admin/accounts/{spare.username}/remove",
+            ADMIN_PAGE,
+            form={},
+        ),
+        Row(
+            "POST",
+            "/dashboard/admin/rules",
+            "/dashboard/admin/rules",
+            ADMIN_PAGE,
+            form={"network": "10.201.0.0/16", "note": "matrix"},
+        ),
+        Row(
+            "POST",
+            "/dashboard/admin/rules/{rule_id}/remove",
+            f"/dashboard/admin/rules/{rule.id}/remove",
+            ADMIN_PAGE,
+            form={},
+        ),
+        Row("GET", "/api/walls/{wall_id}/status", "/api/walls/demo/status", STAFF_API),
+        Row("GET", "/api/walls/{wall_id}/tags", "/api/walls/demo/tags", STAFF_API),
+        Row("POST", "/api/walls/{wall_id}/tags", "/api/walls/demo/tags", STAFF_API, json=tag),
+        Row("GET", "/api/tags/{code}", f"/api/tags/{setup}", STAFF_API),
+        Row("PATCH", "/api/tags/{code}", f"/api/tags/{setup}", STAFF_API, json={"label": "x"}),
+        Row("GET", "/api/walls/{wall_id}/tag-sets", "/api/walls/demo/tag-sets", STAFF_API),
+        Row(
+            "PUT",
+            "/api/walls/{wall_id}/tag-set",
+            "/api/walls/demo/tag-set",
+            STAFF_API,
+            json={"name": "setup"},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/state",
+            "/api/walls/demo/state",
+            STAFF_API,
+            json={"layers": {"grid": False}},
+        ),
+        Row("GET", "/api/walls/{wall_id}/public", "/api/walls/demo/public", STAFF_API),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/public/clear",
+            "/api/walls/demo/public/clear",
+            STAFF_API,
+            json={},
+        ),
+        Row(
+            "PUT",
+            "/api/walls/{wall_id}/public/policy",
+            "/api/walls/demo/public/policy",
+            STAFF_API,
+            json={"moderated": False, "locked": False},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/public/{publication_id}/{decision}",
+            "/api/walls/demo/public/999/approve",
+            (401, 401, 404, 404),
+            json={},
+        ),
+        Row("POST", "/api/pairing", "/api/pairing", STAFF_API, json={}),
+        Row("GET", "/api/volumes", "/api/volumes", PUBLIC),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/volume",
+            f"{tile_volume}?{urlencode({'scene': scene})}",
+            (403, 403, OK, OK),
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/volume",
+            f"{tile_volume}?{urlencode({'scene': scene, 'detail': 'fallback'})}",
+            PUBLIC,
+        ),
+        Row(
+            "GET", "/api/walls/{wall_id}/volume/detail", "/api/walls/demo/volume/detail", STAFF_API
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/tiles/{tile_id}/census",
+            f"/api/walls/kl-3x3/tiles/r2c2/census?dataset={dataset}",
+            PUBLIC,
+        ),
+        Row("GET", "/api/walls/{wall_id}/tiles/{tile_id}/census/theme", tile_theme, PUBLIC),
+        Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
+        Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
+        Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/tracts/{geoid}/balloon",
+            f"{tract}/balloon",
+            PUBLIC,
+            form={},
+        ),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/groups/{group_id}/toggle",
+            f"/apps/census/kl-3x3/groups/{group}/toggle",
+            PUBLIC,
+            form={},
+        ),
+        Row("GET", "/apps/census/census.kml", "/apps/census/census.kml?wall=kl-3x3", PUBLIC),
+        Row("GET", "/apps/census/census.kmz", "/apps/census/census.kmz", PUBLIC),
+        Row("GET", "/apps/census/network-link.kml", "/apps/census/network-link.kml", PUBLIC),
+        Row(
+            "POST",
+            "/apps/census/{wall_id}/theme",
+            "/apps/census/kl-3x3/theme",
+            STAFF_PAGE,
+            form={"attribute": "HH_INC"},
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/theme",
+            "/api/census/walls/kl-3x3/theme",
+            STAFF_API,
+            json={"theme": theme},
+        ),
+        Row("GET", "/api/census/schemes", "/api/census/schemes", STAFF_API),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/map.kmz",
+            "/apps/census/earth/kl-3x3/map.kmz",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/{display_id}.kml",
+            "/apps/census/earth/kl-3x3/r2c2.kml",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/{display_id}/wall.kml",
+            "/apps/census/earth/kl-3x3/r2c2/wall.kml",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png",
+            f"/apps/census/earth/kl-3x3/captions/{census_state.tag_layout}/{captioned['code']}.png",
+            PUBLIC,
+        ),
+        Row("GET", "/api/census/datasets", "/api/census/datasets", STAFF_API),
+        Row(
+            "GET",
+            "/api/census/datasets/{dataset_id}",
+            f"/api/census/datasets/{dataset}",
+            STAFF_API,
+        ),
+        Row(
+            "POST",
+            "/api/census/current",
+            "/api/census/current",
+            STAFF_API,
+            json={"dataset": dataset},
+        ),
+        Row("GET", "/apps/brain/{wall_id}/pins/{code}", pin, PUBLIC),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/pins/{code}/answer",
+            f"{pin}/answer",
+            PUBLIC,
+            form={"answer": "thalamus"},
+        ),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/pins/{code}/reveal",
+            f"{pin}/reveal",
+            (403, 403, OK, OK),
+            form={},
+        ),
+        # the literature names the region: closed while the quiz is on, for everyone
+        Row(
+            "GET",
+            "/apps/brain/{wall_id}/pins/{code}/literature",
+            f"{pin}/literature",
+            (409, 409, 409, 409),
+        ),
+        Row(
+            "GET", "/apps/brain/{wall_id}/quiz/{tag_set}", "/apps/brain/irregular/quiz/full", PUBLIC
+        ),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/quiz/{tag_set}/finish",
+            "/apps/brain/irregular/quiz/full/finish",
+            PUBLIC,
+            form={},
+        ),
+        Row("GET", "/apps/brain/{wall_id}/groups", "/apps/brain/irregular/groups", PUBLIC),
+        Row(
+            "POST",
+            "/apps/brain/{wall_id}/groups/{group}",
+            "/apps/brain/irregular/groups/medical",
+            PUBLIC,
+            form={},
+        ),
+        Row("GET", "/api/walls/{wall_id}/brain", "/api/walls/irregular/brain", STAFF_API),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/brain",
+            "/api/walls/irregular/brain",
+            STAFF_API,
+            json={"mode": "quiz"},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/brain/quiz/reset",
+            "/api/walls/irregular/brain/quiz/reset",
+            STAFF_API,
+            json={},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/brain/quiz/close",
+            "/api/walls/irregular/brain/quiz/close",
+            STAFF_API,
+            json={},
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/brain/answers.csv",
+            "/api/walls/irregular/brain/answers.csv",
+            STAFF_API,
+        ),
+        Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
+    ]
+
+
+def client_as(app: FastAPI, role: str, index: int) -> TestClient:
+    # Each role from its own address, so their failed sign-ins do not throttle each other.
+    client = TestClient(app, client=(f"10.0.0.{index + 1}", 50000))
+    client.__enter__()
+    if role == "student":
+        register_student(client)
+    elif role in ("instructor", "admin"):
+        sign_in(client, role)
+    return client
+
+
+def outcome(response: Any) -> object:
+    if response.status_code == 303 and response.headers["location"].startswith("/login"):
+        return LOGIN
+    if response.status_code < 400:
+        return OK
+    return response.status_code
+
+
+def test_the_privilege_matrix(app: FastAPI) -> None:
+    clients = [client_as(app, role, index) for index, role in enumerate(ROLES)]
+    try:
+        rows = matrix(clients[0])
+        failures = []
+        for row in rows:
+            for role, client, expected in zip(ROLES, clients, row.expected, strict=True):
+                csrf = csrf_of(client)
+                form = (
+                    {**{k: v.format(role=role) for k, v in row.form.items()}, "csrf": csrf}
+                    if row.form is not None
+                    else None
+                )
+                response = client.request(
+                    row.method,
+                    row.url,
+                    data=form,
+                    json=row.json,
+                    files=row.files,
+                    headers={"X-CSRF-Token": csrf} if row.json is not None else {},
+                    follow_redirects=False,
+                )
+                got = outcome(response)
+                if got != expected:
+                    failures.append(f"{role} {row.method} {row.url}: {got}, expected {expected}")
+                assert "Traceback" not in response.text
+        assert not failures, "\n".join(failures)
+    finally:
+        for client in clients:
+            client.__exit__(None, None, None)
+
+
+WEBSOCKETS = {
+    ("WS", "/ws/wall/{wall_id}/tile/{tile_id}"),  # tile token: tests/webapp/server/routes/test_ws.py
+    ("WS", "/ws/wall/{wall_id}/view"),  # public, read only
+    ("WS", "/ws/dashboard/{wall_id}"),  # test_the_dashboard_socket_is_for_instructors
+}
+
+
+def test_the_matrix_covers_every_route(client: TestClient) -> None:
+    covered = {(row.method, row.route) for row in matrix(client)} | WEBSOCKETS
+    missing = routes_of(client.app) - covered  # type: ignore[arg-type]
+    assert not missing, f"routes without a row in the privilege matrix: {sorted(missing)}"
+
+
+@pytest.mark.parametrize("role,allowed", list(zip(ROLES, (False, False, True, True), strict=True)))
+def test_the_dashboard_socket_is_for_instructors(app: FastAPI, role: str, allowed: bool) -> None:
+    client = client_as(app, role, 0)
+    try:
+        with client.websocket_connect(
+            "/ws/dashboard/demo", headers={"origin": "http://testserver"}
+        ) as socket:
+            if allowed:
+                message = socket.receive_json()
+                assert message["type"] == "status" and message["status"]["wall"] == "demo"
+            else:
+                with pytest.raises(WebSocketDisconnect) as closed:
+                    socket.receive_json()
+                assert closed.value.code == 1008
+    finally:
+        client.__exit__(None, None, None)
+
+
+def test_the_dashboard_socket_refuses_other_sites(app: FastAPI) -> None:
+    client = client_as(app, "instructor", 0)
+    try:
+        with client.websocket_connect(
+            "/ws/dashboard/demo", headers={"origin": "http://evil.example"}
+        ) as socket:
+            with pytest.raises(WebSocketDisconnect) as closed:
+                socket.receive_json()
+            assert closed.value.code == 1008
+    finally:
+        client.__exit__(None, None, None)
+
+
+def test_staff_api_writes_need_the_csrf_header(app: FastAPI) -> None:
+    """A page on another site can make the browser send the cookie, never the header."""
+    client = client_as(app, "instructor", 0)
+    try:
+        forged = client.post("/api/walls/demo/state", json={"layers": {"grid": False}})
+        assert forged.status_code == 403
+        wrong = client.post(
+            "/api/walls/demo/state",
+            json={"layers": {"grid": False}},
+            headers={"X-CSRF-Token": "guess"},
+        )
+        assert wrong.status_code == 403
+        assert read_state(services_of(client).db, "demo")[1].layers == {}
+    finally:
+        client.__exit__(None, None, None)
+
+
+def test_a_wrong_bearer_token_is_401_even_with_a_staff_session(app: FastAPI) -> None:
+    client = client_as(app, "admin", 0)
+    try:
+        response = client.get("/api/walls/demo/status", headers={"Authorization": "Bearer nope"})
+        assert response.status_code == 401
+    finally:
+        client.__exit__(None, None, None)

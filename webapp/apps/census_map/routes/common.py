@@ -1,0 +1,54 @@
+"""What the census map's routes share: the app of a request and the map view of a query."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated, cast
+
+from fastapi import Depends, HTTPException, status
+from pydantic import ValidationError
+
+from wall_client.layout import Wall
+from webapp.apps.census_map.actions import MapChanged, NoSuchValue, colour_wall
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.rules import APP
+from webapp.choropleth.classes import Theme
+from webapp.engine.wall_state import View
+from webapp.server.services import Services
+
+if TYPE_CHECKING:
+    from webapp.apps.census_map.app import CensusApp
+
+
+def census_app(services: Services) -> CensusApp:
+    return cast("CensusApp", services.apps[APP])
+
+
+def map_view(cx: float = 0.5, cy: float = 0.5, zoom: float = 1.0) -> View:
+    """The view a tile asks for (its wall state's); 422 for one no view can be."""
+    try:
+        return View(center=(cx, cy), zoom=zoom)
+    except ValidationError as error:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"view: {error.errors()[0]['msg']}"
+        ) from None
+
+
+MapViewDep = Annotated[View, Depends(map_view)]
+
+
+async def colour_or_refuse(
+    services: Services, wall: Wall, dataset: DataSet, theme: Theme | None
+) -> None:
+    """Colour the wall (:func:`colour_wall`), its refusals as answers: 404 for a value
+    the data set lacks, 409 when the wall changed what it shows meanwhile."""
+    try:
+        await colour_wall(services, wall, dataset, theme)
+    except NoSuchValue as missing:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {str(missing)!r}."
+        ) from None
+    except MapChanged:
+        raise HTTPException(
+            status.HTTP_409_CONFLICT,
+            f"{wall.name} changed what it shows meanwhile; look at the wall and try again.",
+        ) from None

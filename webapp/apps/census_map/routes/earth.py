@@ -1,0 +1,302 @@
+"""KML for Google Earth: the census map as a document, and per-display network links for
+an Earth wall."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import partial
+from typing import TYPE_CHECKING, Annotated, Literal
+
+from fastapi import APIRouter, HTTPException, Query, Request, Response, status
+
+from wall_client.layout import Wall
+from webapp.apps.census_map.actions import (
+    group_shown,
+)
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.earth import (
+    DEFAULT_FOV,
+    DEFAULT_MAP_REFRESH_S,
+    DEFAULT_REFRESH_S,
+    MAX_FOV,
+    MAX_REFRESH_S,
+    MIN_FOV,
+    MIN_REFRESH_S,
+    EarthOptions,
+    caption_png,
+    display_document,
+    earth_displays,
+    mounted_box,
+    opener_kml,
+    screen_role,
+)
+from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
+from webapp.apps.census_map.routes.common import census_app
+from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.theme import Shading
+from webapp.core.caching import IMMUTABLE
+from webapp.core.threads import run_blocking
+from webapp.database.connection import RowId
+from webapp.engine.wall_state import WallState, now_ms, read_state
+from webapp.server.schemas import PlacedCode, errors
+from webapp.server.services import Services
+from webapp.web.deps import (
+    ServicesDep,
+    WallDep,
+)
+
+if TYPE_CHECKING:
+    from webapp.apps.census_map.app import CensusApp
+
+router = APIRouter(tags=["census"])
+
+
+NETWORK_LINK_REFRESH_S = 10
+
+
+KML_TYPE = "application/vnd.google-earth.kml+xml"
+
+
+KMZ_TYPE = "application/vnd.google-earth.kmz"
+
+
+async def _kml_inputs(services: Services, wall_id: str | None) -> tuple[Wall, WallState, CensusApp]:
+    wall = services.walls.get(wall_id or services.settings.default_wall)
+    if wall is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
+    _, state = await run_blocking(read_state, services.db, wall.id)
+    return wall, state, census_app(services)
+
+
+@dataclass(frozen=True)
+class _KmlInputs:
+    dataset: DataSet
+    hidden: frozenset[str]
+    open_balloons: frozenset[str]
+    name: str
+    shading: Shading | None
+    all_classes: bool = False  # Google Earth walls: a style for every class, see earth.py
+
+    def kml(self) -> bytes:
+        return census_kml(
+            self.dataset,
+            hidden=self.hidden,
+            open_balloons=self.open_balloons,
+            name=self.name,
+            shading=self.shading,
+            all_classes=self.all_classes,
+        ).encode()
+
+    def kmz(self) -> bytes:
+        return census_kmz(
+            self.dataset,
+            hidden=self.hidden,
+            open_balloons=self.open_balloons,
+            name=self.name,
+            shading=self.shading,
+            all_classes=self.all_classes,
+        )
+
+    def cached(self, app: CensusApp, kind: Literal["kml", "kmz"]) -> bytes:
+        """Built once per map state: a network link asks every few seconds."""
+        theme = self.shading.theme if self.shading else None
+        key = (
+            kind,
+            self.dataset.id,
+            self.hidden,
+            self.open_balloons,
+            self.name,
+            theme,
+            self.all_classes,
+        )
+        body = app.renders.get(key)
+        if body is None:
+            body = self.kml() if kind == "kml" else self.kmz()
+            app.renders.put(key, body)
+        return body
+
+
+@dataclass(frozen=True)
+class _MapNow:
+    """The map as the wall shows it now (the current data set as imported, plain, when
+    the map is not on the wall, ``on_wall`` False)."""
+
+    wall: Wall
+    state: WallState
+    dataset: DataSet
+    on_wall: bool
+    shading: Shading | None
+
+
+async def _map_now(services: Services, wall_id: str | None) -> _MapNow:
+    wall, state, app = await _kml_inputs(services, wall_id)
+    dataset = await run_blocking(app.shown, services, state)
+    if dataset is None:
+        dataset = await run_blocking(app.datasets.current, services.db)
+    if dataset is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "No census data set has been imported.")
+    on_wall = state.app == APP and state.dataset == dataset.id
+    shading = await run_blocking(app.shading, dataset, state.theme) if on_wall else None
+    return _MapNow(wall, state, dataset, on_wall, shading)
+
+
+async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
+    """The map as the wall shows it now: its data set, hidden groups, open balloons."""
+    now_map = await _map_now(services, wall_id)
+    wall, state, dataset, on_wall = now_map.wall, now_map.state, now_map.dataset, now_map.on_wall
+    now = now_ms()
+    hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
+    balloons = frozenset(b.id.removeprefix("tract-") for b in state.balloons if b.open_at(now))
+    return _KmlInputs(
+        dataset=dataset,
+        hidden=hidden if on_wall else frozenset(),
+        open_balloons=balloons if on_wall else frozenset(),
+        name=f"{dataset.title} · {wall.name}",
+        shading=now_map.shading,
+    )
+
+
+WallQuery = Annotated[str | None, Query(alias="wall", max_length=64)]
+
+
+@router.get("/apps/census/census.kml", responses=errors(404))
+async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    """The map as Google Earth shows it: tracts, groups as folders, open balloons."""
+    inputs = await _kml_of(services, wall_id)
+    body = await run_blocking(inputs.cached, census_app(services), "kml")
+    return Response(body, media_type=KML_TYPE)
+
+
+@router.get("/apps/census/census.kmz", responses=errors(404))
+async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    inputs = await _kml_of(services, wall_id)
+    body = await run_blocking(inputs.cached, census_app(services), "kmz")
+    return Response(
+        body,
+        media_type=KMZ_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="census.kmz"'},
+    )
+
+
+@router.get("/apps/census/network-link.kml", responses=errors(404))
+async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+    """Open once in Google Earth Pro: it fetches census.kmz (a fifth of census.kml's
+    bytes) every few seconds, so Earth follows the wall's groups and balloons."""
+    wall, _, _ = await _kml_inputs(services, wall_id)
+    url = f"{services.base_url}/apps/census/census.kmz?wall={wall.id}"
+    text = network_link_kml(
+        url, refresh_seconds=NETWORK_LINK_REFRESH_S, name=f"tagwall census map · {wall.name}"
+    )
+    return Response(
+        text,
+        media_type=KML_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="network-link.kml"'},
+    )
+
+
+FovQuery = Annotated[float, Query(ge=MIN_FOV, le=MAX_FOV)]
+
+
+RefreshQuery = Annotated[int, Query(ge=MIN_REFRESH_S, le=MAX_REFRESH_S)]
+
+
+OpenedQuery = Annotated[str | None, Query(alias="open", max_length=64)]
+
+
+ColouredQuery = Annotated[str | None, Query(alias="theme", max_length=128)]
+
+
+def _earth_display(wall: Wall, display_id: str) -> None:
+    """404 unless ``display_id`` is one of the wall's displays Google Earth can drive."""
+    if display_id not in {d.id for d in earth_displays(wall)}:
+        role = screen_role(wall, display_id)
+        detail = (
+            f"Display {display_id!r} is the {role} screen: Google Earth cannot show its "
+            "panels, open its tile in a browser."
+            if role
+            else f"Wall {wall.id!r} has no display {display_id!r}."
+        )
+        raise HTTPException(status.HTTP_404_NOT_FOUND, detail)
+
+
+@router.get("/apps/census/earth/{wall_id}/map.kmz", responses=errors(404))
+async def earth_map(wall: WallDep, services: ServicesDep) -> Response:
+    """The map Google Earth walls load: census.kmz with no balloon open (each display
+    opens the one on it) and a style for every class (each display recolours them)."""
+    inputs = await _kml_of(services, wall.id)
+    inputs = replace(inputs, open_balloons=frozenset(), all_classes=True)
+    body = await run_blocking(inputs.cached, census_app(services), "kmz")
+    return Response(body, media_type=KMZ_TYPE)
+
+
+@router.get("/apps/census/earth/{wall_id}/{display_id}.kml", responses=errors(404))
+async def earth_opener(
+    wall: WallDep,
+    display_id: str,
+    services: ServicesDep,
+    fov: FovQuery = DEFAULT_FOV,
+    refresh: RefreshQuery = DEFAULT_REFRESH_S,
+    map_refresh: RefreshQuery = DEFAULT_MAP_REFRESH_S,
+) -> Response:
+    """What the Google Earth on one display opens: the map and its wall document."""
+    _earth_display(wall, display_id)
+    options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
+    return Response(
+        opener_kml(services.base_url, wall, display_id, options),
+        media_type=KML_TYPE,
+        headers={"Content-Disposition": 'attachment; filename="tagwall-earth.kml"'},
+    )
+
+
+@router.get("/apps/census/earth/{wall_id}/{display_id}/wall.kml", responses=errors(404))
+async def earth_display(
+    request: Request,
+    wall: WallDep,
+    display_id: str,
+    services: ServicesDep,
+    fov: FovQuery = DEFAULT_FOV,
+    opened: OpenedQuery = None,
+    coloured: ColouredQuery = None,
+) -> Response:
+    """One display's wall document, fetched every few seconds by its Google Earth: the
+    view, groups, balloon and colouring (an Update of the map) and the codes on the
+    display. ``open`` and ``theme`` come from the previous document's cookie."""
+    _earth_display(wall, display_id)
+    shown = await _map_now(services, wall.id)
+    app = census_app(services)
+    geometry = await run_blocking(app.geometry, shown.dataset)
+    text = await run_blocking(
+        lambda: display_document(
+            services.db,
+            wall=shown.wall,
+            state=shown.state,
+            dataset=shown.dataset,
+            geometry=geometry,
+            on_wall=shown.on_wall,
+            shading=shown.shading,
+            shading_of=partial(app.shading, shown.dataset),
+            display_id=display_id,
+            fov=fov,
+            opened=opened,
+            coloured=coloured,
+            base_url=str(request.base_url).rstrip("/"),  # as Earth reached us: targetHref
+            now=now_ms(),
+        )
+    )
+    return Response(text, media_type=KML_TYPE)
+
+
+@router.get("/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png", responses=errors(404))
+async def earth_caption(
+    wall: WallDep, layout_id: RowId, code: str, services: ServicesDep
+) -> Response:
+    """A placed code's caption as Google Earth draws it under the code (a layout never
+    changes, so neither does its image)."""
+    record = await run_blocking(services.layout, wall.id, layout_id)
+    found = next((p for p in record.placed if p["code"] == code), None) if record else None
+    placed = PlacedCode.model_validate(found) if found else None
+    if placed is None or not placed.label or placed.caption is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
+    _, _, width, height = mounted_box(wall, placed.display, placed.caption)
+    body = await run_blocking(caption_png, placed.label, (width, height))
+    return Response(body, media_type="image/png", headers={"Cache-Control": IMMUTABLE})

@@ -1,0 +1,170 @@
+"""What each tile fetches of the census map: its share of the tracts and of the colouring."""
+
+from __future__ import annotations
+
+import json
+from typing import TYPE_CHECKING, Annotated
+
+from fastapi import APIRouter, HTTPException, Query, Response, status
+from pydantic import ValidationError
+from sqlalchemy import select
+
+from wall_client.layout import Rect, Wall
+from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.legend import theme_view
+from webapp.apps.census_map.mapview import tile_view, tract_boxes
+from webapp.apps.census_map.routes.common import MapViewDep, census_app
+from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.theme import kept_theme
+from webapp.choropleth.classes import Method, Theme
+from webapp.choropleth.palettes import SchemeName
+from webapp.core.threads import run_blocking
+from webapp.database.connection import ROW_ID_MAX, RowId
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import View
+from webapp.server.schemas import PlacedCode, errors
+from webapp.server.services import Services
+from webapp.web.deps import (
+    ServicesDep,
+    TileDep,
+    WallDep,
+)
+
+if TYPE_CHECKING:
+    from webapp.apps.census_map.app import CensusApp
+
+router = APIRouter(tags=["census"])
+
+
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census", responses=errors(404))
+async def tile_map(
+    wall: WallDep,
+    tile: TileDep,
+    services: ServicesDep,
+    dataset: RowId,
+    view: MapViewDep,
+    layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
+) -> Response:
+    """One tile's share of the census map for a data set, codes layout and view, in the
+    tile's native pixels (the tile fetches it before it answers ``ready``)."""
+    app = census_app(services)
+    key = (dataset, wall.id, tile.id, layout, view.center, view.zoom)
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_blocking(app.dataset, services, dataset)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
+            )
+        body = await run_blocking(_tile_body, app, services, wall, tile.id, found.id, layout, view)
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
+
+
+def _tile_body(
+    app: CensusApp,
+    services: Services,
+    wall: Wall,
+    tile_id: str,
+    dataset_id: int,
+    layout_id: int,
+    view: View,
+) -> bytes:
+
+    dataset = app.dataset(services, dataset_id)
+    assert dataset is not None
+    record = services.layout(wall.id, layout_id)
+    placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
+    codes = _census_tags(services, [p.code for p in placed])
+    tracts = {tag.params["geoid"]: code for code, tag in codes.items() if tag.action == "tract"}
+    occupied = [Rect(*p.footprint) for p in placed if p.display == tile_id]
+    view_body = tile_view(dataset, app.geometry(dataset), wall, tile_id, view, tracts, occupied)
+    view_body["toggles"] = {
+        code: tag.params["group"] for code, tag in codes.items() if tag.action == "toggle"
+    }
+    clusters = {
+        code: [str(g) for g in tag.params["geoids"]]
+        for code, tag in codes.items()
+        if tag.action == "cluster"
+    }
+    view_body["clusters"] = {
+        code: sorted({dataset.group_of[g] for g in geoids if g in dataset.group_of})
+        for code, geoids in clusters.items()
+    }
+    clustered = sum(len(geoids) for geoids in clusters.values())
+    view_body["caption"] = (
+        f"{dataset.title} · {len(tracts)} of {len(dataset.tracts)} tracts carry their own"
+        f" code, {clustered} a shared one; every tract is in the tract index"
+    )
+    return json.dumps(view_body, separators=(",", ":")).encode()
+
+
+def _census_tags(services: Services, codes: list[str]) -> dict[str, TagRecord]:
+    """The census map's tags among ``codes`` (a layout's), by code."""
+    if not codes:
+        return {}
+    with services.db.session() as session:
+        rows = session.scalars(
+            select(TagRecord).where(TagRecord.code.in_(codes), TagRecord.app == APP)
+        )
+        return {tag.code: tag for tag in rows}
+
+
+@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census/theme", responses=errors(404))
+async def tile_theme(
+    wall: WallDep,
+    tile: TileDep,
+    services: ServicesDep,
+    dataset: RowId,
+    attribute: Annotated[str, Query(max_length=64)],
+    scheme: SchemeName,
+    method: Method,
+    classes: int,
+    view: MapViewDep,
+    layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
+) -> Response:
+    """The tracts' classes and the legend for the wall's theme (the state's ``theme``),
+    the same for every tile of the wall: tiles fetch it before they answer ``ready``.
+    The view says where the map lies, which the legend keeps off where it can."""
+    try:
+        theme = Theme(attribute=attribute, scheme=scheme, method=method, classes=classes)
+    except ValidationError as error:
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"theme: {error.errors()[0]['msg']}"
+        ) from None
+    app = census_app(services)
+    key = ("theme", wall.id, dataset, layout, view.center, view.zoom, theme)
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_blocking(app.dataset, services, dataset)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
+            )
+        if kept_theme(found, theme) is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"{found.title} has no value {attribute!r}."
+            )
+        body = await run_blocking(_theme_body, app, services, wall, found, layout, view, theme)
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
+
+
+def _theme_body(
+    app: CensusApp,
+    services: Services,
+    wall: Wall,
+    dataset: DataSet,
+    layout_id: int,
+    view: View,
+    theme: Theme,
+) -> bytes:
+    shading = app.shading(dataset, theme)
+    assert shading is not None
+    record = services.layout(wall.id, layout_id)
+    codes = [
+        Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
+    ]
+    on_map = tract_boxes(app.geometry(dataset), wall, view)
+    body = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes, on_map)
+    return body.model_dump_json().encode()

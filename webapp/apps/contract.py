@@ -1,0 +1,127 @@
+"""Wall applications: each declares its tags and answers the scans of them.
+
+An app is a small plug-in: the core resolves a scanned code to its tag and hands the
+scan to the app named on the tag, which returns the phone page. Adding an app means
+adding a package here and listing it in ``webapp.apps.builtin``; the core knows nothing
+app-specific. An app owns all of its parts in its package and contributes them here:
+its scene layers (``layers``), page templates (``templates``), browser modules
+(``static``), a dashboard panel (``dashboard_panel``), what its pages publish to the
+public screen (``publication``), its own pages and API (``router``) and its
+``tagwall`` commands (``commands``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
+
+import click
+from fastapi import APIRouter, Request, Response
+
+from wall_client.layout import Wall
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person, person_of
+from webapp.people.visitors import Visitor
+from webapp.publishing.publication import Publication
+from webapp.tags.registry import TagSpec
+
+if TYPE_CHECKING:
+    from webapp.server.services import Services
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A resolved scan, as an app's handler receives it."""
+
+    request: Request
+    services: Services
+    wall: Wall
+    tag: TagRecord
+    visitor: Visitor
+    address: str
+    subject: str | None = None  # what the page shows when not the tag itself (an index pick)
+
+    async def person(self) -> Person:
+        """Who scanned: role, user group, information class (loaded when an app asks)."""
+        return await person_of(self.request, self.services.db, self.services.settings, self.address)
+
+
+SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
+"""The scene's layers drawn over every app's: the balloons' pointers, the placed codes
+with their pins, and the balloons' boxes."""
+
+
+class WallApp(Protocol):
+    name: str
+    default_tag_set: str | None  # the set shown when the app comes on the wall
+    layers: tuple[str, ...]
+    """The JS modules that draw the app's scene on tiles and the overview, bottom first,
+    under :data:`SHARED_LAYERS` (each exports ``createLayer``: ``static/js/layers.js``)."""
+    templates: Path | None
+    """The folder of the app's page templates, each under the app's own prefix
+    (``census/tract.html``), so apps never shadow the core's or each other's."""
+    static: Path | None
+    """The folder of the app's browser modules, served at :func:`static_url`."""
+
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+        """The state as the app needs it when it comes on ``wall`` (say, the data set
+        it shows); called in a worker thread, at start too."""
+        ...
+
+    def leave(self, state: WallState) -> WallState:
+        """The state without what only this app shows (say, its volume), as another app
+        comes on the wall: a scene shows only its own app's layers."""
+        ...
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+        """The named tags the app needs on ``wall`` in ``state`` (declared at every
+        start, and again whenever one of :data:`webapp.door.changes.PLACING_FIELDS` changes)."""
+        ...
+
+    async def on_scan(self, scan: Scan) -> Response:
+        """The phone page for a scan of one of the app's tags."""
+        ...
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        """The phone page for a scan of one of the app's tags that does not work now
+        (switched off, expired, or of a set not on the wall; ``problem`` says which),
+        or None for the core's "no longer in use" page. An app whose codes change as
+        it runs tells the phone what became of the thing it scanned."""
+        ...
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        """What the page of ``scan`` publishes to the public screen (None: nothing).
+
+        Called when the phone presses the Publish button at the bottom of that page;
+        the content is built again on the server, never taken from the phone.
+        """
+        ...
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        """The template of the app's dashboard panel (None: no panel).
+
+        The dashboard includes it inside its own page with ``wall`` in the context;
+        panel scripts are plain modules under ``static/js/`` listed in the template.
+        """
+        ...
+
+    def router(self) -> APIRouter | None:
+        """The app's own pages and API (None: it has none)."""
+        ...
+
+    def commands(self) -> list[click.Command]:
+        """The app's ``tagwall`` commands (documented in docs/cli.md like the core's)."""
+        ...
+
+
+def static_url(app_name: str) -> str:
+    """Where an app's ``static`` folder is served."""
+    return f"/static/apps/{app_name}"
+
+
+def layer_stacks(apps: dict[str, WallApp]) -> dict[str, Any]:
+    """What pages that draw the scene load (``static/js/layers.js``): each app's layers
+    and the shared ones."""
+    return {"apps": {name: list(app.layers) for name, app in apps.items()}, "shared": SHARED_LAYERS}

@@ -1,0 +1,93 @@
+"""What every wall has whatever app it shows: the registration codes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+from urllib.parse import quote
+
+import click
+from fastapi import APIRouter, Response, status
+from fastapi.responses import RedirectResponse
+
+from wall_client.layout import Wall
+from webapp.apps.contract import Scan
+from webapp.core.threads import run_blocking
+from webapp.engine.wall_state import WallState
+from webapp.people.person import Person, address_grant, assume, grant, remember_person
+from webapp.people.roles import Role
+from webapp.publishing.publication import Publication
+from webapp.tags.registry import TagSpec
+from webapp.web.templating import render
+
+if TYPE_CHECKING:
+    from webapp.server.services import Services
+
+REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
+
+
+class CoreApp:
+    name: str = "core"
+    default_tag_set: str | None = None
+    layers: tuple[str, ...] = ()
+    templates: Path | None = None  # the core's pages are its own
+    static: Path | None = None
+
+    def leave(self, state: WallState) -> WallState:
+        return state
+
+    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+        return state
+
+    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+        """The student and instructor codes, permanent on the registration screen."""
+        return [
+            TagSpec(
+                name=f"register-{role}",
+                label=label,
+                app=self.name,
+                action="register",
+                params={"role": role},
+                screen="registration",
+                slot=slot,
+            )
+            for slot, (role, label) in enumerate(REGISTRATION_ROLES)
+        ]
+
+    async def on_scan(self, scan: Scan) -> Response:
+        """Student: always. Instructor: only a phone already authorised (signed in,
+        paired, or by an address rule where those are on); others go to sign in and
+        come back to this code."""
+        person = await scan.person()
+        services = scan.services
+        if scan.tag.params.get("role") == "instructor" and not person.may_assume("instructor"):
+            authority = await run_blocking(
+                address_grant, services.db, scan.address, services.settings
+            )
+            if authority is None:
+                back = quote(f"/t/{scan.tag.code}")
+                return RedirectResponse(f"/login?next={back}", status.HTTP_303_SEE_OTHER)
+            person = await run_blocking(
+                grant, services.db, person, "instructor", authority, services.settings, scan.address
+            )
+        role: Role = "instructor" if scan.tag.params.get("role") == "instructor" else "student"
+        registered: Person = await run_blocking(
+            assume, services.db, person, role, services.settings, scan.address
+        )
+        remember_person(scan.request, registered)
+        return render(scan.request, "registered.html", wall=scan.wall)
+
+    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
+        return None  # the core's page says it
+
+    async def publication(self, scan: Scan) -> Publication | None:
+        return None  # registration is not content
+
+    def router(self) -> APIRouter | None:
+        return None
+
+    def commands(self) -> list[click.Command]:
+        return []
+
+    def dashboard_panel(self, wall: Wall) -> str | None:
+        return None

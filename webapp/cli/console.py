@@ -1,0 +1,111 @@
+"""What every ``tagwall`` command shares, the core's and the apps': settings from the
+environment, one-line errors that exit 2, the walls, the database, the bus and the
+tokens."""
+
+from __future__ import annotations
+
+import asyncio
+import sys
+from typing import Any, NoReturn
+
+import click
+from pydantic import ValidationError
+from pydantic_settings import SettingsError
+from sqlalchemy.exc import SQLAlchemyError
+
+from wall_client.config import WallConfigError, load_walls
+from wall_client.layout import Wall
+from webapp.core.settings import Settings
+from webapp.database.connection import Database, database_problem
+from webapp.database.migrate import upgrade
+from webapp.database.redis import redis_problem
+from webapp.people.tokens import Tokens, load_tokens
+
+EXIT_USAGE = 2
+
+
+def load_settings(**overrides: Any) -> Settings:
+    """Settings from the environment, with command-line overrides; exit 2 when invalid."""
+    given = {key: value for key, value in overrides.items() if value is not None}
+    try:
+        return Settings(**given)
+    except ValidationError as error:
+        for problem in error.errors():
+            field = ".".join(str(part) for part in problem["loc"])
+            # A rule between settings (no one field) says which settings it names itself.
+            where = f"{_setting_name(field)}: " if field else ""
+            message = problem["msg"].removeprefix("Value error, ")
+            click.echo(f"error: {where}{message}", err=True)
+    except SettingsError as error:  # a value that is not even JSON, before validation
+        field = str(error).removeprefix('error parsing value for field "').split('"')[0]
+        reason = error.__cause__ or error
+        click.echo(f"error: {_setting_name(field)}: not valid JSON ({reason})", err=True)
+    sys.exit(EXIT_USAGE)
+
+
+def _setting_name(field: str) -> str:
+    """``info_class_max`` as the operator wrote it: ``TAGWALL_INFO_CLASS_MAX``."""
+    head, _, rest = field.partition(".")
+    known = head in Settings.model_fields
+    return f"TAGWALL_{head.upper()}{'.' + rest if rest else ''}" if known else field
+
+
+def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
+    click.echo(f"error: {message}", err=True)
+    sys.exit(code)
+
+
+def load_configured_walls(settings: Settings) -> dict[str, Wall]:
+    """The configured walls; exit 2 when a config is invalid or there is none at all."""
+    try:
+        walls = load_walls(settings.wall_configs)
+    except WallConfigError as error:
+        click.echo(str(error), err=True)
+        sys.exit(EXIT_USAGE)
+    if not walls:
+        where = ", ".join(str(path) for path in settings.wall_configs) or "(nothing)"
+        fail(
+            f"no wall configs found in {where}; point TAGWALL_WALL_CONFIGS at wall .toml "
+            "files or folders (see docs/wall-config.md)"
+        )
+    return walls
+
+
+def pick_wall(walls: dict[str, Wall], wall_id: str | None, settings: Settings) -> Wall:
+    """The wall named by ``--wall``, else ``TAGWALL_DEFAULT_WALL``; exit 2 naming which
+    one is unknown."""
+    chosen = wall_id or settings.default_wall
+    if chosen not in walls:
+        known = ", ".join(sorted(walls)) or "none"
+        source = "" if wall_id else "TAGWALL_DEFAULT_WALL: "
+        fail(f"{source}no wall {chosen!r} (configured: {known})")
+    return walls[chosen]
+
+
+def open_database(settings: Settings, *, migrate: bool = True) -> Database:
+    """The database, migrated first unless told not to; exit 2 with one line saying
+    what is wrong when it cannot be reached or used."""
+    url = settings.resolved_database_url
+    try:
+        if migrate:
+            upgrade(url)
+        return Database(url)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, url))
+
+
+def check_bus(settings: Settings) -> None:
+    """With ``TAGWALL_BUS=redis``, exit 2 with one line when Redis does not answer."""
+    if settings.bus == "redis" and (problem := asyncio.run(redis_problem(settings.redis_url))):
+        fail(problem)
+
+
+def current_tokens(settings: Settings) -> Tokens:
+    """The operator and tile tokens as the server checks them (rotations included)."""
+    database = open_database(settings, migrate=False)
+    try:
+        return load_tokens(database, settings.resolved_secret_key)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, settings.resolved_database_url))
+    finally:
+        database.dispose()

@@ -1,0 +1,230 @@
+"""FastAPI dependencies: every lookup and privilege check of a request lives here.
+
+They are ``async`` although none awaits: FastAPI runs plain ``def`` dependencies in
+the thread pool, a hop that cost more than the work itself on every request.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Annotated, Any
+from urllib.parse import quote
+
+from fastapi import Depends, Header, HTTPException, Query, Request, WebSocket, status
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from wall_client.layout import Display, Wall
+from webapp.engine.protocol import CLOSE_UNKNOWN
+from webapp.people.addresses import address_of
+from webapp.people.person import Person, person_of
+from webapp.people.ratelimit import WallAction, retry_after_s
+from webapp.people.security import csrf_token, token_matches
+from webapp.people.visitors import Visitor
+from webapp.server.services import Services
+
+
+async def get_services(request: Request) -> Services:
+    services: Services = request.app.state.services
+    return services
+
+
+ServicesDep = Annotated[Services, Depends(get_services)]
+
+
+async def get_wall(wall_id: str, services: ServicesDep) -> Wall:
+    wall = services.walls.get(wall_id)
+    if wall is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall called {wall_id!r}.")
+    return wall
+
+
+WallDep = Annotated[Wall, Depends(get_wall)]
+
+
+async def get_tile(tile_id: str, wall: WallDep) -> Display:
+    for display in wall.displays:
+        if display.id == tile_id:
+            return display
+    raise HTTPException(
+        status.HTTP_404_NOT_FOUND, f"Wall {wall.id!r} has no tile called {tile_id!r}."
+    )
+
+
+TileDep = Annotated[Display, Depends(get_tile)]
+
+
+async def open_wall_socket(
+    websocket: WebSocket, wall_id: str, tile_id: str | None = None
+) -> tuple[Services, Wall] | None:
+    """Accept a websocket of one wall (and tile): the services and the wall, or None
+    when the socket was closed because there is no such wall or tile. Sockets close
+    with a code of their own rather than an HTTP status, so this is not a dependency."""
+    services: Services = websocket.app.state.services
+    await websocket.accept()
+    wall = services.walls.get(wall_id)
+    if wall is None or (tile_id is not None and tile_id not in {d.id for d in wall.displays}):
+        await websocket.close(CLOSE_UNKNOWN, "unknown wall or tile" if tile_id else "unknown wall")
+        return None
+    return services, wall
+
+
+async def require_tile_token(
+    wall: WallDep, services: ServicesDep, token: Annotated[str | None, Query()] = None
+) -> None:
+    """Tile pages need the wall's tile token (printed by ``tagwall tiles``)."""
+    if not token_matches(services.tile_token(wall.id), token):
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN,
+            "This tile URL has a missing or wrong token; use the URL from `tagwall tiles`.",
+        )
+
+
+TileTokenDep = Depends(require_tile_token)
+
+_bearer = HTTPBearer(auto_error=False)
+BearerDep = Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)]
+SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
+
+
+async def get_client_address(request: Request) -> str:
+    """The client's address (``X-Forwarded-For`` only from trusted proxies)."""
+    return address_of(request)
+
+
+ClientAddressDep = Annotated[str, Depends(get_client_address)]
+
+
+def too_fast(wait: float) -> HTTPException:
+    """The 429 for a phone that acts faster than its limits allow."""
+    seconds = retry_after_s(wait)
+    return HTTPException(
+        status.HTTP_429_TOO_MANY_REQUESTS,
+        f"That was a lot in a short time. Try again in {seconds} seconds.",
+        headers={"Retry-After": str(seconds)},
+    )
+
+
+async def limit_action(
+    services: Services, kind: WallAction, visitor: Visitor, address: str, wall_id: str
+) -> None:
+    """Count one ``kind`` of action on the wall; 429 when it is one too many."""
+    wait = await services.action_allowed(kind, visitor, address, wall_id)
+    if wait is not None:
+        raise too_fast(wait)
+
+
+async def get_person(request: Request, services: ServicesDep, address: ClientAddressDep) -> Person:
+    return await person_of(request, services.db, services.settings, address)
+
+
+PersonDep = Annotated[Person, Depends(get_person)]
+
+
+async def require_csrf(
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    x_csrf_token: Annotated[str | None, Header()] = None,
+) -> None:
+    """State-changing requests of a session carry its CSRF token (form field or header)."""
+    given = x_csrf_token
+    if given is None and request.headers.get("content-type", "").startswith(
+        ("application/x-www-form-urlencoded", "multipart/form-data")
+    ):
+        value = (await request.form()).get("csrf")
+        given = value if isinstance(value, str) else None
+    if not token_matches(csrf_token(services.secret, person.visitor.session_id), given):
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN,
+            "This form has expired or did not come from this site. Reload the page and try again.",
+        )
+
+
+CsrfDep = Depends(require_csrf)
+
+
+async def require_staff_page(request: Request, person: PersonDep) -> Person:
+    """Instructor pages: anyone else is sent to sign in (and brought back after)."""
+    if not person.is_staff:
+        target = quote(request.url.path + (f"?{request.url.query}" if request.url.query else ""))
+        raise HTTPException(
+            status.HTTP_303_SEE_OTHER,
+            "Sign in as an instructor to open this page.",
+            headers={"Location": f"/login?next={target}"},
+        )
+    return person
+
+
+StaffPageDep = Annotated[Person, Depends(require_staff_page)]
+
+
+async def require_admin_page(person: StaffPageDep) -> Person:
+    if not person.at_least("admin"):
+        raise HTTPException(status.HTTP_403_FORBIDDEN, "This page is for administrators.")
+    return person
+
+
+AdminPageDep = Annotated[Person, Depends(require_admin_page)]
+
+
+async def require_staff(request: Request, services: ServicesDep, credentials: BearerDep) -> str:
+    """API calls of instructors: the operator token as a bearer token (scripts), or an
+    instructor's session with its CSRF token in ``X-CSRF-Token`` (the dashboard).
+
+    Returns who acts, for the audit log and publications.
+    """
+    if credentials is not None:
+        if token_matches(services.operator_token, credentials.credentials):
+            return "operator"
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "The bearer token is not the operator token.",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    person = await get_person(request, services, address_of(request))
+    if not person.is_staff:
+        raise HTTPException(
+            status.HTTP_401_UNAUTHORIZED,
+            "Sign in as an instructor, or send the operator token (Authorization: Bearer ...).",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    if request.method not in SAFE_METHODS:
+        await require_csrf(request, person, services, request.headers.get("x-csrf-token"))
+    return person.authority or person.role
+
+
+StaffDep = Annotated[str, Depends(require_staff)]
+
+
+async def require_tile_or_staff_for_detail(
+    request: Request,
+    wall: WallDep,
+    services: ServicesDep,
+    token: Annotated[str | None, Query()] = None,
+    detail: Annotated[str, Query()] = "refined",
+) -> None:
+    """Detailed renders cost a second of CPU: only the wall's tiles (their token) and
+    instructors get them; the instant fallback is for everyone (the overview)."""
+    if detail == "fallback" or token_matches(services.tile_token(wall.id), token):
+        return
+    person = await get_person(request, services, address_of(request))
+    if not person.is_staff:
+        raise HTTPException(
+            status.HTTP_403_FORBIDDEN,
+            "Only the wall's tiles (with their token) and instructors may ask for this.",
+        )
+
+
+DetailedRenderAccess = Depends(require_tile_or_staff_for_detail)
+StaffOnly = Depends(require_staff)
+
+
+DEPENDENCY_ERRORS: dict[Callable[..., Any], tuple[int, ...]] = {
+    get_wall: (404,),
+    get_tile: (404,),
+    require_tile_token: (403,),
+    require_staff: (401, 403),
+    require_tile_or_staff_for_detail: (403,),
+}
+"""The error statuses each dependency answers with: every API route that uses one lists
+them in the OpenAPI document (see ``webapp.server.app``)."""

@@ -1,0 +1,96 @@
+"""The middlewares, all plain ASGI (no per-request task or body copy), outermost first:
+the client's address, the security headers, the session cookie."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from starlette.datastructures import Headers, MutableHeaders
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from webapp.people.addresses import Network, client_address, is_trusted_peer
+from webapp.people.visitors import Visitor, cookie_header
+
+HEADERS = {
+    # Scripts and styles only from our own static files: nothing inline, nothing foreign.
+    "content-security-policy": (
+        "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
+        "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'self'"
+    ),
+    "x-frame-options": "DENY",
+    "x-content-type-options": "nosniff",
+    "referrer-policy": "same-origin",
+}
+_RAW = [(name.encode(), value.encode()) for name, value in HEADERS.items()]
+
+
+class ClientAddressMiddleware:
+    """Puts the client's address (and, from a trusted proxy, ``X-Forwarded-Proto``'s
+    scheme) into every HTTP and websocket connection's scope.
+
+    Repeated ``X-Forwarded-For`` lines are one comma-joined list (RFC 9110 5.3): a
+    proxy that appends its own line (HAProxy's ``option forwardfor``) must not let the
+    client's own line decide."""
+
+    def __init__(self, app: ASGIApp, trusted: Sequence[Network]) -> None:
+        self.app = app
+        self.trusted = list(trusted)
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if self.trusted and scope["type"] in ("http", "websocket"):
+            peer = scope["client"][0] if scope.get("client") else ""
+            if is_trusted_peer(peer, self.trusted):
+                headers = Headers(scope=scope)
+                forwarded = ", ".join(headers.getlist("x-forwarded-for")) or None
+                scope = dict(scope)
+                scope["client"] = (client_address(peer, forwarded, self.trusted), 0)
+                proto = headers.get("x-forwarded-proto", "").strip().lower()
+                if proto in ("http", "https"):
+                    secure = proto == "https"
+                    web = scope["type"] == "http"
+                    scope["scheme"] = (
+                        ("https" if secure else "http") if web else ("wss" if secure else "ws")
+                    )
+        await self.app(scope, receive, send)
+
+
+class SecurityHeadersMiddleware:
+    def __init__(self, app: ASGIApp) -> None:
+        self.app = app
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def send_with_headers(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                present = {name.lower() for name, _ in message.get("headers", [])}
+                extra = [(n, v) for n, v in _RAW if n not in present]
+                message["headers"] = [*message.get("headers", []), *extra]
+            await send(message)
+
+        await self.app(scope, receive, send_with_headers)
+
+
+class SessionCookieMiddleware:
+    """Writes the session cookie of a new or rotated visitor, so no route has to."""
+
+    def __init__(self, app: ASGIApp, secret: str) -> None:
+        self.app = app
+        self.secret = secret
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+
+        async def send_with_cookie(message: Message) -> None:
+            visitor: Visitor | None = scope.get("state", {}).get("visitor")
+            if message["type"] == "http.response.start" and visitor and visitor.changed:
+                headers = MutableHeaders(scope=message)
+                https = scope["scheme"] == "https"
+                headers.append("set-cookie", cookie_header(visitor, self.secret, https=https))
+            await send(message)
+
+        await self.app(scope, receive, send_with_cookie)
