@@ -30,7 +30,7 @@ from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
 from webapp.apps.census_map.rules import APP, CENSUS_SET
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
-from webapp.apps.registration.app import CoreApp
+from webapp.apps.registration.app import RegistrationApp
 from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
@@ -62,7 +62,7 @@ def _codes(db: Database, wall: Wall, dataset_id: int, total: int, view: View) ->
     started = time.perf_counter()
     specs = CensusApp().declare_tags(services, wall, state)  # type: ignore[arg-type]
     chosen = time.perf_counter()
-    declare(db, wall.id, "core", CoreApp().declare_tags(services, wall, state))  # type: ignore[arg-type]
+    declare(db, wall.id, "core", RegistrationApp().declare_tags(services, wall, state))  # type: ignore[arg-type]
     declare(db, wall.id, APP, specs)
     layout = get_layout(db, wall.id, layout_for(db, wall, CENSUS_SET, BASE_URL))
     placed_at = time.perf_counter()

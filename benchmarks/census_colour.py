@@ -99,7 +99,7 @@ def _tile(server: ServerProcess, page: Page, wall: str) -> dict[str, Any]:
     )
     assert coloured_wall.status_code == 200, coloured_wall.text
     state = server.status(wall)["state"]
-    query = {"dataset": state["dataset"], "layout": state["tag_layout"]}
+    query = {"dataset": state["apps"]["census"]["dataset"], "layout": state["tag_layout"]}
     tile, view = _busiest(server, wall, query)
     base = f"{server.url}/api/walls/{wall}/tiles/{tile}/census"
     with httpx.Client(timeout=60) as client:  # one connection: the fetch, not the setup

@@ -27,8 +27,7 @@ import numpy as np
 from wall_client.config import load_wall, parse_wall
 from wall_client.layout import Wall
 from webapp.core.settings import CONTENT_DIR
-from webapp.engine.wall_state import View
-from webapp.volume.layer import VolumeLayer
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.store import VolumeStore
 from webapp.volume.tiles import encode, tile_image, tile_plan
 

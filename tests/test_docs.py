@@ -12,10 +12,12 @@ from fastapi.testclient import TestClient
 
 from tests.conftest import routes_of
 from wall_client.config import config_keys
+from webapp.apps.contract import WallApp, heavy_keys
+from webapp.apps.discovery import installed_apps
 from webapp.cli.commands import main
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.engine import protocol
-from webapp.engine.wall_state import HEAVY_FIELDS, WallState
+from webapp.engine.wall_state import CORE_HEAVY_KEYS, WallState
 
 DOCS = PROJECT_ROOT / "docs"
 
@@ -54,7 +56,18 @@ def test_every_wall_state_field_is_documented_with_its_weight() -> None:
     for field in WallState.model_fields:
         row = re.search(rf"^\| `{field}` \|([^|]*)\|", body, re.MULTILINE)
         assert row, f"wall state field {field} is not documented in docs/protocol.md"
-        assert (row.group(1).strip() == "yes") == (field in HEAVY_FIELDS), field
+        assert (row.group(1).strip() == "yes") == (field in CORE_HEAVY_KEYS), field
+
+
+@pytest.mark.parametrize("app", [a for a in installed_apps().values() if a.state], ids=str)
+def test_every_app_slot_key_is_documented_with_its_weight(app: WallApp) -> None:
+    assert app.state is not None
+    heavy = heavy_keys({app.name: app})
+    body = section((DOCS / "protocol.md").read_text(), "App slots")
+    for key in app.state.model_fields:
+        row = re.search(rf"^\| `{key}` \|([^|]*)\|", body, re.MULTILINE)
+        assert row, f"{app.name}'s slot key {key} is not documented in docs/protocol.md"
+        assert (row.group(1).strip() == "yes") == (f"{app.name}.{key}" in heavy), key
 
 
 def test_the_apps_commands_are_found() -> None:

@@ -1,8 +1,8 @@
 """Imports run one way: a test fails when a cycle or a wrong-way import appears.
 
-Read from the source (module-level imports; ``if TYPE_CHECKING:`` blocks and imports
-inside functions are listed apart), so the rules hold whatever Python happens to
-import first.
+Read from the source, every import counted: at module level, inside functions and in
+``if TYPE_CHECKING:`` blocks alike (an import the type checker alone follows still ties
+the modules together), so the rules hold whatever Python happens to import first.
 """
 
 from __future__ import annotations
@@ -10,8 +10,6 @@ from __future__ import annotations
 import ast
 from collections.abc import Iterator
 from pathlib import Path
-
-import pytest
 
 from webapp.core.settings import PROJECT_ROOT
 
@@ -47,18 +45,16 @@ def _imported(node: ast.stmt) -> Iterator[str]:
             yield owner
 
 
-def _is_type_checking(node: ast.stmt) -> bool:
-    return isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
-
-
-def runtime_imports(module: str) -> set[str]:
-    """What ``module`` imports when it is imported (not only for the type checker)."""
+def imports(module: str) -> set[str]:
+    """Every module of ours that ``module`` imports, wherever the import stands."""
     tree = ast.parse(MODULES[module].read_text())
-    found = {name for node in tree.body for name in _imported(node)}
+    found = {
+        name for node in ast.walk(tree) if isinstance(node, ast.stmt) for name in _imported(node)
+    }
     return found - {module}
 
 
-GRAPH = {module: runtime_imports(module) for module in MODULES}
+GRAPH = {module: imports(module) for module in MODULES}
 
 
 def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
@@ -103,34 +99,72 @@ def _in(module: str, *rooms: str) -> bool:
     return any(module == room or module.startswith(room + ".") for room in rooms)
 
 
-LOWER_ROOMS = ("webapp.engine", "webapp.tags", "webapp.people", "webapp.database")
-UPPER_ROOMS = (
-    "webapp.apps.contract",
-    "webapp.server.routes",
-    "webapp.web.deps",
-    "webapp.server.app",
-    "webapp.cli.commands",
-)
+FLOORS = {
+    "webapp": 0,  # the package itself; its modules all stand in rooms
+    "tag_service": 0,
+    "wall_client": 0,
+    "webapp.core": 1,
+    "webapp.choropleth": 1,
+    "webapp.database": 2,
+    "webapp.engine": 3,
+    "webapp.people": 3,
+    "webapp.tags": 4,
+    "webapp.volume": 4,
+    "webapp.web": 5,
+    "webapp.publishing": 6,
+    "webapp.apps": 6,
+    "webapp.door": 7,
+    "webapp.server": 8,
+    "webapp.cli": 9,
+    "webapp.cli.console": 5,  # what every command shares, the apps' commands too
+}
+"""Each room's floor: a module imports only from its own floor and those below. The
+engine knows nothing above it; the web layer's context is what apps are given; the door
+stands above the apps' contract; the server puts it all together; the CLI drives it."""
 
 
-@pytest.mark.parametrize(
-    ("rooms", "never", "why"),
-    [
-        (("tag_service", "wall_client"), ("webapp",), "the pure rules know no web app"),
-        (LOWER_ROOMS, UPPER_ROOMS, "the engine, tags, people and database serve the layers above"),
-        (
-            ("webapp.apps.contract",),
-            ("webapp.server.routes", "webapp.server.app", "webapp.cli.commands"),
-            "apps plug in below",
-        ),
-    ],
-)
-def test_imports_run_one_way(rooms: tuple[str, ...], never: tuple[str, ...], why: str) -> None:
+def floor_of(module: str) -> int:
+    room = max((r for r in FLOORS if _in(module, r)), key=len, default=None)
+    assert room is not None, f"{module} is in no room: add its package to FLOORS"
+    return FLOORS[room]
+
+
+def test_every_module_is_in_a_room() -> None:
+    loose = sorted(
+        m
+        for m in MODULES
+        if m.count(".") == 1 and not (PROJECT_ROOT / m.replace(".", "/")).is_dir()
+    )
+    assert [m for m in loose if m.startswith("webapp.")] == []
+    for module in MODULES:
+        floor_of(module)
+
+
+def test_imports_run_down_the_floors() -> None:
     wrong = sorted(
         f"{module} -> {other}"
         for module, imported in GRAPH.items()
-        if _in(module, *rooms)
         for other in imported
-        if _in(other, *never)
+        if floor_of(other) > floor_of(module)
     )
-    assert not wrong, f"{why}: {wrong}"
+    assert not wrong, f"imports that go up: {wrong}"
+
+
+APP_PACKAGES = sorted(
+    f"webapp.apps.{p.name}"
+    for p in (PROJECT_ROOT / "webapp" / "apps").iterdir()
+    if (p / "__init__.py").exists()
+)
+
+
+def test_the_core_imports_no_app_and_apps_know_no_other_app() -> None:
+    """An app is a plug-in: nothing outside its package imports it, not even the apps'
+    contract or discovery (they find apps through entry points)."""
+    wrong = sorted(
+        f"{module} -> {other}"
+        for module, imported in GRAPH.items()
+        for other in imported
+        for package in APP_PACKAGES
+        if _in(other, package) and not _in(module, package)
+    )
+    assert not wrong, wrong

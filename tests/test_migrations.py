@@ -2,12 +2,13 @@
 
 import json
 
+from alembic import command
 from alembic.autogenerate import compare_metadata
 from alembic.migration import MigrationContext
 from sqlalchemy import inspect, text
 
 from webapp.database.connection import Base, make_engine
-from webapp.database.migrate import upgrade
+from webapp.database.migrate import alembic_config, upgrade
 
 
 def test_upgrade_head_has_no_drift(database_url: str) -> None:
@@ -82,3 +83,67 @@ def test_a_sacramento_data_set_seeded_before_0010_gets_readable_labels(database_
         "Employed civilians in production occupations",
     ]
     assert stored["title"] == settings["title"]
+
+
+def _rows(database_url: str, query: str) -> list[tuple[object, ...]]:
+    engine = make_engine(database_url)
+    with engine.connect() as connection:
+        rows = [tuple(row) for row in connection.execute(text(query))]
+    engine.dispose()
+    return [
+        tuple(json.loads(v) if isinstance(v, str) and v.startswith("{") else v for v in row)
+        for row in rows
+    ]
+
+
+def test_0011_moves_the_apps_fields_into_their_slots_and_back(database_url: str) -> None:
+    """States and the event history alike: a tile catching up across the upgrade reads
+    the census map's colouring and the brain's round in their apps' slots."""
+    upgrade(database_url, "0010")
+    theme = {"attribute": "TOT_POP", "scheme": "blues", "method": "quantile", "classes": 5}
+    engine = make_engine(database_url)
+    with engine.begin() as connection:
+        for wall_id, state in (
+            ("census", {"app": "census", "dataset": 3, "theme": theme, "quiz_round": None}),
+            ("brain", {"app": "brain", "quiz_round": 7, "mode": "quiz"}),
+            ("fresh", {"mode": "default"}),
+        ):
+            connection.execute(
+                text(
+                    "INSERT INTO wall_states (wall_id, version, state, updated_at)"
+                    " VALUES (:wall, 2, :state, CURRENT_TIMESTAMP)"
+                ),
+                {"wall": wall_id, "state": json.dumps(state)},
+            )
+        for version, changes in ((1, {"dataset": 3, "view": {"zoom": 2}}), (2, {"theme": theme})):
+            connection.execute(
+                text(
+                    "INSERT INTO wall_events (wall_id, version, changes, heavy, created_at)"
+                    " VALUES ('census', :version, :changes, true, CURRENT_TIMESTAMP)"
+                ),
+                {"version": version, "changes": json.dumps(changes)},
+            )
+    engine.dispose()
+    upgrade(database_url)
+    states = dict(_rows(database_url, "SELECT wall_id, state FROM wall_states"))
+    assert states["census"] == {
+        "app": "census",
+        "apps": {"census": {"dataset": 3, "theme": theme, "version": 1}},
+    }
+    assert states["brain"] == {
+        "app": "brain",
+        "mode": "quiz",
+        "apps": {"brain": {"quiz_round": 7, "version": 1}},
+    }
+    assert states["fresh"] == {"app": "pattern", "mode": "default", "apps": {}}
+    events = _rows(database_url, "SELECT version, changes FROM wall_events ORDER BY version")
+    assert events == [
+        (1, {"view": {"zoom": 2}, "apps": {"census": {"dataset": 3}}}),
+        (2, {"apps": {"census": {"theme": theme}}}),
+    ]
+    command.downgrade(alembic_config(database_url), "0010")
+    states = dict(_rows(database_url, "SELECT wall_id, state FROM wall_states"))
+    assert states["census"] == {"app": "census", "dataset": 3, "theme": theme}
+    assert states["brain"] == {"app": "brain", "mode": "quiz", "quiz_round": 7}
+    events = _rows(database_url, "SELECT version, changes FROM wall_events ORDER BY version")
+    assert events == [(1, {"view": {"zoom": 2}, "dataset": 3}), (2, {"theme": theme})]

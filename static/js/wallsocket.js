@@ -108,13 +108,13 @@ export class WallSocket {
       }
       case "event":
         if (this.accept(message.version)) {
-          this.latest = {...this.latest, ...message.changes};
+          this.latest = merged(this.latest, message.changes);
           this.enqueue(message.version, message.changes, Promise.resolve(message.apply_at));
         }
         break;
       case "prepare":
         if (this.accept(message.version)) {
-          this.latest = {...this.latest, ...message.changes};
+          this.latest = merged(this.latest, message.changes);
           const swapped = new Promise((resolve) => this.swaps.set(message.version, resolve));
           // A failed load still answers ready: the tile draws what it has rather than
           // holding the whole wall back until the swap timeout.
@@ -156,7 +156,7 @@ export class WallSocket {
       .then(() => applyAt)
       .then((at) => {
         if (generation !== this.generation) return undefined;
-        const state = {...this.state, ...changes};
+        const state = merged(this.state, changes);
         const show = this.hooks.render(state, version);
         return this.waitUntil(at).then(() => this.apply(state, version, generation, show));
       });
@@ -205,4 +205,19 @@ export class WallSocket {
 export function socketUrl(path) {
   const scheme = location.protocol === "https:" ? "wss:" : "ws:";
   return `${scheme}//${location.host}${path}`;
+}
+
+/**
+ * The state after `changes`: the core's fields replaced, each app's slot merged key by
+ * key (an event carries only the keys of a slot that changed).
+ */
+export function merged(state, changes) {
+  const next = {...state, ...changes};
+  if (changes.apps) {
+    next.apps = {...state?.apps};
+    for (const [app, slot] of Object.entries(changes.apps)) {
+      next.apps[app] = {...next.apps[app], ...slot};
+    }
+  }
+  return next;
 }

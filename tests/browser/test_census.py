@@ -25,7 +25,7 @@ from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
-from webapp.server.schemas import LayoutInfo
+from webapp.tags.schemas import LayoutInfo
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
@@ -67,7 +67,7 @@ def map_query(state: dict[str, Any]) -> dict[str, Any]:
     cx, cy = state["view"]["center"]
     zoom = state["view"]["zoom"]
     return {
-        "dataset": state["dataset"],
+        "dataset": state["apps"]["census"]["dataset"],
         "layout": state["tag_layout"],
         "cx": cx,
         "cy": cy,
@@ -372,7 +372,7 @@ def test_tract_numbers_and_captions_read_upright_as_the_portrait_panel_hangs(
         wait_until(lambda: version_of(tile) == version and shown(tile, "census"), what="the map")
         state = server.status("irregular")["state"]
         (cx, cy), zoom = PORTRAIT_VIEW["center"], PORTRAIT_VIEW["zoom"]
-        query = {"dataset": state["dataset"], "layout": state["tag_layout"]}
+        query = {"dataset": state["apps"]["census"]["dataset"], "layout": state["tag_layout"]}
         share = httpx.get(
             f"{server.url}/api/walls/irregular/tiles/portrait/census",
             params={**query, "cx": cx, "cy": cy, "zoom": zoom},
@@ -476,7 +476,7 @@ def legend_picture(server: ServerProcess, tiles: dict[str, Page], wall: Wall) ->
     state = server.status("demo")["state"]
     body = httpx.get(
         f"{server.url}/api/walls/demo/tiles/r1c1/census/theme",
-        params={**map_query(state), **state["theme"]},
+        params={**map_query(state), **state["apps"]["census"]["theme"]},
     ).json()
     x, y, w, h = body["legend"]["rect"]
     [display] = [d for d in wall.displays if d.rect.intersects(Rect(x, y, w, h))]

@@ -16,7 +16,7 @@ from webapp.cli.check import CheckReport, check_wall, fetch_layout
 from webapp.cli.testing import ServerProcess
 from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token, tile_token
-from webapp.server.schemas import LayoutInfo, PlacedCode
+from webapp.tags.schemas import LayoutInfo, PlacedCode
 from webapp.web.urls import tile_path
 
 

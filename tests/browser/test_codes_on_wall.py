@@ -36,7 +36,7 @@ from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
-from webapp.server.schemas import LayoutInfo, PlacedCode
+from webapp.tags.schemas import LayoutInfo, PlacedCode
 
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}

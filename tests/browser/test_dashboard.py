@@ -57,7 +57,7 @@ def test_the_instructor_colours_the_census_map_from_the_dashboard(
         "Coloured by Median housing value: 4 classes by natural breaks, PuBuGn."
     )
     theme = {"attribute": "HSG_VAL", "scheme": "PuBuGn", "method": "natural", "classes": 4}
-    assert server.status("demo")["state"]["theme"] == theme
+    assert server.status("demo")["state"]["apps"]["census"]["theme"] == theme
     version = server.version("demo")
     wait_until(lambda: version_of(tile) == version, what="the tile to follow the dashboard")
     expect(tile.locator("body")).to_have_attribute("data-census-theme", "HSG_VAL 4")
@@ -69,7 +69,7 @@ def test_the_instructor_colours_the_census_map_from_the_dashboard(
     panel.get_by_label("Value").select_option("")
     panel.get_by_role("button", name="Colour the wall").click()
     expect(page.locator("#census-theme-shown")).to_have_text("One plain colour.")
-    assert server.status("demo")["state"]["theme"] is None
+    assert server.status("demo")["state"]["apps"]["census"]["theme"] is None
     tile.context.close()
     page.close()
 

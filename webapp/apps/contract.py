@@ -1,34 +1,34 @@
-"""Wall applications: each declares its tags and answers the scans of them.
+"""The contract between tagwall and its apps: what an app is and what it is given.
 
-An app is a small plug-in: the core resolves a scanned code to its tag and hands the
-scan to the app named on the tag, which returns the phone page. Adding an app means
-adding a package here and listing it in ``webapp.apps.builtin``; the core knows nothing
-app-specific. An app owns all of its parts in its package and contributes them here:
-its scene layers (``layers``), page templates (``templates``), browser modules
-(``static``), a dashboard panel (``dashboard_panel``), what its pages publish to the
-public screen (``publication``), its own pages and API (``router``) and its
-``tagwall`` commands (``commands``).
+An app is a plug-in: the core resolves a scanned code to its tag and hands the scan to
+the app named on the tag, which returns the phone page. Apps are found through the
+``tagwall.apps`` entry-point group (:mod:`webapp.apps.discovery`), the built-in ones
+too, so a new app is a package of its own and touches no file of tagwall. An app owns
+all of its parts in its package and contributes them here: its slot of the wall state
+(``state``), its scene layers (``layers``), page templates (``templates``), browser
+modules (``static``), a dashboard panel (``dashboard_panel``), what its pages publish to
+the public screen (``publication``), its own pages and API (``router``) and its
+``tagwall`` commands (``commands``). It is handed an :class:`AppContext`, never the
+server itself. See docs/apps.md.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import click
 from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
 from webapp.database.models import TagRecord
-from webapp.engine.wall_state import WallState
+from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS, AppState, WallState
 from webapp.people.person import Person, person_of
 from webapp.people.visitors import Visitor
 from webapp.publishing.publication import Publication
 from webapp.tags.registry import TagSpec
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
+from webapp.web.context import AppContext
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,7 @@ class Scan:
     """A resolved scan, as an app's handler receives it."""
 
     request: Request
-    services: Services
+    context: AppContext
     wall: Wall
     tag: TagRecord
     visitor: Visitor
@@ -45,7 +45,8 @@ class Scan:
 
     async def person(self) -> Person:
         """Who scanned: role, user group, information class (loaded when an app asks)."""
-        return await person_of(self.request, self.services.db, self.services.settings, self.address)
+        context = self.context
+        return await person_of(self.request, context.db, context.settings, self.address)
 
 
 SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
@@ -56,6 +57,8 @@ with their pins, and the balloons' boxes."""
 class WallApp(Protocol):
     name: str
     default_tag_set: str | None  # the set shown when the app comes on the wall
+    state: type[AppState] | None
+    """The model of the app's slot of the wall state (None: it keeps nothing there)."""
     layers: tuple[str, ...]
     """The JS modules that draw the app's scene on tiles and the overview, bottom first,
     under :data:`SHARED_LAYERS` (each exports ``createLayer``: ``static/js/layers.js``)."""
@@ -65,7 +68,7 @@ class WallApp(Protocol):
     static: Path | None
     """The folder of the app's browser modules, served at :func:`static_url`."""
 
-    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """The state as the app needs it when it comes on ``wall`` (say, the data set
         it shows); called in a worker thread, at start too."""
         ...
@@ -75,9 +78,9 @@ class WallApp(Protocol):
         comes on the wall: a scene shows only its own app's layers."""
         ...
 
-    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """The named tags the app needs on ``wall`` in ``state`` (declared at every
-        start, and again whenever one of :data:`webapp.door.changes.PLACING_FIELDS` changes)."""
+        start, and again whenever a placing key, the core's or an app's, changes)."""
         ...
 
     async def on_scan(self, scan: Scan) -> Response:
@@ -125,3 +128,13 @@ def layer_stacks(apps: dict[str, WallApp]) -> dict[str, Any]:
     """What pages that draw the scene load (``static/js/layers.js``): each app's layers
     and the shared ones."""
     return {"apps": {name: list(app.layers) for name, app in apps.items()}, "shared": SHARED_LAYERS}
+
+
+def heavy_keys(apps: dict[str, WallApp]) -> frozenset[str]:
+    """The state keys whose change tiles prepare for: the core's and every app's."""
+    return CORE_HEAVY_KEYS.union(*(app.state.keys()[0] for app in apps.values() if app.state))
+
+
+def placing_keys(apps: dict[str, WallApp]) -> frozenset[str]:
+    """The state keys that move codes: the core's and every app's."""
+    return CORE_PLACING_KEYS.union(*(app.state.keys()[1] for app in apps.values() if app.state))

@@ -20,7 +20,8 @@ from playwright.sync_api import Page, sync_playwright
 
 from tag_service.verify import decode_image, module_boxes, symbol_damage
 from wall_client.layout import Wall
-from webapp.server.schemas import LayoutInfo, PlacedCode, WallStatus
+from webapp.server.schemas import WallStatus
+from webapp.tags.schemas import LayoutInfo, PlacedCode
 
 TILE_TIMEOUT_MS = 20_000
 CHROMIUM_ARGS = ("--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage")

@@ -18,7 +18,7 @@ from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 from wall_client.config import WallConfigError, load_wall
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
-from webapp.apps.builtin import builtin_apps
+from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -53,9 +53,13 @@ class CommandsWithApps(click.Group):
     """The core's commands and those each app contributes (``WallApp.commands``)."""
 
     def _apps_commands(self) -> dict[str, click.Command]:
+        try:
+            apps = installed_apps()
+        except AppLoadError as error:
+            fail(str(error))
         return {
             command.name: command
-            for app in builtin_apps().values()
+            for app in apps.values()
             for command in app.commands()
             if command.name
         }
@@ -65,6 +69,18 @@ class CommandsWithApps(click.Group):
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         return super().get_command(ctx, cmd_name) or self._apps_commands().get(cmd_name)
+
+
+def check_apps(settings: Settings) -> None:
+    """Stop with one line when an installed app cannot be loaded, or the first app a
+    wall shows (``TAGWALL_FIRST_APP``) is not installed."""
+    try:
+        apps = installed_apps()
+    except AppLoadError as error:
+        fail(str(error))
+    if settings.first_app not in apps or settings.first_app == "core":
+        shown = ", ".join(sorted(name for name in apps if name != "core"))
+        fail(f"TAGWALL_FIRST_APP={settings.first_app!r} is not an installed app (apps: {shown})")
 
 
 @click.group(cls=CommandsWithApps)
@@ -89,6 +105,7 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     settings = load_settings(host=host, port=port, workers=workers)
     walls = load_configured_walls(settings)
     pick_wall(walls, None, settings)
+    check_apps(settings)
     open_database(settings).dispose()
     check_bus(settings)
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())

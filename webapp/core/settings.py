@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 from pydantic import Field, IPvAnyNetwork, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
-from webapp.people.roles import (
+from webapp.core.roles import (
     DEFAULT_INFO_CLASS,
     MAX_INFO_CLASS,
     ROLES,
@@ -56,6 +56,8 @@ class Settings(BaseSettings):
         default_factory=lambda: [CONTENT_DIR / "walls"]
     )
     default_wall: str = "demo"
+    # The app a wall shows before anyone chose one (an installed app's name).
+    first_app: str = Field(default="pattern", min_length=1, max_length=64)
     workers: int = Field(default=1, ge=1, le=256)
     bus: Literal["memory", "redis"] = "memory"
     redis_url: str = Field(default="redis://127.0.0.1:6379/0", pattern=r"^(redis|rediss|unix)://")

@@ -10,137 +10,151 @@ A change:
    view);
 2. lets an app leaving the wall take what only it shows (its volume) and an app
    coming on settle and bring its own tag set;
-3. when it moves what codes stand on (:data:`PLACING_FIELDS`), has the apps on the wall
-   declare their tags for the new state and places the set shown, so the codes arrive
-   in the same swap as the scene;
+3. when it moves what codes stand on (the core's placing keys and each app's), has
+   the apps on the wall declare their tags for the new state and places the set
+   shown, so the codes arrive in the same swap as the scene;
 4. drops the cached code look-ups when tags were declared or placed;
 5. commits (bumping the version) and publishes to the tiles, through the hub.
+
+The door stands above the engine, the tags and the apps' contract: it calls apps'
+``settle``, ``leave`` and ``declare_tags`` with the context apps are given.
 """
 
 from __future__ import annotations
 
-from collections.abc import Awaitable, Callable
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 from wall_client.layout import Wall
-from webapp.engine.wall_state import Change, WallState, read_state
+from webapp.apps.contract import WallApp, placing_keys
+from webapp.engine.hub import WallHub
+from webapp.engine.wall_state import (
+    Change,
+    WallState,
+    changed_keys,
+    read_state,
+    state_changes,
+)
 from webapp.tags.registry import declare, layout_for
-
-if TYPE_CHECKING:
-    from webapp.apps.contract import WallApp
-    from webapp.server.services import Services
-
-Update = Callable[[WallState], WallState]
-"""A change as a function of the state: applied to the state as it is at commit."""
-
-PLACING_FIELDS = ("app", "view", "dataset", "volume", "tag_set", "quiz_round")
-"""State fields that decide which codes stand where: changing one declares the apps'
-tags again and places the set shown."""
+from webapp.web.context import AppContext, Plan, Update
 
 
 def unchanged(state: WallState) -> WallState:
     return state
 
 
-async def change_wall(
-    services: Services, wall: Wall, update: Update, *, replace_codes: bool = False
-) -> Change | None:
-    """Change ``wall`` by ``update``; None when that changes nothing.
+class WallDoor:
+    """The door of this server's walls: ``context`` is what apps are handed, ``apps``
+    every installed app (the ``core`` registration codes among them), ``first_app`` the
+    app a wall shows before anyone chose one."""
 
-    ``replace_codes`` places the shown set again even when no placing field changes
-    (after a tag of the wall was issued or patched).
-    """
+    def __init__(
+        self,
+        context: AppContext,
+        hub: WallHub,
+        apps: dict[str, WallApp],
+        first_app: str,
+        base_url: Callable[[], str],
+    ) -> None:
+        self.context = context
+        self.hub = hub
+        self.apps = apps
+        self.first_app = first_app
+        self.base_url = base_url
+        self.placing_keys = placing_keys(apps)
 
-    async def plan(_current: WallState) -> Update:
-        return update
+    async def change(
+        self, wall: Wall, update: Update, *, replace_codes: bool = False
+    ) -> Change | None:
+        """Change ``wall`` by ``update``; None when that changes nothing.
 
-    return await plan_change(services, wall, plan, replace_codes=replace_codes)
+        ``replace_codes`` places the shown set again even when no placing key changes
+        (after a tag of the wall was issued or patched).
+        """
+
+        async def plan(_current: WallState) -> Update:
+            return update
+
+        return await self.plan(wall, plan, replace_codes=replace_codes)
+
+    async def plan(self, wall: Wall, plan: Plan, *, replace_codes: bool = False) -> Change | None:
+        """Like :meth:`change`, for a change that must look at the wall first (where a
+        balloon fits among the codes shown): ``plan`` gets the current state, with the
+        wall held, and returns the update."""
+        async with self.hub.placing(wall.id):
+            _, current = await self.hub.run_sync(read_state, self.context.db, wall.id)
+            update = await plan(current)
+            target = update(current)
+            if not (replace_codes or self._moves_codes(current, target)):
+                return await self.hub.commit(wall.id, update)
+            placed = await self.hub.run_sync(self._place_codes, wall, current, target)
+            return await self.hub.commit(
+                wall.id, lambda state: update(state).model_copy(update=placed)
+            )
+
+    async def open(self, wall: Wall) -> Change | None:
+        """Bring a wall up at server start: the first app on a wall that shows none,
+        settle the app it shows, declare every app's tags and put the wall's tag set up.
+
+        Idempotent: codes stay as they were and an unchanged set is not placed again, so
+        every server process of a wall may do this at start.
+        """
+        async with self.hub.placing(wall.id):
+            _, current = await self.hub.run_sync(read_state, self.context.db, wall.id)
+            fields = await self.hub.run_sync(self._opening_fields, wall, current)
+            return await self.hub.commit(wall.id, lambda state: state.model_copy(update=fields))
+
+    def _moves_codes(self, current: WallState, target: WallState) -> bool:
+        changes = state_changes(current.model_dump(mode="json"), target.model_dump(mode="json"))
+        return bool(self.placing_keys & changed_keys(changes))
+
+    def _place_codes(self, wall: Wall, current: WallState, target: WallState) -> dict[str, Any]:
+        """The fields that put the right codes up for ``target``: what the app coming on
+        the wall settles, and the tag set and its layout (runs in a worker thread)."""
+        app = self.apps.get(target.app)
+        leaving = self.apps.get(current.app) if current.app != target.app else None
+        fields: dict[str, Any] = {}
+        tag_set = target.tag_set
+        if target.app != current.app:
+            ready = leaving.leave(target) if leaving is not None else target
+            if app is not None:
+                tag_set = app.default_tag_set
+                ready = app.settle(self.context, wall, ready)
+            fields = _differing(ready, target)
+            target = ready
+        declaring = [a for a in (leaving, app) if a is not None]
+        return {**fields, **self._declare_and_place(wall, declaring, target, tag_set)}
+
+    def _opening_fields(self, wall: Wall, current: WallState) -> dict[str, Any]:
+        """What a wall's state needs at start (see :meth:`open`)."""
+        state = current
+        if not state.app and self.first_app in self.apps:
+            state = state.model_copy(update={"app": self.first_app})
+        if (shown := self.apps.get(state.app)) is not None:
+            state = shown.settle(self.context, wall, state)
+        fields = _differing(state, current)
+        tag_set = state.tag_set
+        if not state.tag_layout and shown is not None:
+            tag_set = shown.default_tag_set
+        return {**fields, **self._declare_and_place(wall, list(self.apps.values()), state, tag_set)}
+
+    def _declare_and_place(
+        self, wall: Wall, apps: list[WallApp], state: WallState, tag_set: str | None
+    ) -> dict[str, Any]:
+        """Declare the tags of ``apps`` for ``state``, then place ``tag_set``; the scan
+        path's cached look-ups are dropped, since codes may have come or gone."""
+        db = self.context.db
+        for app in apps:
+            declare(db, wall.id, app.name, app.declare_tags(self.context, wall, state))
+        layout_id = layout_for(db, wall, tag_set, self.base_url())
+        self.context.codes.forget()
+        return {"tag_set": tag_set, "tag_layout": layout_id}
 
 
-async def plan_change(
-    services: Services,
-    wall: Wall,
-    plan: Callable[[WallState], Awaitable[Update]],
-    *,
-    replace_codes: bool = False,
-) -> Change | None:
-    """Like :func:`change_wall`, for a change that must look at the wall first (where
-    a balloon fits among the codes shown): ``plan`` gets the current state, with the
-    wall held, and returns the update."""
-    async with services.hub.placing(wall.id):
-        _, current = await services.hub.run_sync(read_state, services.db, wall.id)
-        update = await plan(current)
-        target = update(current)
-        moves = any(getattr(target, f) != getattr(current, f) for f in PLACING_FIELDS)
-        if not (moves or replace_codes):
-            return await services.hub.commit(wall.id, update)
-        placed = await services.hub.run_sync(_place_codes, services, wall, current, target)
-        return await services.hub.commit(
-            wall.id, lambda state: update(state).model_copy(update=placed)
-        )
-
-
-async def open_wall(services: Services, wall: Wall) -> Change | None:
-    """Bring a wall up at server start: settle the app it shows, declare every app's
-    tags and put the wall's tag set up.
-
-    Idempotent: codes stay as they were and an unchanged set is not placed again, so
-    every server process of a wall may do this at start.
-    """
-    async with services.hub.placing(wall.id):
-        _, current = await services.hub.run_sync(read_state, services.db, wall.id)
-        fields = await services.hub.run_sync(_opening_fields, services, wall, current)
-        return await services.hub.commit(wall.id, lambda state: state.model_copy(update=fields))
-
-
-def _place_codes(
-    services: Services, wall: Wall, current: WallState, target: WallState
-) -> dict[str, Any]:
-    """The fields that put the right codes up for ``target``: what the app coming on
-    the wall settles, and the tag set and its layout (runs in a worker thread)."""
-    app = services.apps.get(target.app)
-    leaving = services.apps.get(current.app) if current.app != target.app else None
-    fields: dict[str, Any] = {}
-    tag_set = target.tag_set
-    if target.app != current.app:
-        ready = leaving.leave(target) if leaving is not None else target
-        if app is not None:
-            tag_set = app.default_tag_set
-            ready = app.settle(services, wall, ready)
-        fields = {
-            name: getattr(ready, name)
-            for name in WallState.model_fields
-            if getattr(ready, name) != getattr(target, name)
-        }
-        target = ready
-    declaring = [a for a in (leaving, app) if a is not None]
-    return {**fields, **_declare_and_place(services, wall, declaring, target, tag_set)}
-
-
-def _opening_fields(services: Services, wall: Wall, current: WallState) -> dict[str, Any]:
-    """What a wall's state needs at start (see :func:`open_wall`)."""
-    state = current
-    if (shown := services.apps.get(current.app)) is not None:
-        state = shown.settle(services, wall, current)
-    fields = {
+def _differing(state: WallState, other: WallState) -> dict[str, Any]:
+    """The fields of ``state`` that differ from ``other``'s."""
+    return {
         name: getattr(state, name)
         for name in WallState.model_fields
-        if getattr(state, name) != getattr(current, name)
+        if getattr(state, name) != getattr(other, name)
     }
-    tag_set = state.tag_set
-    if not state.tag_layout and shown is not None:
-        tag_set = shown.default_tag_set
-    apps = list(services.apps.values())
-    return {**fields, **_declare_and_place(services, wall, apps, state, tag_set)}
-
-
-def _declare_and_place(
-    services: Services, wall: Wall, apps: list[WallApp], state: WallState, tag_set: str | None
-) -> dict[str, Any]:
-    """Declare the tags of ``apps`` for ``state``, then place ``tag_set``; the scan
-    path's cached look-ups are dropped, since codes may have come or gone."""
-    for app in apps:
-        declare(services.db, wall.id, app.name, app.declare_tags(services, wall, state))
-    layout_id = layout_for(services.db, wall, tag_set, services.base_url)
-    services.codes.forget()
-    return {"tag_set": tag_set, "tag_layout": layout_id}

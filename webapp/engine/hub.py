@@ -31,7 +31,13 @@ from webapp.database.connection import Database
 from webapp.engine.bus.base import EVENTS, BusUnavailable, EventBus, follow
 from webapp.engine.presence import TILES, Presence, TilesHeard, TileStatus
 from webapp.engine.protocol import Event, Prepare, Swap
-from webapp.engine.wall_state import Change, WallState, commit_change, now_ms
+from webapp.engine.wall_state import (
+    CORE_HEAVY_KEYS,
+    Change,
+    WallState,
+    commit_change,
+    now_ms,
+)
 
 __all__ = ["TileStatus", "WallHub"]
 
@@ -75,6 +81,7 @@ class WallHub:
         apply_lead_ms: int,
         swap_timeout_ms: int,
         keep_events: int,
+        heavy_keys: frozenset[str] = CORE_HEAVY_KEYS,
         heartbeat_s: float = HEARTBEAT_S,
         orphan_grace_s: float = ORPHAN_GRACE_S,
     ) -> None:
@@ -83,6 +90,7 @@ class WallHub:
         self.apply_lead_ms = apply_lead_ms
         self.swap_timeout_ms = swap_timeout_ms
         self.keep_events = keep_events
+        self.heavy_keys = heavy_keys  # the core's and every installed app's
         self.heartbeat_s = heartbeat_s
         self.orphan_grace_s = orphan_grace_s
         self.process_id = uuid.uuid4().hex  # this process, in its tile reports
@@ -132,7 +140,9 @@ class WallHub:
         equal commit order, in every process of the wall.
         """
         change = await self.run_sync(
-            lambda: commit_change(self.db, wall_id, update, keep_events=self.keep_events)
+            lambda: commit_change(
+                self.db, wall_id, update, keep_events=self.keep_events, heavy_keys=self.heavy_keys
+            )
         )
         if change is None:
             return None

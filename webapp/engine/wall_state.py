@@ -4,23 +4,55 @@ Tiles are pure renderers: they draw the state they are sent. Every change goes
 through the door (``webapp.door.changes``) to :func:`commit_change`, which bumps the wall's
 version and persists the new state with the event that describes it; only then is the
 event published.
+
+The state holds the core's fields and one slot per app (``apps``): an app keeps what
+only it shows there, as an :class:`AppState` model it owns; the core never reads a slot.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, ClassVar, Literal, Self
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 from sqlalchemy import bindparam, delete, select, update
 from sqlalchemy.exc import IntegrityError, OperationalError
 from sqlalchemy.orm import Session
 
-from webapp.choropleth.classes import Theme
-from webapp.database.connection import Database, RowId
+from webapp.database.connection import Database
 from webapp.database.models import WallEventRecord, WallStateRecord
-from webapp.volume.layer import VolumeLayer
+
+TransferName = Literal["grey", "tissue", "hot"]
+"""The colour presets of a volume (their tables: ``webapp.volume.transfer``)."""
+VolumeMode = Literal["composite", "mip", "slice"]
+Interval = tuple[float, float]
+
+
+class VolumeLayer(BaseModel):
+    """A volume drawn across the wall: its store name, render mode, colours and clipping.
+
+    A core layer, not an app's: the core renders volumes for whichever app shows one
+    (the brain atlas its template, the test pattern a stored volume). Its orientation,
+    centre and zoom are the wall's ``view``; changing the layer is a heavy change."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    volume: str = Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")
+    mode: VolumeMode = "composite"
+    transfer: TransferName = "grey"
+    # the part of the volume kept, as fractions of its extent along x, y and z
+    clip: tuple[Interval, Interval, Interval] = ((0.0, 1.0), (0.0, 1.0), (0.0, 1.0))
+    # slice mode: the plane's distance from the centre along the view direction, as a
+    # fraction of half the volume's diagonal (0 = through the centre)
+    slice: float = Field(default=0.0, ge=-1.0, le=1.0)
+
+    @model_validator(mode="after")
+    def _clip_intervals(self) -> VolumeLayer:
+        for axis, (low, high) in zip("xyz", self.clip, strict=True):
+            if not 0.0 <= low < high <= 1.0:
+                raise ValueError(f"clip along {axis} must satisfy 0 <= low < high <= 1")
+        return self
 
 
 class View(BaseModel):
@@ -81,7 +113,7 @@ class WallState(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
-    app: str = Field(default="pattern", min_length=1, max_length=64)
+    app: str = Field(default="", max_length=64)  # "": none yet (the first app comes at start)
     mode: str = Field(default="default", min_length=1, max_length=64)
     view: View = Field(default_factory=View)
     layers: dict[str, bool] = Field(default_factory=dict)
@@ -91,9 +123,51 @@ class WallState(BaseModel):
     tag_set: str | None = Field(default=None, max_length=64)
     tag_layout: int = Field(default=0, ge=0)  # the placed codes tiles draw (0: none yet)
     volume: VolumeLayer | None = None  # a volume drawn across the wall (None: none)
-    dataset: RowId | None = None  # the census map's data set
-    theme: Theme | None = None  # what the census map's tracts are coloured by (None: plain)
-    quiz_round: RowId | None = None  # the brain quiz's round (its pin codes)
+    apps: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    """Each app's slot (its :class:`AppState`, as JSON), by app name."""
+
+
+class AppState(BaseModel):
+    """An app's slot in the wall state: an app subclasses it with the fields it keeps.
+
+    The app owns the model and versions it: a slot is stored with its ``version`` and
+    read through :meth:`upgrade`, so an app can change its fields without the core.
+    ``heavy`` names the fields whose change makes tiles fetch something first (prepare,
+    ready, swap); ``placing`` those that move codes (the door places the tags again)."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    app: ClassVar[str]
+    version: ClassVar[int] = 1
+    heavy: ClassVar[frozenset[str]] = frozenset()
+    placing: ClassVar[frozenset[str]] = frozenset()
+
+    @classmethod
+    def of(cls, state: WallState) -> Self:
+        """The app's slot of ``state`` (its defaults when the app never kept anything)."""
+        stored = dict(state.apps.get(cls.app, {}))
+        version = stored.pop("version", cls.version)
+        return cls.model_validate(
+            cls.upgrade(stored, version) if version != cls.version else stored
+        )
+
+    @classmethod
+    def upgrade(cls, stored: dict[str, Any], version: int) -> dict[str, Any]:
+        """A slot stored by ``version`` of the model, as this version reads it."""
+        raise ValueError(f"{cls.app}: no upgrade from slot version {version} to {cls.version}")
+
+    def put(self, state: WallState) -> WallState:
+        """``state`` with this slot in it."""
+        slot = {**self.model_dump(mode="json"), "version": self.version}
+        return state.model_copy(update={"apps": {**state.apps, self.app: slot}})
+
+    @classmethod
+    def keys(cls) -> tuple[frozenset[str], frozenset[str]]:
+        """The heavy and placing keys of the slot, as :func:`changed_keys` names them."""
+        return (
+            frozenset(f"{cls.app}.{name}" for name in cls.heavy),
+            frozenset(f"{cls.app}.{name}" for name in cls.placing),
+        )
 
 
 class StatePatch(BaseModel):
@@ -129,7 +203,8 @@ class StatePatch(BaseModel):
 
 
 class Change(BaseModel):
-    """A committed change: the new version and the top-level fields that changed."""
+    """A committed change: the new version and the fields that changed (the core's by
+    name; ``apps`` with, per app, only the keys of its slot that changed)."""
 
     wall_id: str
     version: int
@@ -137,9 +212,34 @@ class Change(BaseModel):
     heavy: bool
 
 
-HEAVY_FIELDS = frozenset({"app", "view", "tag_set", "tag_layout", "volume", "dataset", "theme"})
-"""Fields whose change makes tiles fetch something (renders, code layouts) first:
-applied by prepare -> ready -> swap."""
+CORE_HEAVY_KEYS = frozenset({"app", "view", "tag_set", "tag_layout", "volume"})
+"""The core's fields whose change makes tiles fetch something (renders, code layouts)
+first: applied by prepare -> ready -> swap. Apps add theirs (:meth:`AppState.keys`)."""
+CORE_PLACING_KEYS = frozenset({"app", "view", "volume", "tag_set"})
+"""The core's fields that decide which codes stand where. Apps add theirs."""
+
+
+def state_changes(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
+    """What changed from ``old`` to ``new`` (states as JSON): each core field that
+    changed, and under ``apps`` each changed slot with only its changed keys."""
+    changes = {k: v for k, v in new.items() if k != "apps" and old.get(k) != v}
+    old_apps, new_apps = old.get("apps", {}), new.get("apps", {})
+    apps = {}
+    for name, slot in new_apps.items():
+        before = old_apps.get(name, {})
+        if changed := {k: v for k, v in slot.items() if before.get(k) != v}:
+            apps[name] = changed
+    if apps:
+        changes["apps"] = apps
+    return changes
+
+
+def changed_keys(changes: dict[str, Any]) -> set[str]:
+    """The keys of a change: core fields by name, app slot keys as ``app.key``."""
+    keys = {k for k in changes if k != "apps"}
+    keys.update(f"{name}.{k}" for name, slot in changes.get("apps", {}).items() for k in slot)
+    return keys
+
 
 _MAX_RETRIES = 20
 
@@ -197,8 +297,10 @@ def commit_change(
     update_state: Callable[[WallState], WallState],
     *,
     keep_events: int,
+    heavy_keys: frozenset[str] = CORE_HEAVY_KEYS,
 ) -> Change | None:
     """Persist ``update_state(current)`` as the next version; None if nothing changed.
+    It is heavy when one of ``heavy_keys`` changed.
 
     Optimistic concurrency: the version row is updated only if nobody else bumped
     it meanwhile, and (wall, version) is the events table's primary key, so two
@@ -207,7 +309,7 @@ def commit_change(
     for attempt in range(_MAX_RETRIES):
         try:
             with db.session() as session:
-                change = _try_commit(session, wall_id, update_state, keep_events)
+                change = _try_commit(session, wall_id, update_state, keep_events, heavy_keys)
             return change
         except (IntegrityError, _StaleVersion):
             continue
@@ -231,6 +333,7 @@ def _try_commit(
     wall_id: str,
     update_state: Callable[[WallState], WallState],
     keep_events: int,
+    heavy_keys: frozenset[str],
 ) -> Change | None:
     # Row lock where the database has one (PostgreSQL): concurrent writers queue up
     # instead of racing; the version check below still guards every backend.
@@ -239,10 +342,10 @@ def _try_commit(
     old = WallState.model_validate(record.state) if record else WallState()
     new = update_state(old)
     old_fields, new_fields = old.model_dump(mode="json"), new.model_dump(mode="json")
-    changes = {key: value for key, value in new_fields.items() if old_fields[key] != value}
+    changes = state_changes(old_fields, new_fields)
     if not changes:
         return None
-    heavy = bool(HEAVY_FIELDS & changes.keys())
+    heavy = bool(heavy_keys & changed_keys(changes))
     if record is None:
         session.add(WallStateRecord(wall_id=wall_id, version=1, state=new_fields))
         session.flush()

@@ -10,11 +10,11 @@ from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
+from webapp.core.roles import Role
 from webapp.database.connection import Database
 from webapp.database.models import AccountRecord
 from webapp.people.audit import audit
 from webapp.people.person import revoke
-from webapp.people.roles import Role
 
 ACCOUNT_ROLES: tuple[Role, ...] = ("instructor", "admin")
 MIN_PASSWORD_LENGTH = 8

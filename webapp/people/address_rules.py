@@ -6,12 +6,12 @@ from __future__ import annotations
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
+from webapp.core.roles import USER_GROUPS
 from webapp.database.connection import Database
 from webapp.database.models import AddressRuleRecord
 from webapp.people.addresses import parse_network
 from webapp.people.audit import audit
 from webapp.people.person import plain_text, revoke
-from webapp.people.roles import USER_GROUPS
 
 
 class RuleError(ValueError):

@@ -18,12 +18,12 @@ from typing import Any
 from sqlalchemy import Row, bindparam, insert, select, update
 from starlette.requests import HTTPConnection
 
+from webapp.core.roles import ROLES, Role, UserGroup
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import AddressRuleRecord, VisitorRecord
 from webapp.people.addresses import matching_rule
 from webapp.people.audit import audit
-from webapp.people.roles import ROLES, Role, UserGroup
 from webapp.people.visitors import Visitor, adopt, new_id, visitor_of
 
 ROLE_LABELS: dict[Role, str] = {

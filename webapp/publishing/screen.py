@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from datetime import UTC, datetime
-from typing import TYPE_CHECKING, Literal
+from typing import Literal
 
 from jinja2 import Environment
 from pydantic import BaseModel, ConfigDict
@@ -21,14 +21,10 @@ from webapp.core.settings import Settings
 from webapp.core.threads import run_blocking
 from webapp.database.connection import Database
 from webapp.database.models import PublicationRecord
-from webapp.door.changes import change_wall
 from webapp.engine.wall_state import PublicItem, PublicPolicy, WallState, now_ms
 from webapp.people.person import Person
 from webapp.publishing.publication import Publication, render_item
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
-
+from webapp.web.context import AppContext
 
 Status = Literal["shown", "pending", "rejected", "cleared"]
 
@@ -95,12 +91,12 @@ def _show(record: PublicationRecord) -> PublicItem:
     )
 
 
-async def _put_on_screen(services: Services, wall: Wall, item: PublicItem | None) -> None:
-    await change_wall(services, wall, lambda state: state.model_copy(update={"public": item}))
+async def _put_on_screen(context: AppContext, wall: Wall, item: PublicItem | None) -> None:
+    await context.change_wall(wall, lambda state: state.model_copy(update={"public": item}))
 
 
 async def submit(
-    services: Services,
+    context: AppContext,
     wall: Wall,
     state: WallState,
     templates: Environment,
@@ -126,14 +122,14 @@ async def submit(
     )
 
     def store() -> None:
-        with services.db.session() as session:
+        with context.db.session() as session:
             if status == "shown":
                 _retire_shown(session, wall.id)
             session.add(record)
 
     await run_blocking(store)
     if status == "shown":
-        await _put_on_screen(services, wall, _show(record))
+        await _put_on_screen(context, wall, _show(record))
     return record
 
 
@@ -148,12 +144,12 @@ def _retire_shown(session: Session, wall_id: str) -> None:
 
 
 async def decide(
-    services: Services, wall: Wall, publication_id: int, approve: bool, actor: str
+    context: AppContext, wall: Wall, publication_id: int, approve: bool, actor: str
 ) -> PublicationRecord:
     """Approve (show) or reject a waiting publication; KeyError if none is waiting."""
 
     def store() -> PublicationRecord:
-        with services.db.session() as session:
+        with context.db.session() as session:
             record = session.get(PublicationRecord, publication_id)
             if record is None or record.wall_id != wall.id or record.status != "pending":
                 raise KeyError(publication_id)
@@ -166,24 +162,24 @@ async def decide(
 
     record = await run_blocking(store)
     if approve:
-        await _put_on_screen(services, wall, _show(record))
+        await _put_on_screen(context, wall, _show(record))
     return record
 
 
-async def clear(services: Services, wall: Wall) -> None:
+async def clear(context: AppContext, wall: Wall) -> None:
     """Empty the public screen."""
 
     def store() -> None:
-        with services.db.session() as session:
+        with context.db.session() as session:
             _retire_shown(session, wall.id)
 
     await run_blocking(store)
-    await _put_on_screen(services, wall, None)
+    await _put_on_screen(context, wall, None)
 
 
-async def set_policy(services: Services, wall: Wall, policy: PublicPolicy) -> None:
-    await change_wall(
-        services, wall, lambda state: state.model_copy(update={"public_policy": policy})
+async def set_policy(context: AppContext, wall: Wall, policy: PublicPolicy) -> None:
+    await context.change_wall(
+        wall, lambda state: state.model_copy(update={"public_policy": policy})
     )
 
 

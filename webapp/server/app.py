@@ -6,7 +6,6 @@ import asyncio
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -21,15 +20,13 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.config import load_walls
-from webapp.apps.builtin import builtin_apps
-from webapp.apps.contract import static_url
-from webapp.core.markdown import markdown_html, markdown_inline
+from webapp.apps.contract import heavy_keys, static_url
+from webapp.apps.discovery import installed_apps
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.core.tasks import cancel_and_wait
 from webapp.core.threads import run_blocking
 from webapp.database.connection import Database, database_problem, is_outage
 from webapp.database.redis import connect_redis
-from webapp.door.changes import open_wall
 from webapp.engine.bus.base import BusUnavailable, EventBus, WallBusy
 from webapp.engine.bus.memory import MemoryBus
 from webapp.engine.bus.redis import RedisBus
@@ -50,7 +47,6 @@ from webapp.server.routes import (
     walls,
     ws,
 )
-from webapp.server.schemas import ERROR_MEANINGS, Problem
 from webapp.server.services import Services
 from webapp.web.deps import DEPENDENCY_ERRORS
 from webapp.web.middleware import (
@@ -58,9 +54,10 @@ from webapp.web.middleware import (
     SecurityHeadersMiddleware,
     SessionCookieMiddleware,
 )
+from webapp.web.problems import ERROR_MEANINGS, Problem
+from webapp.web.templating import make_templates
 
 log = logging.getLogger(__name__)
-TEMPLATES_DIR = Path(__file__).parent / "templates"
 OUTAGE_RETRY_S = 5
 STATIC_DIR = PROJECT_ROOT / "static"
 
@@ -71,19 +68,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     db = Database(settings.resolved_database_url)
     # Several processes share the walls through one Redis: the bus and the limits' counts.
     redis = connect_redis(settings.redis_url) if settings.bus == "redis" else None
+    apps = installed_apps()
     hub = WallHub(
         db,
         event_bus(settings, redis),
         apply_lead_ms=settings.apply_lead_ms,
         swap_timeout_ms=settings.swap_timeout_ms,
         keep_events=settings.event_history,
+        heavy_keys=heavy_keys(apps),
     )
     services = Services(
         settings=settings,
         db=db,
         hub=hub,
         walls=load_walls(settings.wall_configs),
-        apps=builtin_apps(),
+        apps=apps,
         redis=redis,
     )
 
@@ -92,7 +91,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         services.tokens = await run_blocking(load_tokens, db, services.secret)
         await hub.watch(services.walls)
         for wall in services.walls.values():
-            await open_wall(services, wall)
+            await services.door.open(wall)
         tasks = [
             asyncio.create_task(services.scan_log.run()),
             asyncio.create_task(_keep_tokens_fresh(services)),
@@ -108,12 +107,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.services = services
-    app.state.templates = Jinja2Templates(
-        directory=[TEMPLATES_DIR, *(a.templates for a in services.apps.values() if a.templates)]
-    )
-    app.state.templates.env.auto_reload = False  # no stat() of every template per page
-    app.state.templates.env.filters["markdown"] = markdown_html
-    app.state.templates.env.filters["markdown_inline"] = markdown_inline
+    app.state.templates = make_templates([a.templates for a in apps.values() if a.templates])
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost

@@ -1,38 +1,17 @@
-"""HTTP API models (websocket messages are in ``protocol``)."""
+"""HTTP API models of the core's routes (websocket messages are in ``protocol``)."""
 
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from wall_client.layout import Wall
 from webapp.database.models import PublicationRecord
 from webapp.engine.hub import TileStatus
-from webapp.engine.wall_state import PublicItem, PublicPolicy, View
-from webapp.volume.layer import VolumeLayer
-
-
-class Problem(BaseModel):
-    """What the API answers when it cannot do what was asked: a sentence for a person."""
-
-    detail: str
-
-
-ERROR_MEANINGS = {
-    400: "The request body could not be read (not JSON, or not UTF-8).",
-    401: "Not signed in as an instructor, or a bearer token that is not the operator token.",
-    403: "Not allowed: a missing or wrong tile token or CSRF header, or a role that may not.",
-    404: "No such wall, tile or other thing named in the path or query.",
-    409: "Not possible in the wall's present state (another app is on the wall, say).",
-    503: "The database (or, with several server processes, Redis) does not answer; try again.",
-}
-
-
-def errors(*codes: int) -> dict[int | str, dict[str, Any]]:
-    """OpenAPI ``responses`` for error statuses an operation answers with."""
-    return {code: {"model": Problem, "description": ERROR_MEANINGS[code]} for code in codes}
+from webapp.engine.wall_state import PublicItem, PublicPolicy, View, VolumeLayer
+from webapp.tags.schemas import UnplacedCode
 
 
 class DisplayInfo(BaseModel):
@@ -119,53 +98,6 @@ class ChangeResult(BaseModel):
     changed: list[str]
 
 
-class PlacedCode(BaseModel):
-    """A code as it stands on the wall: what tiles draw and ``tagwall check`` verifies."""
-
-    code: str
-    label: str
-    kind: str
-    payload: str  # what the symbol encodes (``tagwall check`` compares decodes with it)
-    display: str
-    rect: tuple[float, float, float, float]  # scene mm, on the display's pixel grid
-    pixels: tuple[int, int, int]  # x, y, side in the display's pixels (as mounted)
-    px_per_module: int
-    modules: int  # across, quiet zone included
-    error: str
-    version: int
-    matrix: list[str]  # rows of modules, "1" dark, quiet zone excluded
-    anchor: tuple[float, float]
-    leader: tuple[tuple[float, float], tuple[float, float]] | None
-    caption: tuple[float, float, float, float] | None = None  # scene mm: where its label stands
-    purpose: Literal["walk-up", "seat"] = "walk-up"  # which design distance sized it
-
-    @property
-    def footprint(self) -> tuple[float, float, float, float]:
-        """The code with its caption (scene mm): what balloons and labels keep clear of."""
-        x, y, w, _ = self.rect
-        if self.caption is None:
-            return self.rect
-        cx, cy, cw, ch = self.caption
-        left, right = min(x, cx), max(x + w, cx + cw)
-        return (left, y, right - left, cy + ch - y)
-
-
-class UnplacedCode(BaseModel):
-    code: str
-    label: str
-    reason: str
-
-
-class LayoutInfo(BaseModel):
-    """One placement of a wall's tag set (immutable: cached by id)."""
-
-    id: int
-    wall: str
-    tag_set: str | None
-    placed: list[PlacedCode]
-    unplaced: list[UnplacedCode]
-
-
 class TagInfo(BaseModel):
     code: str
     name: str | None
@@ -188,16 +120,6 @@ class TagInfo(BaseModel):
     created_by: str
     svg_url: str
     png_url: str
-
-
-class TagUpdate(BaseModel):
-    """What an operator may change on a tag; its code and purpose stay."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    label: str | None = Field(default=None, max_length=200)
-    active: bool | None = None
-    expires_at: datetime | None = None
 
 
 class TagSetChoice(BaseModel):

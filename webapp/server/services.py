@@ -1,4 +1,8 @@
-"""What a running app holds: built by the app factory, reached through ``deps``."""
+"""What a running server holds: built by the app factory, reached through ``deps``.
+
+:class:`Services` is the one implementation of the context apps are handed
+(:class:`~webapp.web.context.AppContext`): its wall changes go through the door.
+"""
 
 from __future__ import annotations
 
@@ -13,7 +17,9 @@ from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
+from webapp.door.changes import WallDoor
 from webapp.engine.hub import WallHub
+from webapp.engine.wall_state import Change
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
 from webapp.people.counters.redis import RedisCounters
@@ -24,6 +30,7 @@ from webapp.people.visitors import Visitor
 from webapp.tags.registry import LAYOUTS_KEPT, get_layout
 from webapp.tags.scanning import CodeDirectory, ScanFeed, ScanLog
 from webapp.volume.catalog import VolumeCatalog
+from webapp.web.context import Plan, Update
 from webapp.web.urls import tile_url
 
 LAYOUTS_CACHED = 4 * LAYOUTS_KEPT
@@ -48,6 +55,7 @@ class Services:
     volumes: VolumeCatalog = field(init=False)
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
     layouts: SizedCache[TagLayoutRecord] = field(init=False)
+    door: WallDoor = field(init=False)
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db, bus=self.hub.bus)
@@ -69,6 +77,22 @@ class Services:
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
+        self.door = WallDoor(
+            self, self.hub, self.apps, self.settings.first_app, lambda: self.base_url
+        )
+
+    def app(self, name: str) -> WallApp:
+        return self.apps[name]
+
+    async def change_wall(
+        self, wall: Wall, update: Update, *, replace_codes: bool = False
+    ) -> Change | None:
+        return await self.door.change(wall, update, replace_codes=replace_codes)
+
+    async def plan_change(
+        self, wall: Wall, plan: Plan, *, replace_codes: bool = False
+    ) -> Change | None:
+        return await self.door.plan(wall, plan, replace_codes=replace_codes)
 
     async def action_allowed(
         self, kind: WallAction, visitor: Visitor, address: str, wall_id: str = ""

@@ -40,7 +40,7 @@ from tag_service.sizing import code_size, min_module_mm
 from wall_client.layout import CodePurpose, Wall
 from webapp.database.connection import Database, as_utc
 from webapp.database.models import TagLayoutRecord, TagRecord, WallStateRecord
-from webapp.server.schemas import PlacedCode, TagUpdate, UnplacedCode
+from webapp.tags.schemas import PlacedCode, TagUpdate, UnplacedCode
 
 LAYOUTS_KEPT = 20
 """Layouts kept per wall: the one in use and a few before it (tiles mid-swap fetch them)."""

@@ -32,9 +32,9 @@ from wall_client.layout import (
     compose_affine,
     invert_affine,
 )
-from webapp.engine.wall_state import View
-from webapp.volume.layer import VolumeLayer, lookup_table
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.store import Box, Selection, VolumeMeta, VolumeStore
+from webapp.volume.transfer import lookup_table
 
 Vector = npt.NDArray[Any]
 Image = npt.NDArray[Any]

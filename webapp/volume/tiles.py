@@ -9,8 +9,7 @@ from typing import Literal
 from PIL import Image as PILImage
 
 from wall_client.layout import Wall
-from webapp.engine.wall_state import View
-from webapp.volume.layer import VolumeLayer
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.render import (
     Camera,
     Footprint,

@@ -10,29 +10,29 @@ from collections.abc import Callable
 from typing import Annotated, Any
 from urllib.parse import quote
 
-from fastapi import Depends, Header, HTTPException, Query, Request, WebSocket, status
+from fastapi import Depends, Header, HTTPException, Query, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from wall_client.layout import Display, Wall
-from webapp.engine.protocol import CLOSE_UNKNOWN
 from webapp.people.addresses import address_of
 from webapp.people.person import Person, person_of
 from webapp.people.ratelimit import WallAction, retry_after_s
 from webapp.people.security import csrf_token, token_matches
 from webapp.people.visitors import Visitor
-from webapp.server.services import Services
+from webapp.web.context import AppContext, ServerContext
 
 
-async def get_services(request: Request) -> Services:
-    services: Services = request.app.state.services
-    return services
+async def get_context(request: Request) -> ServerContext:
+    """What the server holds, as request handlers see it (apps: as an ``AppContext``)."""
+    context: ServerContext = request.app.state.services
+    return context
 
 
-ServicesDep = Annotated[Services, Depends(get_services)]
+ContextDep = Annotated[ServerContext, Depends(get_context)]
 
 
-async def get_wall(wall_id: str, services: ServicesDep) -> Wall:
-    wall = services.walls.get(wall_id)
+async def get_wall(wall_id: str, context: ContextDep) -> Wall:
+    wall = context.walls.get(wall_id)
     if wall is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall called {wall_id!r}.")
     return wall
@@ -53,26 +53,11 @@ async def get_tile(tile_id: str, wall: WallDep) -> Display:
 TileDep = Annotated[Display, Depends(get_tile)]
 
 
-async def open_wall_socket(
-    websocket: WebSocket, wall_id: str, tile_id: str | None = None
-) -> tuple[Services, Wall] | None:
-    """Accept a websocket of one wall (and tile): the services and the wall, or None
-    when the socket was closed because there is no such wall or tile. Sockets close
-    with a code of their own rather than an HTTP status, so this is not a dependency."""
-    services: Services = websocket.app.state.services
-    await websocket.accept()
-    wall = services.walls.get(wall_id)
-    if wall is None or (tile_id is not None and tile_id not in {d.id for d in wall.displays}):
-        await websocket.close(CLOSE_UNKNOWN, "unknown wall or tile" if tile_id else "unknown wall")
-        return None
-    return services, wall
-
-
 async def require_tile_token(
-    wall: WallDep, services: ServicesDep, token: Annotated[str | None, Query()] = None
+    wall: WallDep, context: ContextDep, token: Annotated[str | None, Query()] = None
 ) -> None:
     """Tile pages need the wall's tile token (printed by ``tagwall tiles``)."""
-    if not token_matches(services.tile_token(wall.id), token):
+    if not token_matches(context.tile_token(wall.id), token):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
             "This tile URL has a missing or wrong token; use the URL from `tagwall tiles`.",
@@ -105,16 +90,16 @@ def too_fast(wait: float) -> HTTPException:
 
 
 async def limit_action(
-    services: Services, kind: WallAction, visitor: Visitor, address: str, wall_id: str
+    context: AppContext, kind: WallAction, visitor: Visitor, address: str, wall_id: str
 ) -> None:
     """Count one ``kind`` of action on the wall; 429 when it is one too many."""
-    wait = await services.action_allowed(kind, visitor, address, wall_id)
+    wait = await context.action_allowed(kind, visitor, address, wall_id)
     if wait is not None:
         raise too_fast(wait)
 
 
-async def get_person(request: Request, services: ServicesDep, address: ClientAddressDep) -> Person:
-    return await person_of(request, services.db, services.settings, address)
+async def get_person(request: Request, context: ContextDep, address: ClientAddressDep) -> Person:
+    return await person_of(request, context.db, context.settings, address)
 
 
 PersonDep = Annotated[Person, Depends(get_person)]
@@ -123,7 +108,7 @@ PersonDep = Annotated[Person, Depends(get_person)]
 async def require_csrf(
     request: Request,
     person: PersonDep,
-    services: ServicesDep,
+    context: ContextDep,
     x_csrf_token: Annotated[str | None, Header()] = None,
 ) -> None:
     """State-changing requests of a session carry its CSRF token (form field or header)."""
@@ -133,7 +118,7 @@ async def require_csrf(
     ):
         value = (await request.form()).get("csrf")
         given = value if isinstance(value, str) else None
-    if not token_matches(csrf_token(services.secret, person.visitor.session_id), given):
+    if not token_matches(csrf_token(context.secret, person.visitor.session_id), given):
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,
             "This form has expired or did not come from this site. Reload the page and try again.",
@@ -167,21 +152,21 @@ async def require_admin_page(person: StaffPageDep) -> Person:
 AdminPageDep = Annotated[Person, Depends(require_admin_page)]
 
 
-async def require_staff(request: Request, services: ServicesDep, credentials: BearerDep) -> str:
+async def require_staff(request: Request, context: ContextDep, credentials: BearerDep) -> str:
     """API calls of instructors: the operator token as a bearer token (scripts), or an
     instructor's session with its CSRF token in ``X-CSRF-Token`` (the dashboard).
 
     Returns who acts, for the audit log and publications.
     """
     if credentials is not None:
-        if token_matches(services.operator_token, credentials.credentials):
+        if token_matches(context.operator_token, credentials.credentials):
             return "operator"
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
             "The bearer token is not the operator token.",
             headers={"WWW-Authenticate": "Bearer"},
         )
-    person = await get_person(request, services, address_of(request))
+    person = await get_person(request, context, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_401_UNAUTHORIZED,
@@ -189,7 +174,7 @@ async def require_staff(request: Request, services: ServicesDep, credentials: Be
             headers={"WWW-Authenticate": "Bearer"},
         )
     if request.method not in SAFE_METHODS:
-        await require_csrf(request, person, services, request.headers.get("x-csrf-token"))
+        await require_csrf(request, person, context, request.headers.get("x-csrf-token"))
     return person.authority or person.role
 
 
@@ -199,15 +184,15 @@ StaffDep = Annotated[str, Depends(require_staff)]
 async def require_tile_or_staff_for_detail(
     request: Request,
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     token: Annotated[str | None, Query()] = None,
     detail: Annotated[str, Query()] = "refined",
 ) -> None:
     """Detailed renders cost a second of CPU: only the wall's tiles (their token) and
     instructors get them; the instant fallback is for everyone (the overview)."""
-    if detail == "fallback" or token_matches(services.tile_token(wall.id), token):
+    if detail == "fallback" or token_matches(context.tile_token(wall.id), token):
         return
-    person = await get_person(request, services, address_of(request))
+    person = await get_person(request, context, address_of(request))
     if not person.is_staff:
         raise HTTPException(
             status.HTTP_403_FORBIDDEN,

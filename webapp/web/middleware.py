@@ -10,12 +10,15 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from webapp.people.addresses import Network, client_address, is_trusted_peer
 from webapp.people.visitors import Visitor, cookie_header
+from webapp.web.templating import IMPORT_MAP_HASH
 
 HEADERS = {
-    # Scripts and styles only from our own static files: nothing inline, nothing foreign.
+    # Scripts and styles only from our own static files, nothing foreign; the one inline
+    # script is the import map, allowed by its hash.
     "content-security-policy": (
-        "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data: blob:; "
-        "connect-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'self'"
+        f"default-src 'self'; script-src 'self' '{IMPORT_MAP_HASH}'; style-src 'self'; "
+        "img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; "
+        "base-uri 'none'; form-action 'self'"
     ),
     "x-frame-options": "DENY",
     "x-content-type-options": "nosniff",

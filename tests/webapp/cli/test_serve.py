@@ -15,9 +15,9 @@ from click.testing import CliRunner
 
 from tests.conftest import TEST_SECRET
 from webapp.cli import commands
-from webapp.core import settings
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess
+from webapp.core import settings
 from webapp.core.settings import CONTENT_DIR, lan_address
 from webapp.people.security import operator_token
 
@@ -133,7 +133,7 @@ def test_without_a_network_the_banner_says_phones_cannot_reach_it(
     env: dict[str, str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(settings, "lan_address", lambda: "127.0.0.1")
-    monkeypatch.setattr(cli, "lan_address", lambda: "127.0.0.1")
+    monkeypatch.setattr(commands, "lan_address", lambda: "127.0.0.1")
     text = urls(env)
     assert "this machine has no network address" in text
     assert "codes send them to http://127.0.0.1:8111" in text

@@ -18,16 +18,18 @@ from fastapi import FastAPI
 
 from wall_client.layout import Wall
 from webapp.core.settings import CONTENT_DIR, PROJECT_ROOT, Settings
-from webapp.door.changes import Update, change_wall, open_wall, plan_change, unchanged
+from webapp.door.changes import unchanged
 from webapp.engine.wall_state import View, WallState, read_state
 from webapp.server.services import Services
 from webapp.tags.registry import TagSpec, get_layout, issue
+from webapp.web.context import Update
 
 WALL = "demo"
 MARKERS = "markers"
 
 
 class MarkerApp:
+    state = None  # it keeps nothing in the wall state
     """One code where the view's centre lies on the wall; settling sets its mode."""
 
     name = "marker"
@@ -99,7 +101,7 @@ async def test_a_light_change_commits_and_publishes_without_placing(services: Se
     wall = wall_of(services)
     _, before = read_state(services.db, WALL)
     async with services.hub.bus.subscribe(WALL) as inbox:
-        change = await change_wall(services, wall, lambda s: s.model_copy(update={"mode": "x"}))
+        change = await services.change_wall(wall, lambda s: s.model_copy(update={"mode": "x"}))
         message = json.loads(await inbox.next())
     assert change is not None and change.changes == {"mode": "x"} and not change.heavy
     assert message["type"] == "event" and message["version"] == change.version
@@ -108,14 +110,14 @@ async def test_a_light_change_commits_and_publishes_without_placing(services: Se
 
 async def test_nothing_changed_commits_nothing(services: Services) -> None:
     version, _ = read_state(services.db, WALL)
-    assert await change_wall(services, wall_of(services), unchanged) is None
+    assert await services.change_wall(wall_of(services), unchanged) is None
     assert read_state(services.db, WALL)[0] == version
 
 
 async def test_an_app_coming_on_settles_and_brings_its_codes_in_the_same_change(
     services: Services,
 ) -> None:
-    change = await change_wall(services, wall_of(services), to_marker)
+    change = await services.change_wall(wall_of(services), to_marker)
     assert change is not None and change.heavy
     assert {"app", "mode", "tag_set", "tag_layout"} <= change.changes.keys()
     _, state = read_state(services.db, WALL)
@@ -126,8 +128,8 @@ async def test_an_app_coming_on_settles_and_brings_its_codes_in_the_same_change(
 
 async def test_a_new_view_moves_the_codes_with_it(services: Services) -> None:
     wall = wall_of(services)
-    await change_wall(services, wall, to_marker)
-    change = await change_wall(services, wall, looking_at(0.25, 0.5))
+    await services.change_wall(wall, to_marker)
+    change = await services.change_wall(wall, looking_at(0.25, 0.5))
     assert change is not None and {"view", "tag_layout"} <= change.changes.keys()
     _, state = read_state(services.db, WALL)
     x, _ = marker_anchor(services, state)
@@ -138,24 +140,24 @@ async def test_scans_see_codes_that_came_with_a_change_at_once(services: Service
     """The scan path's cache is dropped by the door: a code that just came on the wall
     resolves as live without waiting for the cache to expire."""
     wall = wall_of(services)
-    await change_wall(services, wall, to_marker)
+    await services.change_wall(wall, to_marker)
     _, state = read_state(services.db, WALL)
     layout = get_layout(services.db, WALL, state.tag_layout)
     assert layout is not None
     (code,) = [p["code"] for p in layout.placed if p["label"] == "Here"]
     assert (await services.codes.resolve(code)).problem is None
-    await change_wall(services, wall, lambda s: s.model_copy(update={"app": "pattern"}))
+    await services.change_wall(wall, lambda s: s.model_copy(update={"app": "pattern"}))
     assert (await services.codes.resolve(code)).problem is not None
 
 
 async def test_a_tag_issued_is_placed_when_asked_to_replace_codes(services: Services) -> None:
     wall = wall_of(services)
-    await change_wall(services, wall, to_marker)
+    await services.change_wall(wall, to_marker)
     _, before = read_state(services.db, WALL)
     spec = TagSpec(label="Extra", app="marker", action="mark", tag_set=MARKERS, anchor=(300, 300))
     issue(services.db, WALL, spec, "test")
-    assert await change_wall(services, wall, unchanged) is None  # nothing moved
-    change = await change_wall(services, wall, unchanged, replace_codes=True)
+    assert await services.change_wall(wall, unchanged) is None  # nothing moved
+    change = await services.change_wall(wall, unchanged, replace_codes=True)
     assert change is not None and set(change.changes) == {"tag_layout"}
     layout = get_layout(services.db, WALL, read_state(services.db, WALL)[1].tag_layout)
     assert layout is not None and layout.id != before.tag_layout
@@ -165,7 +167,7 @@ async def test_a_tag_issued_is_placed_when_asked_to_replace_codes(services: Serv
 async def test_opening_a_wall_again_changes_nothing(services: Services) -> None:
     version, state = read_state(services.db, WALL)
     assert state.tag_layout, "the start put the wall's codes up"
-    assert await open_wall(services, wall_of(services)) is None
+    assert await services.door.open(wall_of(services)) is None
     assert read_state(services.db, WALL)[0] == version
 
 
@@ -178,9 +180,9 @@ async def test_a_planned_change_sees_the_wall_as_it_commits(services: Services) 
         await asyncio.sleep(0.05)  # another change arriving now must wait
         return lambda current: current.model_copy(update={"mode": f"after {current.tag_layout}"})
 
-    planned = asyncio.create_task(plan_change(services, wall, plan))
+    planned = asyncio.create_task(services.plan_change(wall, plan))
     await asyncio.sleep(0.01)
-    await change_wall(services, wall, to_marker)
+    await services.change_wall(wall, to_marker)
     await planned
     _, state = read_state(services.db, WALL)
     assert state.app == "marker" and state.mode == "marked"  # the app switch came second
@@ -201,10 +203,10 @@ async def test_a_tag_set_switch_racing_an_app_switch_does_not_interleave(
         "test",
     )
     async with services.hub.bus.subscribe(WALL) as inbox:
-        switching_app = asyncio.create_task(change_wall(services, wall, to_marker))
+        switching_app = asyncio.create_task(services.change_wall(wall, to_marker))
         await asyncio.to_thread(marker.settled.wait, 5)
         switching_set = asyncio.create_task(
-            change_wall(services, wall, lambda s: s.model_copy(update={"tag_set": "other"}))
+            services.change_wall(wall, lambda s: s.model_copy(update={"tag_set": "other"}))
         )
         app_change, set_change = await asyncio.gather(switching_app, switching_set)
         frames = [json.loads(await inbox.next()) for _ in range(4)]  # prepare + swap each

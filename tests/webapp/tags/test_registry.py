@@ -14,7 +14,6 @@ from wall_client.layout import Wall
 from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
-from webapp.server.schemas import TagUpdate
 from webapp.tags.registry import (
     LAYOUTS_KEPT,
     declare,
@@ -28,6 +27,7 @@ from webapp.tags.registry import (
     url_code_sizes,
     wall_tags,
 )
+from webapp.tags.schemas import TagUpdate
 
 BASE = "http://192.168.1.20:8000"
 TOL = 1e-6  # mm: float rounding of pixel edges

@@ -23,9 +23,9 @@ from pydantic import ValidationError
 
 from wall_client.config import parse_wall
 from wall_client.layout import Wall
-from webapp.engine.wall_state import View
+from webapp.engine.wall_state import View, VolumeLayer
+from webapp.engine.wall_state import VolumeMode as Mode
 from webapp.volume.build import build_store, open_source
-from webapp.volume.layer import Mode, VolumeLayer, lookup_table
 from webapp.volume.render import (
     Camera,
     Footprint,
@@ -39,6 +39,7 @@ from webapp.volume.render import (
     voxel_size,
 )
 from webapp.volume.store import VolumeMeta, VolumeStore
+from webapp.volume.transfer import lookup_table
 from webapp.volume.wavelet import downsample
 
 SHAPE = (40, 36, 28)

@@ -11,9 +11,8 @@ import pytest
 
 from wall_client.config import parse_wall
 from wall_client.layout import Wall
-from webapp.engine.wall_state import View
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.build import build_store, open_source
-from webapp.volume.layer import VolumeLayer
 from webapp.volume.render import (
     Camera,
     Footprint,

@@ -2,227 +2,53 @@
 
 from __future__ import annotations
 
-import threading
-from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas import commands, pages, routes
+from webapp.apps.brain_atlas.atlas import Atlas
 from webapp.apps.brain_atlas.content import (
     ATLAS_DIR,
-    AtlasContent,
-    GroupText,
-    Region,
-    ResearchText,
-    TagSetName,
-    load_content,
 )
-from webapp.apps.brain_atlas.literature import PubMed
-from webapp.apps.brain_atlas.matching import AnswerKey, answer_key
-from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, PinCache, scene_pins
-from webapp.apps.brain_atlas.quiz import Round, get_round, new_order, open_round
+from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
+from webapp.apps.brain_atlas.quiz import open_round
 from webapp.apps.brain_atlas.rules import (
     APP,
-    GROUP_LABELS,
     MODES,
     TAG_SETS,
-    group_tag,
-    pin_tag,
 )
-from webapp.apps.brain_atlas.views import ViewPreset, load_views
+from webapp.apps.brain_atlas.state import BrainState
 from webapp.apps.contract import Scan
-from webapp.core.caching import SizedCache
-from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState
-from webapp.people.roles import UserGroup
 from webapp.publishing.publication import Block, Publication
-from webapp.tags.registry import TagSpec, anchored_code_side_mm, preview, wall_tags
 from webapp.volume.build import build_store, open_source
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
-
+from webapp.web.context import AppContext
 
 FOLDER = Path(__file__).parent
-PIN_CLEARANCE_OF_CODE = 0.75
-"""How far a pin's code stands from the point it marks, in code sides."""
-PLACED_KEPT = 64
-"""Placement previews kept (views x sets x rounds x walls), for the phones' hints."""
-GUIDES_KEPT = 64
-"""Round guides kept (sets x layouts x walls): a class's phones ask for the same few."""
 
 
-@dataclass(frozen=True)
-class RoundGuide:
-    """A round's pins of one set as the phones' hints need them: each pin's code, the
-    preset views whose placement puts it on the wall, and those on the wall now."""
+class BrainApp(Atlas):
+    """The brain atlas's :class:`~webapp.apps.contract.WallApp`: the atlas with what the
+    core calls."""
 
-    codes: dict[int, str]
-    views: dict[int, list[str]]
-    on_wall: frozenset[int]
-
-
-class BrainApp:
+    state = BrainState
     name: str = APP
     default_tag_set: str | None = TAG_SETS["full"]
     layers: tuple[str, ...] = ("/static/js/volume.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
 
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._content: AtlasContent | None = None
-        self._views: list[ViewPreset] | None = None
-        self._keys: dict[TagSetName, AnswerKey] = {}
-        self._volumes: AtlasVolumes | None = None
-        self._pubmed: PubMed | None = None
-        self._placed: SizedCache[frozenset[str]] = SizedCache(PLACED_KEPT)
-        self._guides: SizedCache[RoundGuide] = SizedCache(GUIDES_KEPT)
-        self.pin_cache = PinCache()
-
-    # --- content, loaded on first use ------------------------------------------------
-
-    @property
-    def content(self) -> AtlasContent:
-        with self._lock:
-            if self._content is None:
-                self._content = load_content()
-            return self._content
-
-    @property
-    def views(self) -> list[ViewPreset]:
-        with self._lock:
-            if self._views is None:
-                self._views = load_views()
-            return self._views
-
-    @property
-    def volumes(self) -> AtlasVolumes:
-        with self._lock:
-            if self._volumes is None:
-                self._volumes = AtlasVolumes.load()
-            return self._volumes
-
-    def pubmed(self, settings: Settings) -> PubMed:
-        """The literature search, one per app so its cache serves every phone."""
-        with self._lock:
-            if self._pubmed is None:
-                self._pubmed = PubMed(settings)
-            return self._pubmed
-
-    def has_research(self, region: Region) -> bool:
-        tutor = self.content.tutors.get(region.id)
-        return tutor is not None and tutor.research is not None
-
-    def answer_key(self, tag_set: TagSetName) -> AnswerKey:
-        content = self.content
-        with self._lock:
-            if tag_set not in self._keys:
-                self._keys[tag_set] = answer_key(content, tag_set)
-            return self._keys[tag_set]
-
-    def regions(self, tag_set: TagSetName) -> list[Region]:
-        """The set's regions (in the content's order, which no pin number follows)."""
-        return self.content.in_set(tag_set)
-
-    def pins(self, quiz_round: Round, tag_set: TagSetName) -> dict[int, Region]:
-        """Pin number -> region of a set in a round."""
-        return quiz_round.pins(tag_set, self.regions(tag_set))
-
-    def fresh_orders(self) -> dict[str, list[str]]:
-        """A new round's pin numbering: every set in a fresh random order."""
-        return {tag_set: new_order(self.regions(tag_set)) for tag_set in TAG_SETS}
-
-    def round_on_wall(self, services: Services, wall_id: str, state: WallState) -> Round | None:
-        """The quiz round the wall state names (None before the brain's first)."""
-        if state.quiz_round is None:
-            return None
-        return get_round(services.db, wall_id, state.quiz_round)
-
-    def guide(
-        self,
-        services: Services,
-        wall: Wall,
-        quiz_round: Round,
-        tag_set: TagSetName,
-        state: WallState,
-    ) -> RoundGuide:
-        """Where the round's pins of ``tag_set`` are, for the phones' hints; one per
-        layout of the wall. Every change of the wall's tags (a round's pins declared, a
-        tag issued, a view turned) places them anew, so a new ``state.tag_layout``."""
-        key = (wall.id, quiz_round.number, tag_set, state.tag_layout, services.base_url)
-        found = self._guides.get(key)
-        if found is not None:
-            return found
-        layout = services.layout(wall.id, state.tag_layout)
-        placed = {code["code"] for code in layout.placed} if layout is not None else set()
-        pins = {
-            int(tag.params["pin"]): tag.code
-            for tag in wall_tags(services.db, wall.id)
-            if tag.app == APP
-            and tag.action == "pin"
-            and tag.params.get("set") == tag_set
-            and tag.params.get("round") == quiz_round.number
-        }
-        found = RoundGuide(
-            codes=pins,
-            views=self._pin_views(services, wall, quiz_round, tag_set),
-            on_wall=frozenset(number for number, code in pins.items() if code in placed),
-        )
-        self._guides.put(key, found)
-        return found
-
-    def _pin_views(
-        self, services: Services, wall: Wall, quiz_round: Round, tag_set: TagSetName
-    ) -> dict[int, list[str]]:
-        """Per pin number, the names of the preset views in which its code stands on
-        ``wall`` (placed, so scannable: a pin the picture shows may find no room for
-        its code). Phones send students only where they can scan the pin.
-
-        Each view is placed as the wall would place it (``webapp.tags.registry.preview``), and
-        the outcome is kept by its inputs' digest: the views of another round place alike."""
-        where: dict[int, list[str]] = {}
-        for preset in self.views:
-            state = WallState(
-                app=APP,
-                mode="quiz",
-                view=preset.view,
-                volume=preset.layer(VOLUME),
-                tag_set=TAG_SETS[tag_set],
-                quiz_round=quiz_round.number,
-            )
-            specs = self.declare_tags(services, wall, state)
-            planned = preview(services.db, wall, TAG_SETS[tag_set], services.base_url, APP, specs)
-            placed = self._placed.get(planned.digest)
-            if placed is None:
-                placed = frozenset(planned.placed_names())
-                self._placed.put(planned.digest, placed)
-            for spec in specs:
-                if (
-                    spec.name in placed
-                    and spec.action == "pin"
-                    and spec.tag_set == TAG_SETS[tag_set]
-                ):
-                    where.setdefault(int(spec.params["pin"]), []).append(preset.name)
-        return where
-
-    def preset(self, preset_id: str) -> ViewPreset | None:
-        return next((v for v in self.views if v.id == preset_id), None)
-
-    # --- the WallApp interface -------------------------------------------------------
-
-    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall the brain shows the MNI template (its store built on first use)
         in the first preset view, in quiz mode, unless it is already up; and a quiz
         round: the open one, or a new one."""
-        if VOLUME not in services.volumes:
+        if VOLUME not in context.volumes:
             build_store(
                 open_source(ATLAS_DIR / TEMPLATE_FILE),
-                services.settings.resolved_volume_dir / VOLUME,
+                context.settings.resolved_volume_dir / VOLUME,
                 name=VOLUME,
             )
         update: dict[str, object] = {}
@@ -232,78 +58,22 @@ class BrainApp:
             first = self.views[0]
             update["view"] = first.view
             update["volume"] = first.layer(VOLUME)
-        shown = self.round_on_wall(services, wall.id, state)
+        settled = state.model_copy(update=update) if update else state
+        shown = self.round_on_wall(context, wall.id, state)
         if shown is None or not shown.open:
-            update["quiz_round"] = open_round(
-                services.db, wall.id, f"app:{APP}", self.fresh_orders()
-            ).number
-        return state.model_copy(update=update) if update else state
+            opened = open_round(context.db, wall.id, f"app:{APP}", self.fresh_orders())
+            settled = BrainState(quiz_round=opened.number).put(settled)
+        return settled
 
     def leave(self, state: WallState) -> WallState:
         """The brain's volume goes with it (its view and quiz round stay for its return)."""
         return state.model_copy(update={"volume": None})
 
-    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
-        """While the brain is on the wall: the user-group menu on the menu screen and a
-        pin on every region of each set that the current picture shows, numbered and
-        named for the round on the wall (a new round: new codes)."""
-        if state.app != APP or state.volume is None or state.volume.volume != VOLUME:
-            return []
-        quiz_round = self.round_on_wall(services, wall.id, state)
-        menu = [
-            TagSpec(
-                name=group_tag(group),
-                label=label,
-                app=APP,
-                action="group",
-                params={"group": group},
-                screen="menu",
-                slot=slot,
-            )
-            for slot, (group, label) in enumerate(GROUP_LABELS.items(), start=1)
-        ]
-        clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(services.base_url, wall)
-        pins = []
-        for tag_set, tag_set_name in TAG_SETS.items() if quiz_round is not None else ():
-            assert quiz_round is not None
-            numbered = self.pins(quiz_round, tag_set)
-            rank = {region.id: i for i, region in enumerate(self.regions(tag_set))}
-            points = self.pin_points(services, wall, state, list(numbered.values()))
-            pins += [
-                TagSpec(
-                    name=pin_tag(tag_set, quiz_round.number, number),
-                    label=f"Pin {number}",
-                    app=APP,
-                    action="pin",
-                    params={"set": tag_set, "round": quiz_round.number, "pin": number},
-                    tag_set=tag_set_name,
-                    anchor=points[region.id],
-                    clear_mm=clear,
-                    # Placed in the content's order, the same in every round (and so
-                    # are the places): a layout lists codes in code order, not this.
-                    priority=-1 - rank[region.id],
-                )
-                for number, region in sorted(numbered.items())
-                if region.id in points
-            ]
-        return menu + pins
-
-    def pin_points(
-        self, services: Services, wall: Wall, state: WallState, regions: list[Region]
-    ) -> dict[str, tuple[float, float]]:
-        """Where each region's pin head stands on the wall now (scene mm), for the
-        regions the picture shows. A head may be on a designated screen (the brain is
-        drawn there too); its code then stands on the nearest free display, on a pin."""
-        assert state.volume is not None
-        store = services.volumes.get(state.volume.volume)
-        on_plane = self.pin_cache.get(self.volumes, regions, state.view, state.volume)
-        return scene_pins(on_plane, wall, state.view, store.meta)
-
     async def on_scan(self, scan: Scan) -> Response:
         if scan.tag.action == "group":
             return await pages.choose_group(self, scan)
         person = await scan.person()
-        return await pages.pin_page(self, scan.request, scan.services, scan.wall, scan.tag, person)
+        return await pages.pin_page(self, scan.request, scan.context, scan.wall, scan.tag, person)
 
     async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
         """A pin's code still opens its question while its round runs (the view
@@ -312,14 +82,14 @@ class BrainApp:
         if scan.tag.action != "pin":
             return None
         person = await scan.person()
-        return await pages.pin_page(self, scan.request, scan.services, scan.wall, scan.tag, person)
+        return await pages.pin_page(self, scan.request, scan.context, scan.wall, scan.tag, person)
 
     async def publication(self, scan: Scan) -> Publication | None:
         """In tutor mode, the region's fuller page (the phone shows its summary); in
         quiz mode nothing, so the public screen never names a pin."""
         if scan.tag.action != "pin":
             return None
-        region = await pages.tutor_subject(self, scan.services, scan.wall, scan.tag)
+        region = await pages.tutor_subject(self, scan.context, scan.wall, scan.tag)
         if region is None:
             return None
         person = await scan.person()
@@ -338,21 +108,6 @@ class BrainApp:
             )
             blocks.append(Block(kind="markdown", text=f"**Sources**\n\n{listed}"))
         return Publication(title=region.name, blocks=blocks)
-
-    def tutor_text(
-        self, region: Region, group: UserGroup
-    ) -> tuple[UserGroup, GroupText | ResearchText] | None:
-        """The region's text for ``group`` and whom it was written for: children get
-        the children's text of every region; the other groups their own, or (on a
-        K-5 pin, which has only a children's text) that one, labelled as such."""
-        tutor = self.content.tutors.get(region.id)
-        if tutor is None:
-            return None
-        if group == "k5" or "full" not in region.sets:
-            return ("k5", tutor.k5) if tutor.k5 is not None else None
-        chosen = getattr(tutor, group) or tutor.undergraduate
-        audience: UserGroup = group if getattr(tutor, group) is not None else "undergraduate"
-        return (audience, chosen) if chosen is not None else None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "brain/panel.html"

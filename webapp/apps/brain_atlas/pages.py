@@ -11,13 +11,13 @@ the next round started, it says so instead of opening anything.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from fastapi import HTTPException, Request, Response, status
 from fastapi.responses import RedirectResponse
 
 from tag_service.codes import normalize_code
 from wall_client.layout import Wall
+from webapp.apps.brain_atlas.atlas import Atlas, RoundGuide
 from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
@@ -32,18 +32,14 @@ from webapp.apps.brain_atlas.rules import (
 )
 from webapp.apps.contract import Scan
 from webapp.core.markdown import markdown_html
+from webapp.core.roles import USER_GROUPS, UserGroup
 from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
-from webapp.door.changes import change_wall
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person, remember_person, update_profile
-from webapp.people.roles import USER_GROUPS, UserGroup
 from webapp.people.visitors import Visitor
+from webapp.web.context import AppContext
 from webapp.web.templating import render
-
-if TYPE_CHECKING:
-    from webapp.apps.brain_atlas.app import BrainApp, RoundGuide
-    from webapp.server.services import Services
 
 SUMMARY_PARAGRAPHS = 2  # of a tutor text, on the phone; the public screen shows it all
 
@@ -71,39 +67,37 @@ class RoundChanged(Exception):
         self.tag = tag
 
 
-async def tag_of(services: Services, wall: Wall, code: str) -> TagRecord:
+async def tag_of(context: AppContext, wall: Wall, code: str) -> TagRecord:
     """A brain pin of this wall by its code (switched off ones too: a pin the wall no
     longer shows may still be answered); 404 otherwise. From the scan path's cache of
     codes: every answer of a room looks its pin up."""
     normal = normalize_code(code)
-    tag = (await services.codes.resolve(normal)).tag if normal else None
+    tag = (await context.codes.resolve(normal)).tag if normal else None
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a pin of this wall's brain.")
     return tag
 
 
-async def wall_state(services: Services, wall: Wall) -> WallState:
-    _, state = await services.db.read(read_state, services.db, wall.id)
+async def wall_state(context: AppContext, wall: Wall) -> WallState:
+    _, state = await context.db.read(read_state, context.db, wall.id)
     return state
 
 
-def current_round(app: BrainApp, services: Services, wall: Wall) -> tuple[WallState, Round | None]:
+def current_round(app: Atlas, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
     """The wall's state and the quiz round it names (synchronous: a page reads all it
     needs in one :meth:`~webapp.database.connection.Database.read`)."""
-    _, state = read_state(services.db, wall.id)
-    return state, app.round_on_wall(services, wall.id, state)
+    _, state = read_state(context.db, wall.id)
+    return state, app.round_on_wall(context, wall.id, state)
 
 
-async def round_now(
-    app: BrainApp, services: Services, wall: Wall
-) -> tuple[WallState, Round | None]:
-    return await services.db.read(current_round, app, services, wall)
+async def round_now(app: Atlas, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
+    return await context.db.read(current_round, app, context, wall)
 
 
-def pin_of(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Pin:
+def pin_of(app: Atlas, context: AppContext, wall: Wall, tag: TagRecord) -> Pin:
     """What ``tag`` marks in the round on the wall; RoundChanged for an old round's
     (synchronous, like :func:`current_round`)."""
-    state, quiz_round = current_round(app, services, wall)
+    state, quiz_round = current_round(app, context, wall)
     if quiz_round is None or tag.params.get("round") != quiz_round.number:
         raise RoundChanged(tag)
     tag_set: TagSetName = "k5" if tag.params.get("set") == "k5" else "full"
@@ -125,12 +119,12 @@ def round_changed_page(
 
 
 async def tutor_subject(
-    app: BrainApp, services: Services, wall: Wall, tag: TagRecord
+    app: Atlas, context: AppContext, wall: Wall, tag: TagRecord
 ) -> Region | None:
     """The region a pin shows in tutor mode; None while a quiz round runs (then no
     pin may be named anywhere) or for an earlier round's code."""
     try:
-        pin = await services.db.read(pin_of, app, services, wall, tag)
+        pin = await context.db.read(pin_of, app, context, wall, tag)
     except RoundChanged:
         return None
     if pin.state.app != APP or mode_of(pin.state) != "tutor" or pin.round.open:
@@ -138,9 +132,9 @@ async def tutor_subject(
     return pin.region
 
 
-async def tutor_region(app: BrainApp, services: Services, wall: Wall, tag: TagRecord) -> Region:
+async def tutor_region(app: Atlas, context: AppContext, wall: Wall, tag: TagRecord) -> Region:
     """The region of a tutor page; 409 while a quiz round runs."""
-    found = await tutor_subject(app, services, wall, tag)
+    found = await tutor_subject(app, context, wall, tag)
     if found is None:
         raise HTTPException(
             status.HTTP_409_CONFLICT,
@@ -158,29 +152,29 @@ def wording(tag_set: TagSetName) -> str:
 
 
 async def pin_page(
-    app: BrainApp, request: Request, services: Services, wall: Wall, tag: TagRecord, person: Person
+    app: Atlas, request: Request, context: AppContext, wall: Wall, tag: TagRecord, person: Person
 ) -> Response:
     """A scanned pin: the quiz question, the region's tutor page, or word that a new
     round has started."""
     try:
-        pin, now = await services.db.read(pin_and_progress, app, services, wall, tag, person)
+        pin, now = await context.db.read(pin_and_progress, app, context, wall, tag, person)
     except RoundChanged:
         return round_changed_page(request, wall, tag)
     if mode_of(pin.state) == "tutor":
-        return await tutor_page(app, request, services, wall, tag, person)
+        return await tutor_page(app, request, context, wall, tag, person)
     return question_page(app, request, wall, pin, now, person)
 
 
 def pin_and_progress(
-    app: BrainApp, services: Services, wall: Wall, tag: TagRecord, person: Person
+    app: Atlas, context: AppContext, wall: Wall, tag: TagRecord, person: Person
 ) -> tuple[Pin, Progress]:
     """The pin and how far the visitor is in its round (one ``db.read``)."""
-    pin = pin_of(app, services, wall, tag)
-    return pin, progress(services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+    pin = pin_of(app, context, wall, tag)
+    return pin, progress(context.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
 
 
 def question_page(
-    app: BrainApp,
+    app: Atlas,
     request: Request,
     wall: Wall,
     pin: Pin,
@@ -213,18 +207,18 @@ def question_page(
 
 
 async def answer(
-    app: BrainApp,
+    app: Atlas,
     request: Request,
-    services: Services,
+    context: AppContext,
     wall: Wall,
     person: Person,
     code: str,
     text: str,
 ) -> Response:
     """Store the visitor's answer, judged now, and go on to their progress."""
-    tag = await tag_of(services, wall, code)
+    tag = await tag_of(context, wall, code)
     try:
-        pin, refused = await run_blocking(store_answer, app, services, wall, tag, person, text)
+        pin, refused = await run_blocking(store_answer, app, context, wall, tag, person, text)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     if refused is not None:
@@ -236,17 +230,17 @@ async def answer(
 
 
 def store_answer(
-    app: BrainApp, services: Services, wall: Wall, tag: TagRecord, person: Person, text: str
+    app: Atlas, context: AppContext, wall: Wall, tag: TagRecord, person: Person, text: str
 ) -> tuple[Pin, tuple[Progress, str] | None]:
     """Judge and store an answer to the pin ``tag`` (in a worker thread); when the
     quiz refuses it, the visitor's progress and why."""
-    pin = pin_of(app, services, wall, tag)
+    pin = pin_of(app, context, wall, tag)
     correct = app.answer_key(pin.tag_set).judge(pin.region.id, text[:1_000])
     try:
         if mode_of(pin.state) != "quiz":
             raise QuizError("The wall is in tutor mode: answers are taken in quiz mode only.")
         record_answer(
-            services.db,
+            context.db,
             wall.id,
             pin.round.number,
             person.visitor.id,
@@ -256,7 +250,7 @@ def store_answer(
             correct,
         )
     except QuizError as error:
-        now = progress(services.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+        now = progress(context.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
         return pin, (now, str(error))
     return pin, None
 
@@ -266,7 +260,7 @@ def progress_redirect(wall: Wall, tag_set: TagSetName) -> Response:
 
 
 async def revealed(
-    app: BrainApp, request: Request, services: Services, wall: Wall, person: Person, code: str
+    app: Atlas, request: Request, context: AppContext, wall: Wall, person: Person, code: str
 ) -> Response:
     """The correct name of a pin, for instructors only (checked here, for this
     session: a URL copied from an instructor's phone gives a student nothing)."""
@@ -275,9 +269,9 @@ async def revealed(
             status.HTTP_403_FORBIDDEN,
             "Only instructors see answers early: students see them when the round closes.",
         )
-    tag = await tag_of(services, wall, code)
+    tag = await tag_of(context, wall, code)
     try:
-        pin, guide = await run_blocking(pin_and_guide, app, services, wall, tag)
+        pin, guide = await run_blocking(pin_and_guide, app, context, wall, tag)
     except RoundChanged as changed:
         return round_changed_page(request, wall, changed.tag, status.HTTP_409_CONFLICT)
     return render(
@@ -292,20 +286,20 @@ async def revealed(
 
 
 def pin_and_guide(
-    app: BrainApp, services: Services, wall: Wall, tag: TagRecord
+    app: Atlas, context: AppContext, wall: Wall, tag: TagRecord
 ) -> tuple[Pin, RoundGuide]:
     """A pin and its round's guide (in a worker thread)."""
-    pin = pin_of(app, services, wall, tag)
-    return pin, app.guide(services, wall, pin.round, pin.tag_set, pin.state)
+    pin = pin_of(app, context, wall, tag)
+    return pin, app.guide(context, wall, pin.round, pin.tag_set, pin.state)
 
 
 # --- the quiz as a whole -------------------------------------------------------------
 
 
 async def progress_page(
-    app: BrainApp,
+    app: Atlas,
     request: Request,
-    services: Services,
+    context: AppContext,
     wall: Wall,
     person: Person,
     tag_set: TagSetName,
@@ -313,7 +307,7 @@ async def progress_page(
 ) -> Response:
     """How far the visitor is and where the open pins are; the correct names when
     the round's rule says so."""
-    facts = await services.db.read(progress_facts, app, services, wall, person, tag_set)
+    facts = await context.db.read(progress_facts, app, context, wall, person, tag_set)
     if facts is None:
         return render(request, "brain/no_round.html", wall=wall)
     state, quiz_round, now, guide = facts
@@ -351,15 +345,15 @@ async def progress_page(
 
 
 def progress_facts(
-    app: BrainApp, services: Services, wall: Wall, person: Person, tag_set: TagSetName
+    app: Atlas, context: AppContext, wall: Wall, person: Person, tag_set: TagSetName
 ) -> tuple[WallState, Round, Progress, RoundGuide] | None:
     """What the progress page shows, read in one ``db.read``; None before the
     quiz's first round."""
-    state, quiz_round = current_round(app, services, wall)
+    state, quiz_round = current_round(app, context, wall)
     if quiz_round is None:
         return None
-    now = progress(services.db, wall.id, quiz_round.number, person.visitor.id, tag_set)
-    return state, quiz_round, now, app.guide(services, wall, quiz_round, tag_set, state)
+    now = progress(context.db, wall.id, quiz_round.number, person.visitor.id, tag_set)
+    return state, quiz_round, now, app.guide(context, wall, quiz_round, tag_set, state)
 
 
 def _row(
@@ -382,20 +376,20 @@ def _row(
 
 
 async def finished(
-    app: BrainApp,
+    app: Atlas,
     request: Request,
-    services: Services,
+    context: AppContext,
     wall: Wall,
     person: Person,
     tag_set: TagSetName,
 ) -> Response:
-    _, quiz_round = await round_now(app, services, wall)
+    _, quiz_round = await round_now(app, context, wall)
     try:
         if quiz_round is None:
             raise QuizError("The quiz has not started yet.")
         await run_blocking(
             finish,
-            services.db,
+            context.db,
             wall.id,
             quiz_round.number,
             person.visitor.id,
@@ -403,7 +397,7 @@ async def finished(
             app.regions(tag_set),
         )
     except QuizError as error:
-        return await progress_page(app, request, services, wall, person, tag_set, str(error))
+        return await progress_page(app, request, context, wall, person, tag_set, str(error))
     return progress_redirect(wall, tag_set)
 
 
@@ -411,11 +405,11 @@ async def finished(
 
 
 async def tutor_page(
-    app: BrainApp, request: Request, services: Services, wall: Wall, tag: TagRecord, person: Person
+    app: Atlas, request: Request, context: AppContext, wall: Wall, tag: TagRecord, person: Person
 ) -> Response:
     """The region's page for the visitor's group: a summary here, the whole text on
     the public screen when published."""
-    region = await tutor_region(app, services, wall, tag)
+    region = await tutor_region(app, context, wall, tag)
     found = app.tutor_text(region, person.user_group)
     if found is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no page for you yet.")
@@ -438,20 +432,20 @@ async def tutor_page(
 # --- the user groups -----------------------------------------------------------------
 
 
-async def choose_group(app: BrainApp, scan: Scan) -> Response:
+async def choose_group(app: Atlas, scan: Scan) -> Response:
     """A scanned group code on the menu screen: the phone joins that group, and the
     wall follows only where the instructor lets the audience switch it."""
     person = await scan.person()
     group = str(scan.tag.params.get("group", ""))
     return await join_group(
-        app, scan.request, scan.services, scan.wall, person, group, True, scan.address
+        app, scan.request, scan.context, scan.wall, person, group, True, scan.address
     )
 
 
 async def join_group(
-    app: BrainApp,
+    app: Atlas,
     request: Request,
-    services: Services,
+    context: AppContext,
     wall: Wall,
     person: Person,
     group: str,
@@ -465,9 +459,9 @@ async def join_group(
     chosen: UserGroup = group
     updated = await run_blocking(
         update_profile,
-        services.db,
+        context.db,
         person,
-        services.settings,
+        context.settings,
         user_group=chosen,
         info_class=person.info_class,
         display_name=person.display_name,
@@ -475,11 +469,11 @@ async def join_group(
     remember_person(request, updated)
     wanted = set_of_group(chosen)
     outcome = (
-        await audience_switch(app, services, wall, wanted, person.visitor, address)
+        await audience_switch(app, context, wall, wanted, person.visitor, address)
         if from_menu
         else None
     )
-    state = await wall_state(services, wall)
+    state = await wall_state(context, wall)
     return render(
         request,
         "brain/group.html",
@@ -493,8 +487,8 @@ async def join_group(
 
 
 async def audience_switch(
-    app: BrainApp,
-    services: Services,
+    app: Atlas,
+    context: AppContext,
     wall: Wall,
     wanted: TagSetName,
     visitor: Visitor,
@@ -504,19 +498,19 @@ async def audience_switch(
     what happened: ``same``, ``switched``, ``instructor`` (the instructor keeps the
     wall's pins), ``quiz`` (a round is running) or ``wait`` (the cooldown, or the
     phone's own limits on changing the wall: the phone still joins its group)."""
-    state, quiz_round = await round_now(app, services, wall)
+    state, quiz_round = await round_now(app, context, wall)
     if state.app != APP or set_on_wall(state) == wanted:
         return "same"
-    if not await run_blocking(audience_switches, services.db, wall.id):
+    if not await run_blocking(audience_switches, context.db, wall.id):
         return "instructor"
     if mode_of(state) == "quiz" and quiz_round is not None and quiz_round.open:
         return "quiz"
-    if await services.action_allowed("group", visitor, address, wall.id) is not None:
+    if await context.action_allowed("group", visitor, address, wall.id) is not None:
         return "wait"
-    cooldown = services.settings.brain_group_switch_cooldown
-    if not await run_blocking(claim_audience_switch, services.db, wall.id, cooldown):
+    cooldown = context.settings.brain_group_switch_cooldown
+    if not await run_blocking(claim_audience_switch, context.db, wall.id, cooldown):
         return "wait"
-    await show_set(services, wall, wanted)
+    await show_set(context, wall, wanted)
     return "switched"
 
 
@@ -527,7 +521,7 @@ def groups_page(request: Request, wall: Wall, person: Person) -> Response:
     )
 
 
-async def show_set(services: Services, wall: Wall, tag_set: TagSetName) -> None:
+async def show_set(context: AppContext, wall: Wall, tag_set: TagSetName) -> None:
     """Put a set's pins on the wall (every tile at once)."""
 
     def switch(state: WallState) -> WallState:
@@ -535,4 +529,4 @@ async def show_set(services: Services, wall: Wall, tag_set: TagSetName) -> None:
             return state
         return state.model_copy(update={"tag_set": TAG_SETS[tag_set]})
 
-    await change_wall(services, wall, switch)
+    await context.change_wall(wall, switch)

@@ -35,9 +35,8 @@ import numpy.typing as npt
 
 from wall_client.layout import Wall, apply_affine, invert_affine
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
-from webapp.engine.wall_state import View
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.build import DEFAULT_BRICK
-from webapp.volume.layer import VolumeLayer, lookup_table
 from webapp.volume.render import (
     CELL,
     Camera,
@@ -51,6 +50,7 @@ from webapp.volume.render import (
     visible_threshold,
 )
 from webapp.volume.store import VolumeMeta
+from webapp.volume.transfer import lookup_table
 
 TEMPLATE_FILE = "mni_icbm152_t1_tal_nlin_sym_09a.nii.gz"
 LABELS_FILE = "atlas-desikankilliany.nii.gz"

@@ -11,8 +11,8 @@ at once therefore learns nothing while answers still count; and once the round i
 closed, no answer is taken any more.
 
 Rounds are numbered per wall; the wall state names the round the wall shows
-(``WallState.quiz_round``), so starting one goes through the one door for state
-changes and its codes arrive in the same swap as its numbering.
+(``BrainState.quiz_round``, the brain's slot of the wall state), so starting one goes
+through the one door for state changes and its codes arrive in the same swap as its numbering.
 """
 
 from __future__ import annotations
@@ -215,8 +215,8 @@ def start_round(
 ) -> Round:
     """A new round with ``orders`` as its pin numbering; the round before it closes.
 
-    The caller puts it on the wall (``WallState.quiz_round``), which brings the
-    round's codes.
+    The caller puts it on the wall (``BrainState.quiz_round``, the brain's slot of the
+    wall state), which brings the round's codes.
     """
     for _ in range(3):
         try:

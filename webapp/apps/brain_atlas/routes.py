@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from datetime import datetime
-from typing import TYPE_CHECKING, Annotated, Literal, cast
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
 from pydantic import BaseModel, ConfigDict, Field
 
 from webapp.apps.brain_atlas import pages
+from webapp.apps.brain_atlas.atlas import brain_atlas
 from webapp.apps.brain_atlas.audience import allow_audience_switches, audience_switches
 from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
@@ -32,26 +33,18 @@ from webapp.apps.brain_atlas.rules import (
     mode_of,
     set_on_wall,
 )
+from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
-from webapp.door.changes import change_wall
 from webapp.engine.wall_state import WallState
-from webapp.server.schemas import errors
-from webapp.server.services import Services
-from webapp.web.deps import CsrfDep, PersonDep, ServicesDep, StaffDep, WallDep
+from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, WallDep
+from webapp.web.problems import errors
 from webapp.web.templating import render
 
 router = APIRouter(tags=["brain"])
 
 TagSetPath = Literal["k5", "full"]
 AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its own words
-
-if TYPE_CHECKING:
-    from webapp.apps.brain_atlas.app import BrainApp
-
-
-def brain_app(services: Services) -> BrainApp:
-    return cast("BrainApp", services.apps[APP])
 
 
 async def quiz_step(step: Callable[..., Round], *args: object) -> Round:
@@ -67,11 +60,11 @@ async def quiz_step(step: Callable[..., Round], *args: object) -> Round:
 
 @router.get("/apps/brain/{wall_id}/pins/{code}", include_in_schema=False)
 async def pin(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, code: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
 ) -> Response:
     """A pin's page again (from the progress page), without counting a scan."""
-    tag = await pages.tag_of(services, wall, code)
-    return await pages.pin_page(brain_app(services), request, services, wall, tag, person)
+    tag = await pages.tag_of(context, wall, code)
+    return await pages.pin_page(brain_atlas(context), request, context, wall, tag, person)
 
 
 @router.post(
@@ -80,52 +73,52 @@ async def pin(
 async def answer(
     request: Request,
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     person: PersonDep,
     code: str,
     answer: AnswerForm = "",
 ) -> Response:
-    return await pages.answer(brain_app(services), request, services, wall, person, code, answer)
+    return await pages.answer(brain_atlas(context), request, context, wall, person, code, answer)
 
 
 @router.post(
     "/apps/brain/{wall_id}/pins/{code}/reveal", include_in_schema=False, dependencies=[CsrfDep]
 )
 async def reveal(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, code: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
 ) -> Response:
     """The instructor's Answer button."""
-    return await pages.revealed(brain_app(services), request, services, wall, person, code)
+    return await pages.revealed(brain_atlas(context), request, context, wall, person, code)
 
 
 @router.get("/apps/brain/{wall_id}/quiz/{tag_set}", include_in_schema=False)
 async def quiz_progress(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, tag_set: TagSetPath
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, tag_set: TagSetPath
 ) -> Response:
-    return await pages.progress_page(brain_app(services), request, services, wall, person, tag_set)
+    return await pages.progress_page(brain_atlas(context), request, context, wall, person, tag_set)
 
 
 @router.post(
     "/apps/brain/{wall_id}/quiz/{tag_set}/finish", include_in_schema=False, dependencies=[CsrfDep]
 )
 async def quiz_finish(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, tag_set: TagSetPath
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, tag_set: TagSetPath
 ) -> Response:
-    return await pages.finished(brain_app(services), request, services, wall, person, tag_set)
+    return await pages.finished(brain_atlas(context), request, context, wall, person, tag_set)
 
 
 @router.get("/apps/brain/{wall_id}/pins/{code}/literature", include_in_schema=False)
 async def literature(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, code: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
 ) -> Response:
     """The research group's literature search for a pin's region (tutor mode only:
     the query names the region)."""
-    app = brain_app(services)
-    tag = await pages.tag_of(services, wall, code)
-    region = await pages.tutor_region(app, services, wall, tag)
+    app = brain_atlas(context)
+    tag = await pages.tag_of(context, wall, code)
+    region = await pages.tutor_region(app, context, wall, tag)
     if not app.has_research(region):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no literature list.")
-    result = await literature_for(region.id, app.content, app.pubmed(services.settings))
+    result = await literature_for(region.id, app.content, app.pubmed(context.settings))
     return render(
         request, "brain/literature.html", wall=wall, tag=tag, region=region, literature=result
     )
@@ -140,10 +133,10 @@ async def groups(request: Request, wall: WallDep, person: PersonDep) -> Response
     "/apps/brain/{wall_id}/groups/{group}", include_in_schema=False, dependencies=[CsrfDep]
 )
 async def join_group(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, group: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, group: str
 ) -> Response:
     """A group chosen on the phone: as scanning its menu code."""
-    return await pages.join_group(brain_app(services), request, services, wall, person, group)
+    return await pages.join_group(brain_atlas(context), request, context, wall, person, group)
 
 
 # --- the instructor's controls -------------------------------------------------------
@@ -213,18 +206,18 @@ class BrainStatus(BaseModel):
 
 
 @router.get("/api/walls/{wall_id}/brain")
-async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
+async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> BrainStatus:
     """The brain on a wall, its quiz round and the class's results (names included:
     staff only)."""
-    app = brain_app(services)
-    state, quiz_round = await pages.round_now(app, services, wall)
+    app = brain_atlas(context)
+    state, quiz_round = await pages.round_now(app, context, wall)
     quiz: dict[str, SetStats] = {}
     for tag_set in TAG_SETS if quiz_round is not None else ():
         assert quiz_round is not None
         numbered = sorted(app.pins(quiz_round, tag_set).items())
         regions = [region for _, region in numbered]
         stats = await run_blocking(
-            statistics, services.db, wall.id, quiz_round.number, tag_set, regions
+            statistics, context.db, wall.id, quiz_round.number, tag_set, regions
         )
         quiz[tag_set] = SetStats(
             participants=stats.participants,
@@ -246,7 +239,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
         mode=mode_of(state),
         tag_set=set_on_wall(state),
         presets=[PresetEntry(id=v.id, name=v.name) for v in app.views],
-        audience_switches=await run_blocking(audience_switches, services.db, wall.id),
+        audience_switches=await run_blocking(audience_switches, context.db, wall.id),
         round=None if quiz_round is None else RoundStatus.model_validate(quiz_round),
         quiz=quiz,
     )
@@ -254,7 +247,7 @@ async def brain_status(wall: WallDep, services: ServicesDep, staff: StaffDep) ->
 
 @router.post("/api/walls/{wall_id}/brain", responses=errors(404, 409))
 async def control(
-    choice: BrainControl, wall: WallDep, services: ServicesDep, staff: StaffDep
+    choice: BrainControl, wall: WallDep, context: ContextDep, staff: StaffDep
 ) -> BrainStatus:
     """Switch mode, view preset or pin set on every tile at once (codes placed again).
 
@@ -262,24 +255,24 @@ async def control(
     switching back to quiz mode after a closed round starts a new one (new numbers
     and codes, in the same swap).
     """
-    app = brain_app(services)
+    app = brain_atlas(context)
     preset = app.preset(choice.preset) if choice.preset else None
     if choice.preset and preset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no view {choice.preset!r}.")
-    state, quiz_round = await pages.round_now(app, services, wall)
+    state, quiz_round = await pages.round_now(app, context, wall)
     only_audience = choice.model_fields_set <= {"audience_switches"}
     if state.app != APP and not only_audience:
         raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
     if choice.audience_switches is not None:
-        await run_blocking(allow_audience_switches, services.db, wall.id, choice.audience_switches)
+        await run_blocking(allow_audience_switches, context.db, wall.id, choice.audience_switches)
     if choice.reveal is not None and quiz_round is not None and quiz_round.open:
-        await quiz_step(set_reveal, services.db, wall.id, quiz_round.number, choice.reveal)
+        await quiz_step(set_reveal, context.db, wall.id, quiz_round.number, choice.reveal)
     switching = choice.mode is not None and choice.mode != mode_of(state)
     new_round: int | None = None
     if switching and choice.mode == "tutor" and quiz_round is not None and quiz_round.open:
-        await quiz_step(close_round, services.db, wall.id, quiz_round.number, staff)
+        await quiz_step(close_round, context.db, wall.id, quiz_round.number, staff)
     elif switching and choice.mode == "quiz" and (quiz_round is None or not quiz_round.open):
-        started = await quiz_step(start_round, services.db, wall.id, staff, app.fresh_orders())
+        started = await quiz_step(start_round, context.db, wall.id, staff, app.fresh_orders())
         new_round = started.number
 
     def apply(current: WallState) -> WallState:
@@ -293,57 +286,56 @@ async def control(
         if preset is not None:
             update["view"] = preset.view
             update["volume"] = preset.layer(VOLUME)
-        if new_round is not None:
-            update["quiz_round"] = max(new_round, current.quiz_round or 0)
-        return current.model_copy(update=update)
+        changed = current.model_copy(update=update)
+        if new_round is None:
+            return changed
+        return BrainState.of(current).later_round(new_round).put(changed)
 
-    await change_wall(services, wall, apply)
-    return await brain_status(wall, services, staff)
+    await context.change_wall(wall, apply)
+    return await brain_status(wall, context, staff)
 
 
 @router.post("/api/walls/{wall_id}/brain/quiz/reset", responses=errors(409))
 async def reset_quiz(
-    wall: WallDep, services: ServicesDep, staff: StaffDep, choice: NewRound | None = None
+    wall: WallDep, context: ContextDep, staff: StaffDep, choice: NewRound | None = None
 ) -> BrainStatus:
     """A new round: the one before closes (its students see the names), the pins get
     new numbers and codes on every tile at once; earlier rounds stay for export."""
-    app = brain_app(services)
+    app = brain_atlas(context)
     reveal = choice.reveal if choice is not None else "close"
-    started = await quiz_step(start_round, services.db, wall.id, staff, app.fresh_orders(), reveal)
+    started = await quiz_step(start_round, context.db, wall.id, staff, app.fresh_orders(), reveal)
 
     def apply(current: WallState) -> WallState:
-        return current.model_copy(
-            update={"quiz_round": max(started.number, current.quiz_round or 0)}
-        )
+        return BrainState.of(current).later_round(started.number).put(current)
 
-    await change_wall(services, wall, apply)
-    return await brain_status(wall, services, staff)
+    await context.change_wall(wall, apply)
+    return await brain_status(wall, context, staff)
 
 
 @router.post("/api/walls/{wall_id}/brain/quiz/close", responses=errors(409))
-async def close_quiz(wall: WallDep, services: ServicesDep, staff: StaffDep) -> BrainStatus:
+async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> BrainStatus:
     """Close the round on the wall: answers stop counting and every student sees the
     correct names and their results."""
-    app = brain_app(services)
-    _, quiz_round = await pages.round_now(app, services, wall)
+    app = brain_atlas(context)
+    _, quiz_round = await pages.round_now(app, context, wall)
     if quiz_round is None:
         raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
-    await quiz_step(close_round, services.db, wall.id, quiz_round.number, staff)
-    return await brain_status(wall, services, staff)
+    await quiz_step(close_round, context.db, wall.id, quiz_round.number, staff)
+    return await brain_status(wall, context, staff)
 
 
 @router.get("/api/walls/{wall_id}/brain/answers.csv")
 async def answers_csv(
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     staff: StaffDep,
     round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
     """Every answer of a round (default: the one on the wall), for a spreadsheet."""
     if round_number is None:
-        _, quiz_round = await pages.round_now(brain_app(services), services, wall)
+        _, quiz_round = await pages.round_now(brain_atlas(context), context, wall)
         round_number = quiz_round.number if quiz_round is not None else 1
-    body = await run_blocking(export_csv, services.db, wall.id, round_number)
+    body = await run_blocking(export_csv, context.db, wall.id, round_number)
     return Response(
         body,
         media_type="text/csv; charset=utf-8",

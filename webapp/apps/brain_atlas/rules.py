@@ -6,9 +6,9 @@ from __future__ import annotations
 from typing import Literal
 
 from webapp.apps.brain_atlas.content import TagSetName
+from webapp.core.roles import UserGroup
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
-from webapp.people.roles import UserGroup
 
 APP = "brain"
 Mode = Literal["quiz", "tutor"]

@@ -24,8 +24,7 @@ from webapp.apps.brain_atlas.pins import (
     PinCache,
     scene_pins,
 )
-from webapp.engine.wall_state import View
-from webapp.volume.layer import VolumeLayer
+from webapp.engine.wall_state import View, VolumeLayer
 
 VIEWS_FILE = ATLAS_DIR / "views.yaml"
 

@@ -7,23 +7,20 @@ while the door holds the wall, so two opened at once never land on each other.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
 from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
+from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
 from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Theme
 from webapp.core.threads import run_blocking
-from webapp.door.changes import Update, change_wall, plan_change
 from webapp.engine.wall_state import Balloon, WallState, now_ms
-from webapp.server.schemas import PlacedCode
-
-if TYPE_CHECKING:
-    from webapp.apps.census_map.app import CensusApp
-    from webapp.server.services import Services
+from webapp.tags.schemas import PlacedCode
+from webapp.web.context import AppContext, Update
 
 MAX_BALLOONS = 8
 LINE_HEIGHT = 1.35  # of the font size
@@ -66,7 +63,7 @@ class NoSuchValue(Exception):
 
 
 async def colour_wall(
-    services: Services, wall: Wall, dataset: DataSet, theme: Theme | None
+    context: AppContext, wall: Wall, dataset: DataSet, theme: Theme | None
 ) -> None:
     """Colour the wall's tracts by ``theme`` (None: one plain colour), on every tile in
     the same frame (a heavy change: tiles load the classes before the swap). Raises
@@ -76,14 +73,16 @@ async def colour_wall(
         raise NoSuchValue(theme.attribute)
 
     async def colour(state: WallState) -> Update:
-        if state.app != APP or state.dataset != dataset.id:
+        if state.app != APP or CensusState.of(state).dataset != dataset.id:
             raise MapChanged
-        return lambda current: current.model_copy(update={"theme": theme})
+        return lambda current: (
+            CensusState.of(current).model_copy(update={"theme": theme}).put(current)
+        )
 
-    await plan_change(services, wall, colour)
+    await context.plan_change(wall, colour)
 
 
-async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
+async def toggle_group(context: AppContext, wall: Wall, group_id: str) -> bool:
     """Flip a group's visibility on every tile; returns whether it is shown now."""
     shown_now = False
 
@@ -92,7 +91,7 @@ async def toggle_group(services: Services, wall: Wall, group_id: str) -> bool:
         shown_now = not group_shown(state, group_id)
         return state.model_copy(update={"layers": {**state.layers, group_id: shown_now}})
 
-    await change_wall(services, wall, flip)
+    await context.change_wall(wall, flip)
     return shown_now
 
 
@@ -104,7 +103,7 @@ def balloon_size(title: str, lines: list[str], font_mm: float) -> tuple[float, f
 
 
 async def open_balloon(
-    app: CensusApp, services: Services, wall: Wall, dataset: DataSet, tract: Tract
+    app: CensusMaps, context: AppContext, wall: Wall, dataset: DataSet, tract: Tract
 ) -> Balloon:
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
@@ -123,7 +122,7 @@ async def open_balloon(
         hidden = hidden_group(state, dataset, tract)
         if hidden is not None:
             raise GroupHidden(hidden)
-        layout = await run_blocking(services.layout, wall.id, state.tag_layout)
+        layout = await run_blocking(context.layout, wall.id, state.tag_layout)
         geometry = await run_blocking(app.geometry, dataset)
         now = now_ms()
         open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
@@ -151,12 +150,12 @@ async def open_balloon(
             rect=box.xywh,
             title=title,
             lines=lines,
-            closes_at=now + services.settings.balloon_seconds * 1000,
+            closes_at=now + context.settings.balloon_seconds * 1000,
         )
         kept = [*others, opened]
         return lambda current: current.model_copy(update={"balloons": kept})
 
-    await plan_change(services, wall, place)
+    await context.plan_change(wall, place)
     assert opened is not None
     return opened
 
@@ -194,16 +193,16 @@ def _pointer_length(box: Rect, anchor: tuple[float, float]) -> float:
     return math.dist((min(max(x, box.x), box.right), min(max(y, box.y), box.bottom)), anchor)
 
 
-async def switch_dataset(app: CensusApp, services: Services, dataset_id: int) -> None:
+async def switch_dataset(app: CensusMaps, context: AppContext, dataset_id: int) -> None:
     """Show ``dataset_id`` on every wall the census map is on (codes placed again; the
     colouring kept where the data set has its value)."""
-    dataset = await run_blocking(app.dataset, services, dataset_id)
-    for wall in services.walls.values():
+    dataset = await run_blocking(app.dataset, context, dataset_id)
+    for wall in context.walls.values():
 
         def show(state: WallState) -> WallState:
             if state.app != APP:
                 return state
-            theme = kept_theme(dataset, state.theme)
-            return state.model_copy(update={"dataset": dataset_id, "theme": theme})
+            theme = kept_theme(dataset, CensusState.of(state).theme)
+            return CensusState(dataset=dataset_id, theme=theme).put(state)
 
-        await change_wall(services, wall, show)
+        await context.change_wall(wall, show)

@@ -4,29 +4,25 @@ pages and publications."""
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
 from webapp.apps.census_map import commands, pages
-from webapp.apps.census_map.charts import ChartStats, charts_for
-from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.importer import seed
-from webapp.apps.census_map.mapview import MapGeometry, tract_codes
+from webapp.apps.census_map.maps import CensusMaps
+from webapp.apps.census_map.mapview import tract_codes
 from webapp.apps.census_map.routes import datasets, earth, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
-from webapp.apps.census_map.store import DataSets, current_id
-from webapp.apps.census_map.theme import Shading, kept_theme, shade
+from webapp.apps.census_map.state import CensusState
+from webapp.apps.census_map.store import current_id
+from webapp.apps.census_map.theme import kept_theme
 from webapp.apps.contract import Scan, static_url
-from webapp.choropleth.classes import Theme
-from webapp.core.caching import SizedCache
-from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import (
     TagSpec,
@@ -34,14 +30,9 @@ from webapp.tags.registry import (
     anchored_footprint_mm,
     places_anchored,
 )
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
+from webapp.web.context import AppContext
 
 FOLDER = Path(__file__).parent
-KEPT_GEOMETRIES = 4
-KEPT_SHADINGS = 64  # themes tried in a session, per data set: each a few kB
-RENDER_CACHE_BYTES = 64 * 1024 * 1024
 
 
 def group_tag(group_id: str) -> str:
@@ -63,74 +54,33 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
     return f"{CLUSTER_PREFIX}{digest}"
 
 
-class CensusApp:
+class CensusApp(CensusMaps):
+    """The census map's :class:`~webapp.apps.contract.WallApp`: its maps (data sets, their
+    geometry and colouring) with what the core calls."""
+
+    state = CensusState
     name: str = APP
     default_tag_set: str | None = CENSUS_SET
     layers: tuple[str, ...] = (f"{static_url(APP)}/census.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
 
-    def __init__(self) -> None:
-        self.datasets = DataSets()
-        self.renders = SizedCache[bytes](RENDER_CACHE_BYTES, len)  # tile views, KML
-        self.chart_stats = ChartStats()
-        self.shadings = SizedCache[Shading](KEPT_SHADINGS)
-        self._geometries: OrderedDict[int, MapGeometry] = OrderedDict()
-        self._lock = threading.Lock()
-
-    # --- data ----------------------------------------------------------------------
-
-    def dataset(self, services: Services, dataset_id: int | None) -> DataSet | None:
-        return self.datasets.get(services.db, dataset_id) if dataset_id else None
-
-    def geometry(self, dataset: DataSet) -> MapGeometry:
-        """The data set on the plane: computed once per data set, kept for a few."""
-        with self._lock:
-            if dataset.id in self._geometries:
-                self._geometries.move_to_end(dataset.id)
-                return self._geometries[dataset.id]
-        geometry = MapGeometry.of(dataset)
-        with self._lock:
-            self._geometries[dataset.id] = geometry
-            while len(self._geometries) > KEPT_GEOMETRIES:
-                self._geometries.popitem(last=False)
-        return geometry
-
-    def shading(self, dataset: DataSet, theme: Theme | None) -> Shading | None:
-        """The tracts coloured by ``theme`` (None: the plain map), cut once per data set
-        and theme: tiles, KML and tract pages all read the same classes."""
-        theme = kept_theme(dataset, theme)
-        if theme is None:
-            return None
-        key = (dataset.id, theme)
-        found = self.shadings.get(key)
-        if found is None:
-            found = shade(dataset, theme)
-            self.shadings.put(key, found)
-        return found
-
-    def shown(self, services: Services, state: WallState) -> DataSet | None:
-        """The data set the wall's state names (None: the census map is not set up)."""
-        return self.dataset(services, state.dataset)
-
-    # --- the WallApp interface -----------------------------------------------------
-
     def leave(self, state: WallState) -> WallState:
         return state
 
-    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the shipped one until an
         import): seeded on first use, so walls that never show the map pay nothing."""
-        dataset_id = current_id(services.db) or seed(services.db)
-        theme = kept_theme(self.dataset(services, dataset_id), state.theme)
-        return state.model_copy(update={"dataset": dataset_id, "theme": theme})
+        dataset_id = current_id(context.db) or seed(context.db)
+        theme = kept_theme(self.dataset(context, dataset_id), CensusState.of(state).theme)
+        return CensusState(dataset=dataset_id, theme=theme).put(state)
 
-    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the map is on the wall: the group toggles on the menu screen, the tract
         index on the registration screen, a code on every tract that has room for one
         at this view, and a cluster code over each neighbourhood of tracts too small
         for theirs, so every tract on the map is reached by pointing at the wall."""
-        dataset = self.shown(services, state) if state.app == APP else None
+        dataset = self.shown(context, state) if state.app == APP else None
         if dataset is None:
             return []
         menu = [
@@ -152,10 +102,10 @@ class CensusApp:
             self.geometry(dataset),
             wall,
             state.view,
-            anchored_code_side_mm(services.base_url, wall),
-            anchored_footprint_mm(services.base_url, wall),
+            anchored_code_side_mm(context.base_url, wall),
+            anchored_footprint_mm(context.base_url, wall),
         )
-        codes = codes.keeping(places_anchored(wall, services.base_url, codes.anchors()))
+        codes = codes.keeping(places_anchored(wall, context.base_url, codes.anchors()))
         # falling priorities keep the wall's placement in the order just tried
         order = {key: FIRST_PRIORITY - n for n, (key, _) in enumerate(codes.anchors())}
         tracts = [
@@ -216,11 +166,11 @@ class CensusApp:
             return await pages.toggle(self, scan)
         if action == "tract":
             return await pages.tract_choice(
-                self, scan.request, scan.services, scan.wall, scan.tag.params.get("geoid", "")
+                self, scan.request, scan.context, scan.wall, scan.tag.params.get("geoid", "")
             )
         if action == "cluster":
             return await pages.cluster(self, scan)
-        return await pages.index(self, scan.request, scan.services, scan.wall)
+        return await pages.index(self, scan.request, scan.context, scan.wall)
 
     async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
         return None  # the core's page says it
@@ -230,7 +180,7 @@ class CensusApp:
         geoid = scan.subject or scan.tag.params.get("geoid")
         if not geoid:
             return None
-        _, dataset, tract = await self.tract_on_wall(scan.services, scan.wall, geoid)
+        _, dataset, tract = await self.tract_on_wall(scan.context, scan.wall, geoid)
         if dataset is None or tract is None:
             return None
         person = await scan.person()
@@ -246,13 +196,6 @@ class CensusApp:
                 *(Block(kind="chart", svg=svg) for svg in charts),
             ],
         )
-
-    async def tract_on_wall(
-        self, services: Services, wall: Wall, geoid: str
-    ) -> tuple[WallState, DataSet | None, Tract | None]:
-        _, state = await run_blocking(read_state, services.db, wall.id)
-        dataset = await run_blocking(self.shown, services, state)
-        return state, dataset, dataset.tract(geoid) if dataset else None
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "census/panel.html"

@@ -65,8 +65,8 @@ from webapp.apps.census_map.theme import Shading
 from webapp.choropleth.classes import Theme
 from webapp.database.connection import Database
 from webapp.engine.wall_state import Balloon, View, WallState
-from webapp.server.schemas import PlacedCode
 from webapp.tags.registry import get_layout
+from webapp.tags.schemas import PlacedCode
 
 EARTH_RADIUS_M = 6_371_008.8  # the mean radius (IUGG): Earth draws a sphere at this scale
 DEFAULT_FOV = 60.0  # degrees across: Google Earth's horizontal field of view

@@ -4,8 +4,6 @@ class, and only ever that class's."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from fastapi import HTTPException, Request, Response, status
 from sqlalchemy import select
 
@@ -13,7 +11,9 @@ from wall_client.layout import Wall
 from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
+from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.rules import APP, INDEX_TAG
+from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.theme import Shading, describe
 from webapp.apps.contract import Scan
 from webapp.core.threads import run_blocking
@@ -21,20 +21,17 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person
 from webapp.people.visitors import Visitor
+from webapp.web.context import AppContext
 from webapp.web.deps import limit_action
 from webapp.web.templating import render
 
-if TYPE_CHECKING:
-    from webapp.apps.census_map.app import CensusApp
-    from webapp.server.services import Services
-
 
 async def shown_dataset(
-    app: CensusApp, services: Services, wall: Wall
+    app: CensusMaps, context: AppContext, wall: Wall
 ) -> tuple[WallState, DataSet]:
     """The data set on the wall; 409 when the census map is not on it now."""
-    _, state = await run_blocking(read_state, services.db, wall.id)
-    dataset = await run_blocking(app.shown, services, state) if state.app == APP else None
+    _, state = await run_blocking(read_state, context.db, wall.id)
+    dataset = await run_blocking(app.shown, context, state) if state.app == APP else None
     if dataset is None:
         raise HTTPException(
             status.HTTP_409_CONFLICT, f"The census map is not on {wall.name} at the moment."
@@ -49,20 +46,20 @@ def tract_of(dataset: DataSet, geoid: str) -> Tract:
     return tract
 
 
-def index_code(services: Services, wall: Wall) -> str | None:
+def index_code(context: AppContext, wall: Wall) -> str | None:
     """The tract index's code: publishing from a tract page goes through it."""
-    with services.db.session() as session:
+    with context.db.session() as session:
         return session.scalar(
             select(TagRecord.code).where(TagRecord.wall_id == wall.id, TagRecord.name == INDEX_TAG)
         )
 
 
 async def tract_choice(
-    app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str
+    app: CensusMaps, request: Request, context: AppContext, wall: Wall, geoid: str
 ) -> Response:
     """Show on the wall or here; while the wall hides the tract's group, the page says
     so and offers to show the group instead of a balloon pointing at empty map."""
-    state, dataset = await shown_dataset(app, services, wall)
+    state, dataset = await shown_dataset(app, context, wall)
     tract = tract_of(dataset, geoid)
     return render(
         request,
@@ -71,21 +68,21 @@ async def tract_choice(
         dataset=dataset,
         tract=tract,
         title=dataset.tract_title(tract),
-        seconds=services.settings.balloon_seconds,
+        seconds=context.settings.balloon_seconds,
         hidden=hidden_group(state, dataset, tract),
     )
 
 
 async def tract_here(
-    app: CensusApp, request: Request, services: Services, wall: Wall, geoid: str, person: Person
+    app: CensusMaps, request: Request, context: AppContext, wall: Wall, geoid: str, person: Person
 ) -> Response:
     """The tract's values for this visitor's class, its charts, where it stands on the
     wall's colouring, and Publish; an instructor can colour the wall by a value here."""
-    state, dataset = await shown_dataset(app, services, wall)
+    state, dataset = await shown_dataset(app, context, wall)
     tract = tract_of(dataset, geoid)
 
     def look_up() -> tuple[str | None, Shading | None]:  # one thread hop for both
-        return index_code(services, wall), app.shading(dataset, state.theme)
+        return index_code(context, wall), app.shading(dataset, CensusState.of(state).theme)
 
     code, shading = await run_blocking(look_up)
     return render(
@@ -109,8 +106,8 @@ async def tract_here(
     )
 
 
-async def index(app: CensusApp, request: Request, services: Services, wall: Wall) -> Response:
-    state, dataset = await shown_dataset(app, services, wall)
+async def index(app: CensusMaps, request: Request, context: AppContext, wall: Wall) -> Response:
+    state, dataset = await shown_dataset(app, context, wall)
     by_group = [
         (
             group,
@@ -122,9 +119,9 @@ async def index(app: CensusApp, request: Request, services: Services, wall: Wall
     return render(request, "census/index.html", wall=wall, dataset=dataset, groups=by_group)
 
 
-async def cluster(app: CensusApp, scan: Scan) -> Response:
+async def cluster(app: CensusMaps, scan: Scan) -> Response:
     """A cluster code: the tracts under it, each a tap from its page (as the index)."""
-    state, dataset = await shown_dataset(app, scan.services, scan.wall)
+    state, dataset = await shown_dataset(app, scan.context, scan.wall)
     geoids = [str(g) for g in scan.tag.params.get("geoids", [])]
     tracts = [t for g in geoids if (t := dataset.tract(g)) is not None]
     hidden = {t.geoid for t in tracts if hidden_group(state, dataset, t) is not None}
@@ -138,17 +135,17 @@ async def cluster(app: CensusApp, scan: Scan) -> Response:
     )
 
 
-async def toggle(app: CensusApp, scan: Scan) -> Response:
+async def toggle(app: CensusMaps, scan: Scan) -> Response:
     """A scanned group toggle flips that group on every tile at once."""
-    _, dataset = await shown_dataset(app, scan.services, scan.wall)
+    _, dataset = await shown_dataset(app, scan.context, scan.wall)
     group_id = str(scan.tag.params.get("group", ""))
     actor = (scan.visitor, scan.address)
-    return await toggled(scan.request, scan.services, scan.wall, dataset, group_id, actor)
+    return await toggled(scan.request, scan.context, scan.wall, dataset, group_id, actor)
 
 
 async def toggled(
     request: Request,
-    services: Services,
+    context: AppContext,
     wall: Wall,
     dataset: DataSet,
     group_id: str,
@@ -160,8 +157,8 @@ async def toggled(
     group = next((g for g in dataset.groups if g.id == group_id), None)
     if group is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
-    await limit_action(services, "toggle", *actor, wall.id)
-    shown = await toggle_group(services, wall, group.id)
+    await limit_action(context, "toggle", *actor, wall.id)
+    shown = await toggle_group(context, wall, group.id)
     return render(
         request,
         "census/toggled.html",

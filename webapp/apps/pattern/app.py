@@ -11,7 +11,7 @@ unplaceable instead, which the dashboard shows).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import click
 from fastapi import APIRouter, Response
@@ -19,13 +19,11 @@ from fastapi import APIRouter, Response
 from wall_client.layout import ROLES, Display, Wall
 from webapp.apps.contract import Scan, static_url
 from webapp.database.models import TagLayoutRecord
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import AppState, WallState, read_state
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
+from webapp.web.context import AppContext
 from webapp.web.templating import render
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
 
 FOLDER = Path(__file__).parent
 SETUP_SET = "setup"
@@ -33,6 +31,7 @@ SETUP_SET = "setup"
 
 class PatternApp:
     name: str = "pattern"
+    state: type[AppState] | None = None  # it keeps nothing in the wall state
     default_tag_set: str | None = SETUP_SET
     # a volume the dashboard puts up shows instead of the pattern
     layers: tuple[str, ...] = ("/static/js/volume.js", f"{static_url('pattern')}/scene.js")
@@ -42,10 +41,10 @@ class PatternApp:
     def leave(self, state: WallState) -> WallState:
         return state
 
-    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         return state
 
-    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         designated = {d.id for role in ROLES for d in wall.screen(role)}
         free = [d for d in wall.displays if d.id not in designated]
         tags = [self._tag(f"setup-{d.id}", f"Display {d.id}", d.rect.center) for d in free]
@@ -108,16 +107,16 @@ class PatternApp:
 
 async def _placement_of(scan: Scan) -> tuple[dict[str, Any] | None, Display | None]:
     """Where the scanned code stands in the wall's current layout (None: not placed)."""
-    layout = await scan.services.db.read(_current_layout, scan.services, scan.wall.id)
+    layout = await scan.context.db.read(_current_layout, scan.context, scan.wall.id)
     placed = next(
         (p for p in (layout.placed if layout else []) if p["code"] == scan.tag.code), None
     )
     return placed, scan.wall.display(placed["display"]) if placed else None
 
 
-def _current_layout(services: Services, wall_id: str) -> TagLayoutRecord | None:
-    _, state = read_state(services.db, wall_id)
-    return services.layout(wall_id, state.tag_layout)
+def _current_layout(context: AppContext, wall_id: str) -> TagLayoutRecord | None:
+    _, state = read_state(context.db, wall_id)
+    return context.layout(wall_id, state.tag_layout)
 
 
 def _side_by_side(displays: list[Display]) -> list[tuple[Display, Display]]:

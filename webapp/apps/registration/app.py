@@ -1,9 +1,9 @@
-"""What every wall has whatever app it shows: the registration codes."""
+"""What every wall has whatever app it shows: the student and instructor registration
+codes."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 import click
@@ -12,22 +12,24 @@ from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
 from webapp.apps.contract import Scan
+from webapp.core.roles import Role
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState
+from webapp.engine.wall_state import AppState, WallState
 from webapp.people.person import Person, address_grant, assume, grant, remember_person
-from webapp.people.roles import Role
 from webapp.publishing.publication import Publication
 from webapp.tags.registry import TagSpec
+from webapp.web.context import AppContext
 from webapp.web.templating import render
-
-if TYPE_CHECKING:
-    from webapp.server.services import Services
 
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 
 
-class CoreApp:
+class RegistrationApp:
+    """The registration codes every wall carries whatever app it shows (the app named
+    ``core``: its codes are the core's, on the registration screen)."""
+
     name: str = "core"
+    state: type[AppState] | None = None
     default_tag_set: str | None = None
     layers: tuple[str, ...] = ()
     templates: Path | None = None  # the core's pages are its own
@@ -36,10 +38,10 @@ class CoreApp:
     def leave(self, state: WallState) -> WallState:
         return state
 
-    def settle(self, services: Services, wall: Wall, state: WallState) -> WallState:
+    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         return state
 
-    def declare_tags(self, services: Services, wall: Wall, state: WallState) -> list[TagSpec]:
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """The student and instructor codes, permanent on the registration screen."""
         return [
             TagSpec(
@@ -59,20 +61,20 @@ class CoreApp:
         paired, or by an address rule where those are on); others go to sign in and
         come back to this code."""
         person = await scan.person()
-        services = scan.services
+        context = scan.context
         if scan.tag.params.get("role") == "instructor" and not person.may_assume("instructor"):
             authority = await run_blocking(
-                address_grant, services.db, scan.address, services.settings
+                address_grant, context.db, scan.address, context.settings
             )
             if authority is None:
                 back = quote(f"/t/{scan.tag.code}")
                 return RedirectResponse(f"/login?next={back}", status.HTTP_303_SEE_OTHER)
             person = await run_blocking(
-                grant, services.db, person, "instructor", authority, services.settings, scan.address
+                grant, context.db, person, "instructor", authority, context.settings, scan.address
             )
         role: Role = "instructor" if scan.tag.params.get("role") == "instructor" else "student"
         registered: Person = await run_blocking(
-            assume, services.db, person, role, services.settings, scan.address
+            assume, context.db, person, role, context.settings, scan.address
         )
         remember_person(scan.request, registered)
         return render(scan.request, "registered.html", wall=scan.wall)

@@ -24,10 +24,11 @@ from webapp.people.audit import recent_entries
 from webapp.people.person import GROUP_LABELS, load_person
 from webapp.people.visitors import visitor_of
 from webapp.publishing.screen import waiting
+from webapp.server.deps import ServicesDep, open_wall_socket
 from webapp.server.routes.walls import status_of
 from webapp.server.schemas import PublicationInfo, WallInfo
 from webapp.server.services import Services
-from webapp.web.deps import AdminPageDep, CsrfDep, ServicesDep, StaffPageDep, open_wall_socket
+from webapp.web.deps import AdminPageDep, CsrfDep, StaffPageDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)

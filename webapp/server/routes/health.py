@@ -3,7 +3,7 @@
 from fastapi import APIRouter
 from fastapi.responses import JSONResponse
 
-from webapp.web.deps import ServicesDep
+from webapp.server.deps import ServicesDep
 
 router = APIRouter()
 

@@ -10,8 +10,9 @@ from fastapi.responses import HTMLResponse
 from webapp.apps.contract import layer_stacks
 from webapp.engine.protocol import ViewportInfo
 from webapp.publishing.screen import screen_layout
+from webapp.server.deps import ServicesDep
 from webapp.server.schemas import WallInfo
-from webapp.web.deps import ServicesDep, TileDep, TileTokenDep, WallDep
+from webapp.web.deps import TileDep, TileTokenDep, WallDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)

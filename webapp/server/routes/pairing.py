@@ -13,7 +13,8 @@ from tag_service.codes import make_symbol, render_svg, url_payload
 from webapp.core.threads import run_blocking
 from webapp.people.pairing import PairingError, check_pairing, redeem, start_pairing
 from webapp.people.person import grant, remember_person
-from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep, ServicesDep, StaffDep
+from webapp.server.deps import ServicesDep
+from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep, StaffDep
 from webapp.web.templating import render
 
 router = APIRouter()

@@ -7,6 +7,7 @@ from typing import Annotated
 from fastapi import APIRouter, Form, Query, Request, status
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
+from webapp.core.roles import USER_GROUPS
 from webapp.core.threads import run_blocking, run_blocking_within
 from webapp.people.accounts import authenticate
 from webapp.people.audit import audit
@@ -19,16 +20,11 @@ from webapp.people.person import (
     update_profile,
 )
 from webapp.people.ratelimit import retry_after_s
-from webapp.people.roles import USER_GROUPS
 from webapp.people.security import token_matches
 from webapp.people.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
+from webapp.server.deps import ServicesDep
 from webapp.server.services import Services
-from webapp.web.deps import (
-    ClientAddressDep,
-    CsrfDep,
-    PersonDep,
-    ServicesDep,
-)
+from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)

@@ -14,17 +14,11 @@ from webapp.database.connection import RowId
 from webapp.engine.wall_state import PublicPolicy, read_state
 from webapp.people.ratelimit import retry_after_s
 from webapp.publishing.screen import PublishRefused, clear, decide, set_policy, submit, waiting
-from webapp.server.schemas import PublicationInfo, PublicScreenInfo, errors
+from webapp.server.deps import ServicesDep
+from webapp.server.schemas import PublicationInfo, PublicScreenInfo
 from webapp.tags.registry import find, is_live
-from webapp.web.deps import (
-    ClientAddressDep,
-    CsrfDep,
-    PersonDep,
-    ServicesDep,
-    StaffDep,
-    StaffOnly,
-    WallDep,
-)
+from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep, StaffDep, StaffOnly, WallDep
+from webapp.web.problems import errors
 from webapp.web.templating import render
 
 router = APIRouter()

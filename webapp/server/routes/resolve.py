@@ -14,8 +14,9 @@ from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.people.ratelimit import retry_after_s
 from webapp.people.visitors import Visitor, visitor_of
+from webapp.server.deps import ServicesDep
 from webapp.tags.registry import find, payload_of
-from webapp.web.deps import ClientAddressDep, ServicesDep
+from webapp.web.deps import ClientAddressDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)

@@ -26,9 +26,9 @@ from tag_service.codes import normalize_code
 from tag_service.verify import Decoded, NotAnImage, TooManyPixels, decode_image, open_image
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import read_state
+from webapp.server.deps import ServicesDep
 from webapp.server.services import Services
 from webapp.tags.registry import find
-from webapp.web.deps import ServicesDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)

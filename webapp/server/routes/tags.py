@@ -13,9 +13,10 @@ from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.database.models import TagRecord
-from webapp.door.changes import change_wall, unchanged
+from webapp.door.changes import unchanged
 from webapp.engine.wall_state import read_state
-from webapp.server.schemas import LayoutInfo, TagInfo, TagSetChoice, TagSetsInfo, TagUpdate, errors
+from webapp.server.deps import ServicesDep
+from webapp.server.schemas import TagInfo, TagSetChoice, TagSetsInfo
 from webapp.server.services import Services
 from webapp.tags.registry import (
     TagSpec,
@@ -27,7 +28,9 @@ from webapp.tags.registry import (
     update_tag,
     wall_tags,
 )
-from webapp.web.deps import ServicesDep, StaffOnly, WallDep
+from webapp.tags.schemas import LayoutInfo, TagUpdate
+from webapp.web.deps import StaffOnly, WallDep
+from webapp.web.problems import errors
 from webapp.web.urls import code_image_path
 
 router = APIRouter(prefix="/api", tags=["tags"])
@@ -60,7 +63,7 @@ async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagI
         tag = await run_blocking(issue, services.db, wall.id, spec, "operator")
     except PayloadError as error:  # pragma: no cover - TagSpec validation catches these first
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-    await change_wall(services, wall, unchanged, replace_codes=True)
+    await services.change_wall(wall, unchanged, replace_codes=True)
     return tag_info(tag, services)
 
 
@@ -84,7 +87,7 @@ async def change_tag(code: str, update: TagUpdate, services: ServicesDep) -> Tag
     tag = await run_blocking(update_tag, services.db, tag.code, update)
     wall = services.walls.get(tag.wall_id)
     if wall is not None:
-        await change_wall(services, wall, unchanged, replace_codes=True)
+        await services.change_wall(wall, unchanged, replace_codes=True)
     else:
         services.codes.forget()  # a tag of a wall not served here: nothing to place
     return tag_info(tag, services)
@@ -115,8 +118,8 @@ async def choose_tag_set(wall: WallDep, choice: TagSetChoice, services: Services
             status.HTTP_404_NOT_FOUND,
             f"Wall {wall.id!r} has no tag set {choice.name!r} (sets: {known}).",
         )
-    await change_wall(
-        services, wall, lambda state: state.model_copy(update={"tag_set": choice.name})
+    await services.change_wall(
+        wall, lambda state: state.model_copy(update={"tag_set": choice.name})
     )
     return await list_tag_sets(wall, services)
 

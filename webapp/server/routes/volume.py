@@ -9,7 +9,8 @@ from pydantic import ValidationError
 
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import read_state
-from webapp.server.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene, errors
+from webapp.server.deps import ServicesDep
+from webapp.server.schemas import TileDetail, VolumeDetail, VolumeInfo, VolumeScene
 from webapp.server.services import Services
 from webapp.volume.store import VolumeStore, VolumeStoreError
 from webapp.volume.tiles import (
@@ -21,7 +22,8 @@ from webapp.volume.tiles import (
     tile_image,
     tile_plan,
 )
-from webapp.web.deps import DetailedRenderAccess, ServicesDep, StaffOnly, TileDep, WallDep
+from webapp.web.deps import DetailedRenderAccess, StaffOnly, TileDep, WallDep
+from webapp.web.problems import errors
 
 router = APIRouter(tags=["volumes"])
 

@@ -6,12 +6,12 @@ from fastapi import APIRouter, HTTPException, status
 
 from wall_client.layout import Wall
 from webapp.core.threads import run_blocking
-from webapp.door.changes import change_wall
 from webapp.engine.hub import TileStatus
 from webapp.engine.wall_state import StatePatch, read_state
+from webapp.server.deps import ServicesDep
 from webapp.server.schemas import ChangeResult, TileStatusInfo, WallInfo, WallStatus
 from webapp.server.services import Services
-from webapp.web.deps import ServicesDep, StaffOnly, WallDep
+from webapp.web.deps import StaffOnly, WallDep
 
 router = APIRouter(prefix="/api/walls", tags=["walls"])
 
@@ -58,7 +58,7 @@ async def change_wall_state(
             f"There is no volume called {patch.volume.volume!r}; "
             "build one with `tagwall volume build`.",
         )
-    change = await change_wall(services, wall, patch.apply_to)
+    change = await services.change_wall(wall, patch.apply_to)
     if change is None:
         version, _ = await run_blocking(read_state, services.db, wall.id)
         return ChangeResult(wall=wall.id, version=version, changed=[])

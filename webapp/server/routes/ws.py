@@ -37,8 +37,8 @@ from webapp.engine.protocol import (
 from webapp.engine.wall_state import events_since, now_ms, read_state
 from webapp.people.addresses import address_of
 from webapp.people.security import token_matches
+from webapp.server.deps import open_wall_socket
 from webapp.server.services import Services
-from webapp.web.deps import open_wall_socket
 
 router = APIRouter()
 log = logging.getLogger(__name__)

@@ -41,10 +41,10 @@ from webapp.apps.brain_atlas.pins import (
 )
 from webapp.apps.brain_atlas.views import ViewPreset
 from webapp.core.settings import CONTENT_DIR
-from webapp.engine.wall_state import View
-from webapp.volume.layer import VolumeLayer, lookup_table
+from webapp.engine.wall_state import View, VolumeLayer
 from webapp.volume.render import Camera, Footprint, clip_box, scene_to_plane, slice_depth
 from webapp.volume.store import VolumeMeta
+from webapp.volume.transfer import lookup_table
 
 Array = npt.NDArray[Any]
 ATLAS_SHIFT = (25, 27, 0)  # template voxel = atlas voxel + this (PROVENANCE.md)

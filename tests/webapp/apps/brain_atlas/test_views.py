@@ -20,7 +20,7 @@ from webapp.apps.brain_atlas.views import (
     showing,
 )
 from webapp.core.settings import CONTENT_DIR
-from webapp.volume.layer import VolumeLayer
+from webapp.engine.wall_state import VolumeLayer
 
 COMFORTABLE = 100.0  # mm²: every region shows at least this large in its best preset
 

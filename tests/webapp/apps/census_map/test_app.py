@@ -17,10 +17,11 @@ from tests.webapp.apps.census_map.test_importer import write_shapefile
 from wall_client.layout import Rect
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import projection, shown_area
+from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import list_datasets
 from webapp.engine.wall_state import View, WallState, read_state
-from webapp.server.schemas import PlacedCode
 from webapp.tags.registry import get_layout, wall_tags
+from webapp.tags.schemas import PlacedCode
 
 
 def state_of(client: TestClient) -> WallState:
@@ -55,7 +56,7 @@ def map_query(state: WallState) -> dict[str, Any]:
     """What a tile asks for its share of the map (and its colouring) in ``state``."""
     cx, cy = state.view.center
     return {
-        "dataset": state.dataset,
+        "dataset": CensusState.of(state).dataset,
         "layout": state.tag_layout,
         "cx": cx,
         "cy": cy,
@@ -79,7 +80,7 @@ def test_putting_the_map_up_seeds_the_data_and_places_its_codes(client: TestClie
     state = show_census(client)
     [dataset] = list_datasets(services_of(client).db)
     assert dataset.tract_count == 403 and dataset.current
-    assert state.dataset == dataset.id and state.tag_set == "census"
+    assert CensusState.of(state).dataset == dataset.id and state.tag_set == "census"
     codes = census_codes(client)
     toggles = [name for name in codes if name.startswith("census:group:")]
     assert len(toggles) == 10 and "census:index" in codes
@@ -110,7 +111,7 @@ def test_zooming_in_places_more_codes_in_the_same_change(client: TestClient) -> 
 def test_a_tile_gets_its_share_of_the_map_with_codes_and_toggles(client: TestClient) -> None:
     state = show_census(client)
     body = tile_map(client, state, "r2c2")  # the map is framed on the stage, r2c2 and r2c3
-    assert body["dataset"] == state.dataset and body["tracts"]
+    assert body["dataset"] == CensusState.of(state).dataset and body["tracts"]
     assert not tile_map(client, state, "r1c2")["tracts"], "nothing lies under the public screen"
     codes = census_codes(client)
     tract_codes = {codes[f"census:tract:{t['id']}"] for t in body["tracts"] if t["code"]}
@@ -575,10 +576,10 @@ def colour(client: TestClient, theme: dict[str, Any] | None) -> Any:
 
 
 def tile_theme(client: TestClient, state: WallState, tile: str = "r2c1") -> dict[str, Any]:
-    assert state.theme is not None
+    assert CensusState.of(state).theme is not None
     response = client.get(
         f"/api/walls/demo/tiles/{tile}/census/theme",
-        params={**map_query(state), **state.theme.model_dump()},
+        params={**map_query(state), **CensusState.of(state).theme.model_dump()},
     )
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
@@ -590,7 +591,10 @@ def test_the_instructor_colours_the_wall_by_a_value(client: TestClient) -> None:
     response = colour(client, INCOME_THEME)
     assert response.status_code == 200, response.text
     state = state_of(client)
-    assert state.theme is not None and state.theme.model_dump() == INCOME_THEME
+    assert (
+        CensusState.of(state).theme is not None
+        and CensusState.of(state).theme.model_dump() == INCOME_THEME
+    )
     assert state.tag_layout == before.tag_layout, "colour moves no code"
     body = tile_theme(client, state)
     assert len(body["classes"]) == 6 and len(body["tracts"]) == 403
@@ -748,4 +752,6 @@ def test_a_colouring_survives_a_restart_and_leaves_with_a_data_set_without_its_v
     )
     assert response.status_code == 200
     state = state_of(client)
-    assert state.dataset == new_id and state.theme is None, "the ACS table has no HH_INC"
+    assert CensusState.of(state).dataset == new_id and CensusState.of(state).theme is None, (
+        "the ACS table has no HH_INC"
+    )

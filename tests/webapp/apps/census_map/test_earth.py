@@ -65,7 +65,7 @@ from webapp.choropleth.classes import Theme
 from webapp.choropleth.palettes import MAX_CLASSES
 from webapp.core.settings import CONTENT_DIR
 from webapp.engine.wall_state import Balloon, View
-from webapp.server.schemas import PlacedCode
+from webapp.tags.schemas import PlacedCode
 
 NS = {"k": "http://www.opengis.net/kml/2.2", "gx": "http://www.google.com/kml/ext/2.2"}
 VISIBILITY, BALLOON = "k:visibility", "gx:balloonVisibility"

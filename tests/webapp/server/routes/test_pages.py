@@ -100,7 +100,7 @@ def test_a_wrong_operator_link_is_refused(client: TestClient) -> None:
 
 
 def test_security_headers_on_every_page(client: TestClient) -> None:
-    for url in ("/", "/wall/demo/overview", "/nope", "/healthz", "/static/js/tile.js"):
+    for url in ("/", "/wall/demo/overview", "/nope", "/healthz", "/static/js/pages/tile.js"):
         response = client.get(url)
         for name, value in HEADERS.items():
             assert response.headers[name] == value, (url, name)

@@ -26,11 +26,10 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
-from webapp.engine.wall_state import commit_change, read_state
+from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
 from webapp.people.accounts import add_account
 from webapp.people.address_rules import add_rule
 from webapp.tags.registry import get_layout, wall_tags
-from webapp.volume.layer import VolumeLayer
 
 ROLES = ("anonymous", "student", "instructor", "admin")
 OK, LOGIN = "ok", "login"  # any success (2xx, or a redirect not to sign in); sent to sign in
@@ -420,7 +419,10 @@ def test_the_privilege_matrix(app: FastAPI) -> None:
 
 
 WEBSOCKETS = {
-    ("WS", "/ws/wall/{wall_id}/tile/{tile_id}"),  # tile token: tests/webapp/server/routes/test_ws.py
+    (
+        "WS",
+        "/ws/wall/{wall_id}/tile/{tile_id}",
+    ),  # tile token: tests/webapp/server/routes/test_ws.py
     ("WS", "/ws/wall/{wall_id}/view"),  # public, read only
     ("WS", "/ws/dashboard/{wall_id}"),  # test_the_dashboard_socket_is_for_instructors
 }

@@ -1,8 +1,8 @@
 // The brain atlas's dashboard panel: mode, pin set, view presets, who may switch the
 // wall's pins, the quiz round (open or closed, when names are shown) and the class's
 // results (refreshed with the wall's status, at most every two seconds).
-import {STATUS_EVENT, api, wallId} from "/static/js/api.js";
-import {bindViewControls} from "/static/js/panels/view.js";
+import {STATUS_EVENT, api, wallId} from "tagwall/api.js";
+import {bindViewControls} from "tagwall/panels/view.js";
 
 const $ = (id) => document.getElementById(id);
 const REFRESH_MS = 2000;

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, cast
+from typing import Annotated
 
 from fastapi import Depends, HTTPException, status
 from pydantic import ValidationError
@@ -10,17 +10,9 @@ from pydantic import ValidationError
 from wall_client.layout import Wall
 from webapp.apps.census_map.actions import MapChanged, NoSuchValue, colour_wall
 from webapp.apps.census_map.dataset import DataSet
-from webapp.apps.census_map.rules import APP
 from webapp.choropleth.classes import Theme
 from webapp.engine.wall_state import View
-from webapp.server.services import Services
-
-if TYPE_CHECKING:
-    from webapp.apps.census_map.app import CensusApp
-
-
-def census_app(services: Services) -> CensusApp:
-    return cast("CensusApp", services.apps[APP])
+from webapp.web.context import AppContext
 
 
 def map_view(cx: float = 0.5, cy: float = 0.5, zoom: float = 1.0) -> View:
@@ -37,12 +29,12 @@ MapViewDep = Annotated[View, Depends(map_view)]
 
 
 async def colour_or_refuse(
-    services: Services, wall: Wall, dataset: DataSet, theme: Theme | None
+    context: AppContext, wall: Wall, dataset: DataSet, theme: Theme | None
 ) -> None:
     """Colour the wall (:func:`colour_wall`), its refusals as answers: 404 for a value
     the data set lacks, 409 when the wall changed what it shows meanwhile."""
     try:
-        await colour_wall(services, wall, dataset, theme)
+        await colour_wall(context, wall, dataset, theme)
     except NoSuchValue as missing:
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {str(missing)!r}."

@@ -9,18 +9,19 @@ from webapp.apps.census_map import pages
 from webapp.apps.census_map.actions import (
     switch_dataset,
 )
-from webapp.apps.census_map.routes.common import census_app, colour_or_refuse
+from webapp.apps.census_map.maps import census_maps
+from webapp.apps.census_map.routes.common import colour_or_refuse
 from webapp.apps.census_map.store import list_datasets, make_current
 from webapp.choropleth.classes import Theme
 from webapp.choropleth.palettes import SCHEMES, colours, kind
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
-from webapp.server.schemas import errors
 from webapp.web.deps import (
-    ServicesDep,
+    ContextDep,
     StaffOnly,
     WallDep,
 )
+from webapp.web.problems import errors
 
 router = APIRouter(tags=["census"])
 
@@ -41,8 +42,8 @@ class DataSetEntry(BaseModel):
 
 
 @router.get("/api/census/datasets", dependencies=[StaffOnly])
-async def datasets(services: ServicesDep) -> list[DataSetEntry]:
-    infos = await run_blocking(list_datasets, services.db)
+async def datasets(context: ContextDep) -> list[DataSetEntry]:
+    infos = await run_blocking(list_datasets, context.db)
     return [
         DataSetEntry(
             id=i.id,
@@ -57,15 +58,15 @@ async def datasets(services: ServicesDep) -> list[DataSetEntry]:
 
 
 @router.post("/api/census/current", dependencies=[StaffOnly], responses=errors(404))
-async def choose_dataset(choice: DataSetChoice, services: ServicesDep) -> DataSetChoice:
+async def choose_dataset(choice: DataSetChoice, context: ContextDep) -> DataSetChoice:
     """Make a data set the one the census map shows; walls showing it switch in sync."""
     try:
-        await run_blocking(make_current, services.db, choice.dataset)
+        await run_blocking(make_current, context.db, choice.dataset)
     except KeyError:
         raise HTTPException(
             status.HTTP_404_NOT_FOUND, f"There is no census data set {choice.dataset}."
         ) from None
-    await switch_dataset(census_app(services), services, choice.dataset)
+    await switch_dataset(census_maps(context), context, choice.dataset)
     return choice
 
 
@@ -80,11 +81,11 @@ class ThemeChoice(BaseModel):
 @router.post(
     "/api/census/walls/{wall_id}/theme", dependencies=[StaffOnly], responses=errors(404, 409)
 )
-async def choose_theme(wall: WallDep, choice: ThemeChoice, services: ServicesDep) -> ThemeChoice:
+async def choose_theme(wall: WallDep, choice: ThemeChoice, context: ContextDep) -> ThemeChoice:
     """Colour the wall's tracts by one of the data set's values (the dashboard); every
     tile changes in the same frame. 409 when the census map is not on the wall."""
-    _, dataset = await pages.shown_dataset(census_app(services), services, wall)
-    await colour_or_refuse(services, wall, dataset, choice.theme)
+    _, dataset = await pages.shown_dataset(census_maps(context), context, wall)
+    await colour_or_refuse(context, wall, dataset, choice.theme)
     return choice
 
 
@@ -122,9 +123,9 @@ class DataSetDetail(BaseModel):
 
 
 @router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
-async def dataset_detail(dataset_id: RowId, services: ServicesDep) -> DataSetDetail:
+async def dataset_detail(dataset_id: RowId, context: ContextDep) -> DataSetDetail:
     """A data set's groups and values, for the dashboard's toggles and colouring."""
-    dataset = await run_blocking(census_app(services).dataset, services, dataset_id)
+    dataset = await run_blocking(census_maps(context).dataset, context, dataset_id)
     if dataset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset_id}.")
     return DataSetDetail(

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import partial
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response, status
 
@@ -31,22 +31,21 @@ from webapp.apps.census_map.earth import (
     screen_role,
 )
 from webapp.apps.census_map.kml import census_kml, census_kmz, network_link_kml
-from webapp.apps.census_map.routes.common import census_app
+from webapp.apps.census_map.maps import CensusMaps, census_maps
 from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.theme import Shading
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState, now_ms, read_state
-from webapp.server.schemas import PlacedCode, errors
-from webapp.server.services import Services
+from webapp.tags.schemas import PlacedCode
+from webapp.web.context import AppContext
 from webapp.web.deps import (
-    ServicesDep,
+    ContextDep,
     WallDep,
 )
-
-if TYPE_CHECKING:
-    from webapp.apps.census_map.app import CensusApp
+from webapp.web.problems import errors
 
 router = APIRouter(tags=["census"])
 
@@ -60,12 +59,14 @@ KML_TYPE = "application/vnd.google-earth.kml+xml"
 KMZ_TYPE = "application/vnd.google-earth.kmz"
 
 
-async def _kml_inputs(services: Services, wall_id: str | None) -> tuple[Wall, WallState, CensusApp]:
-    wall = services.walls.get(wall_id or services.settings.default_wall)
+async def _kml_inputs(
+    context: AppContext, wall_id: str | None
+) -> tuple[Wall, WallState, CensusMaps]:
+    wall = context.walls.get(wall_id or context.settings.default_wall)
     if wall is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
-    _, state = await run_blocking(read_state, services.db, wall.id)
-    return wall, state, census_app(services)
+    _, state = await run_blocking(read_state, context.db, wall.id)
+    return wall, state, census_maps(context)
 
 
 @dataclass(frozen=True)
@@ -97,7 +98,7 @@ class _KmlInputs:
             all_classes=self.all_classes,
         )
 
-    def cached(self, app: CensusApp, kind: Literal["kml", "kmz"]) -> bytes:
+    def cached(self, app: CensusMaps, kind: Literal["kml", "kmz"]) -> bytes:
         """Built once per map state: a network link asks every few seconds."""
         theme = self.shading.theme if self.shading else None
         key = (
@@ -128,21 +129,23 @@ class _MapNow:
     shading: Shading | None
 
 
-async def _map_now(services: Services, wall_id: str | None) -> _MapNow:
-    wall, state, app = await _kml_inputs(services, wall_id)
-    dataset = await run_blocking(app.shown, services, state)
+async def _map_now(context: AppContext, wall_id: str | None) -> _MapNow:
+    wall, state, app = await _kml_inputs(context, wall_id)
+    dataset = await run_blocking(app.shown, context, state)
     if dataset is None:
-        dataset = await run_blocking(app.datasets.current, services.db)
+        dataset = await run_blocking(app.datasets.current, context.db)
     if dataset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "No census data set has been imported.")
-    on_wall = state.app == APP and state.dataset == dataset.id
-    shading = await run_blocking(app.shading, dataset, state.theme) if on_wall else None
+    on_wall = state.app == APP and CensusState.of(state).dataset == dataset.id
+    shading = (
+        await run_blocking(app.shading, dataset, CensusState.of(state).theme) if on_wall else None
+    )
     return _MapNow(wall, state, dataset, on_wall, shading)
 
 
-async def _kml_of(services: Services, wall_id: str | None) -> _KmlInputs:
+async def _kml_of(context: AppContext, wall_id: str | None) -> _KmlInputs:
     """The map as the wall shows it now: its data set, hidden groups, open balloons."""
-    now_map = await _map_now(services, wall_id)
+    now_map = await _map_now(context, wall_id)
     wall, state, dataset, on_wall = now_map.wall, now_map.state, now_map.dataset, now_map.on_wall
     now = now_ms()
     hidden = frozenset(g.id for g in dataset.groups if not group_shown(state, g.id))
@@ -160,17 +163,17 @@ WallQuery = Annotated[str | None, Query(alias="wall", max_length=64)]
 
 
 @router.get("/apps/census/census.kml", responses=errors(404))
-async def kml(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+async def kml(context: ContextDep, wall_id: WallQuery = None) -> Response:
     """The map as Google Earth shows it: tracts, groups as folders, open balloons."""
-    inputs = await _kml_of(services, wall_id)
-    body = await run_blocking(inputs.cached, census_app(services), "kml")
+    inputs = await _kml_of(context, wall_id)
+    body = await run_blocking(inputs.cached, census_maps(context), "kml")
     return Response(body, media_type=KML_TYPE)
 
 
 @router.get("/apps/census/census.kmz", responses=errors(404))
-async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
-    inputs = await _kml_of(services, wall_id)
-    body = await run_blocking(inputs.cached, census_app(services), "kmz")
+async def kmz(context: ContextDep, wall_id: WallQuery = None) -> Response:
+    inputs = await _kml_of(context, wall_id)
+    body = await run_blocking(inputs.cached, census_maps(context), "kmz")
     return Response(
         body,
         media_type=KMZ_TYPE,
@@ -179,11 +182,11 @@ async def kmz(services: ServicesDep, wall_id: WallQuery = None) -> Response:
 
 
 @router.get("/apps/census/network-link.kml", responses=errors(404))
-async def network_link(services: ServicesDep, wall_id: WallQuery = None) -> Response:
+async def network_link(context: ContextDep, wall_id: WallQuery = None) -> Response:
     """Open once in Google Earth Pro: it fetches census.kmz (a fifth of census.kml's
     bytes) every few seconds, so Earth follows the wall's groups and balloons."""
-    wall, _, _ = await _kml_inputs(services, wall_id)
-    url = f"{services.base_url}/apps/census/census.kmz?wall={wall.id}"
+    wall, _, _ = await _kml_inputs(context, wall_id)
+    url = f"{context.base_url}/apps/census/census.kmz?wall={wall.id}"
     text = network_link_kml(
         url, refresh_seconds=NETWORK_LINK_REFRESH_S, name=f"tagwall census map · {wall.name}"
     )
@@ -220,12 +223,12 @@ def _earth_display(wall: Wall, display_id: str) -> None:
 
 
 @router.get("/apps/census/earth/{wall_id}/map.kmz", responses=errors(404))
-async def earth_map(wall: WallDep, services: ServicesDep) -> Response:
+async def earth_map(wall: WallDep, context: ContextDep) -> Response:
     """The map Google Earth walls load: census.kmz with no balloon open (each display
     opens the one on it) and a style for every class (each display recolours them)."""
-    inputs = await _kml_of(services, wall.id)
+    inputs = await _kml_of(context, wall.id)
     inputs = replace(inputs, open_balloons=frozenset(), all_classes=True)
-    body = await run_blocking(inputs.cached, census_app(services), "kmz")
+    body = await run_blocking(inputs.cached, census_maps(context), "kmz")
     return Response(body, media_type=KMZ_TYPE)
 
 
@@ -233,7 +236,7 @@ async def earth_map(wall: WallDep, services: ServicesDep) -> Response:
 async def earth_opener(
     wall: WallDep,
     display_id: str,
-    services: ServicesDep,
+    context: ContextDep,
     fov: FovQuery = DEFAULT_FOV,
     refresh: RefreshQuery = DEFAULT_REFRESH_S,
     map_refresh: RefreshQuery = DEFAULT_MAP_REFRESH_S,
@@ -242,7 +245,7 @@ async def earth_opener(
     _earth_display(wall, display_id)
     options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
     return Response(
-        opener_kml(services.base_url, wall, display_id, options),
+        opener_kml(context.base_url, wall, display_id, options),
         media_type=KML_TYPE,
         headers={"Content-Disposition": 'attachment; filename="tagwall-earth.kml"'},
     )
@@ -253,7 +256,7 @@ async def earth_display(
     request: Request,
     wall: WallDep,
     display_id: str,
-    services: ServicesDep,
+    context: ContextDep,
     fov: FovQuery = DEFAULT_FOV,
     opened: OpenedQuery = None,
     coloured: ColouredQuery = None,
@@ -262,12 +265,12 @@ async def earth_display(
     view, groups, balloon and colouring (an Update of the map) and the codes on the
     display. ``open`` and ``theme`` come from the previous document's cookie."""
     _earth_display(wall, display_id)
-    shown = await _map_now(services, wall.id)
-    app = census_app(services)
+    shown = await _map_now(context, wall.id)
+    app = census_maps(context)
     geometry = await run_blocking(app.geometry, shown.dataset)
     text = await run_blocking(
         lambda: display_document(
-            services.db,
+            context.db,
             wall=shown.wall,
             state=shown.state,
             dataset=shown.dataset,
@@ -288,11 +291,11 @@ async def earth_display(
 
 @router.get("/apps/census/earth/{wall_id}/captions/{layout_id}/{code}.png", responses=errors(404))
 async def earth_caption(
-    wall: WallDep, layout_id: RowId, code: str, services: ServicesDep
+    wall: WallDep, layout_id: RowId, code: str, context: ContextDep
 ) -> Response:
     """A placed code's caption as Google Earth draws it under the code (a layout never
     changes, so neither does its image)."""
-    record = await run_blocking(services.layout, wall.id, layout_id)
+    record = await run_blocking(context.layout, wall.id, layout_id)
     found = next((p for p in record.placed if p["code"] == code), None) if record else None
     placed = PlacedCode.model_validate(found) if found else None
     if placed is None or not placed.label or placed.caption is None:

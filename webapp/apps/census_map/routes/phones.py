@@ -13,14 +13,16 @@ from webapp.apps.census_map.actions import (
     NoRoom,
     open_balloon,
 )
-from webapp.apps.census_map.routes.common import census_app, colour_or_refuse
+from webapp.apps.census_map.maps import census_maps
+from webapp.apps.census_map.routes.common import colour_or_refuse
+from webapp.apps.census_map.state import CensusState
 from webapp.choropleth.classes import Theme
 from webapp.core.threads import run_blocking
 from webapp.web.deps import (
     ClientAddressDep,
+    ContextDep,
     CsrfDep,
     PersonDep,
-    ServicesDep,
     StaffPageDep,
     WallDep,
     limit_action,
@@ -32,26 +34,26 @@ router = APIRouter(tags=["census"])
 
 @router.get("/apps/census/{wall_id}/tracts", include_in_schema=False)
 async def tract_index(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep
 ) -> Response:
     """Every tract by group, each group with its toggle (a wall whose menu screen is
     too small for every toggle code still lets phones switch them)."""
-    return await pages.index(census_app(services), request, services, wall)
+    return await pages.index(census_maps(context), request, context, wall)
 
 
 @router.get("/apps/census/{wall_id}/tracts/{geoid}", include_in_schema=False)
 async def tract_page(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, geoid: str
 ) -> Response:
     """The tract's two choices; its form needs the visitor's session (``person``)."""
-    return await pages.tract_choice(census_app(services), request, services, wall, geoid)
+    return await pages.tract_choice(census_maps(context), request, context, wall, geoid)
 
 
 @router.get("/apps/census/{wall_id}/tracts/{geoid}/here", include_in_schema=False)
 async def tract_here(
-    request: Request, wall: WallDep, services: ServicesDep, person: PersonDep, geoid: str
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, geoid: str
 ) -> Response:
-    return await pages.tract_here(census_app(services), request, services, wall, geoid, person)
+    return await pages.tract_here(census_maps(context), request, context, wall, geoid, person)
 
 
 @router.post(
@@ -62,7 +64,7 @@ async def tract_here(
 async def show_on_wall(
     request: Request,
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     person: PersonDep,
     address: ClientAddressDep,
     geoid: str,
@@ -70,14 +72,14 @@ async def show_on_wall(
     """ "Show on the wall": the tract's balloon opens beside it on every tile. 409, with
     the reason and what to do, when the wall hides the tract's group (the balloon would
     point at empty map) or has no room for it clear of every code."""
-    app = census_app(services)
-    _, dataset = await pages.shown_dataset(app, services, wall)
+    app = census_maps(context)
+    _, dataset = await pages.shown_dataset(app, context, wall)
     tract = pages.tract_of(dataset, geoid)
-    await limit_action(services, "balloon", person.visitor, address, wall.id)
+    await limit_action(context, "balloon", person.visitor, address, wall.id)
     title = dataset.tract_title(tract)
-    seconds = services.settings.balloon_seconds
+    seconds = context.settings.balloon_seconds
     try:
-        await open_balloon(app, services, wall, dataset, tract)
+        await open_balloon(app, context, wall, dataset, tract)
     except GroupHidden as hidden:
         return render(
             request,
@@ -121,7 +123,7 @@ async def show_on_wall(
 async def toggle_group(
     request: Request,
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     person: PersonDep,
     address: ClientAddressDep,
     group_id: str,
@@ -129,10 +131,10 @@ async def toggle_group(
 ) -> Response:
     """Flip a group from a phone page; ``tract``: the tract page it came from, which
     the answer leads back to."""
-    _, dataset = await pages.shown_dataset(census_app(services), services, wall)
+    _, dataset = await pages.shown_dataset(census_maps(context), context, wall)
     actor = (person.visitor, address)
     back = dataset.tract(tract) if tract else None
-    return await pages.toggled(request, services, wall, dataset, group_id, actor, back)
+    return await pages.toggled(request, context, wall, dataset, group_id, actor, back)
 
 
 @router.post(
@@ -143,7 +145,7 @@ async def toggle_group(
 async def colour_from_phone(
     request: Request,
     wall: WallDep,
-    services: ServicesDep,
+    context: ContextDep,
     person: StaffPageDep,
     attribute: Annotated[str, Form(max_length=64)] = "",
     tract: Annotated[str | None, Form(max_length=64)] = None,
@@ -151,15 +153,15 @@ async def colour_from_phone(
     """An instructor's "colour the wall by this value" from a tract page (an empty
     ``attribute``: the plain map again); the wall's scheme, method and number of
     classes stay as they were. The answer leads back to ``tract``'s page."""
-    app = census_app(services)
-    state, dataset = await pages.shown_dataset(app, services, wall)
+    app = census_maps(context)
+    state, dataset = await pages.shown_dataset(app, context, wall)
     theme = None
     if attribute:
-        kept = state.theme  # its scheme, method and number of classes
+        kept = CensusState.of(state).theme  # its scheme, method and number of classes
         theme = (
             kept.model_copy(update={"attribute": attribute}) if kept else Theme(attribute=attribute)
         )
-    await colour_or_refuse(services, wall, dataset, theme)
+    await colour_or_refuse(context, wall, dataset, theme)
     back = dataset.tract(tract) if tract else None
     shading = await run_blocking(app.shading, dataset, theme)
     return render(

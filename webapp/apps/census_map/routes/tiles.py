@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Query, Response, status
 from pydantic import ValidationError
@@ -12,8 +12,9 @@ from sqlalchemy import select
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.legend import theme_view
+from webapp.apps.census_map.maps import CensusMaps, census_maps
 from webapp.apps.census_map.mapview import tile_view, tract_boxes
-from webapp.apps.census_map.routes.common import MapViewDep, census_app
+from webapp.apps.census_map.routes.common import MapViewDep
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Method, Theme
@@ -22,16 +23,14 @@ from webapp.core.threads import run_blocking
 from webapp.database.connection import ROW_ID_MAX, RowId
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import View
-from webapp.server.schemas import PlacedCode, errors
-from webapp.server.services import Services
+from webapp.tags.schemas import PlacedCode
+from webapp.web.context import AppContext
 from webapp.web.deps import (
-    ServicesDep,
+    ContextDep,
     TileDep,
     WallDep,
 )
-
-if TYPE_CHECKING:
-    from webapp.apps.census_map.app import CensusApp
+from webapp.web.problems import errors
 
 router = APIRouter(tags=["census"])
 
@@ -40,30 +39,30 @@ router = APIRouter(tags=["census"])
 async def tile_map(
     wall: WallDep,
     tile: TileDep,
-    services: ServicesDep,
+    context: ContextDep,
     dataset: RowId,
     view: MapViewDep,
     layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
 ) -> Response:
     """One tile's share of the census map for a data set, codes layout and view, in the
     tile's native pixels (the tile fetches it before it answers ``ready``)."""
-    app = census_app(services)
+    app = census_maps(context)
     key = (dataset, wall.id, tile.id, layout, view.center, view.zoom)
     body = app.renders.get(key)
     if body is None:
-        found = await run_blocking(app.dataset, services, dataset)
+        found = await run_blocking(app.dataset, context, dataset)
         if found is None:
             raise HTTPException(
                 status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
             )
-        body = await run_blocking(_tile_body, app, services, wall, tile.id, found.id, layout, view)
+        body = await run_blocking(_tile_body, app, context, wall, tile.id, found.id, layout, view)
         app.renders.put(key, body)
     return Response(body, media_type="application/json")
 
 
 def _tile_body(
-    app: CensusApp,
-    services: Services,
+    app: CensusMaps,
+    context: AppContext,
     wall: Wall,
     tile_id: str,
     dataset_id: int,
@@ -71,11 +70,11 @@ def _tile_body(
     view: View,
 ) -> bytes:
 
-    dataset = app.dataset(services, dataset_id)
+    dataset = app.dataset(context, dataset_id)
     assert dataset is not None
-    record = services.layout(wall.id, layout_id)
+    record = context.layout(wall.id, layout_id)
     placed = [PlacedCode.model_validate(p) for p in record.placed] if record else []
-    codes = _census_tags(services, [p.code for p in placed])
+    codes = _census_tags(context, [p.code for p in placed])
     tracts = {tag.params["geoid"]: code for code, tag in codes.items() if tag.action == "tract"}
     occupied = [Rect(*p.footprint) for p in placed if p.display == tile_id]
     view_body = tile_view(dataset, app.geometry(dataset), wall, tile_id, view, tracts, occupied)
@@ -99,11 +98,11 @@ def _tile_body(
     return json.dumps(view_body, separators=(",", ":")).encode()
 
 
-def _census_tags(services: Services, codes: list[str]) -> dict[str, TagRecord]:
+def _census_tags(context: AppContext, codes: list[str]) -> dict[str, TagRecord]:
     """The census map's tags among ``codes`` (a layout's), by code."""
     if not codes:
         return {}
-    with services.db.session() as session:
+    with context.db.session() as session:
         rows = session.scalars(
             select(TagRecord).where(TagRecord.code.in_(codes), TagRecord.app == APP)
         )
@@ -114,7 +113,7 @@ def _census_tags(services: Services, codes: list[str]) -> dict[str, TagRecord]:
 async def tile_theme(
     wall: WallDep,
     tile: TileDep,
-    services: ServicesDep,
+    context: ContextDep,
     dataset: RowId,
     attribute: Annotated[str, Query(max_length=64)],
     scheme: SchemeName,
@@ -132,11 +131,11 @@ async def tile_theme(
         raise HTTPException(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"theme: {error.errors()[0]['msg']}"
         ) from None
-    app = census_app(services)
+    app = census_maps(context)
     key = ("theme", wall.id, dataset, layout, view.center, view.zoom, theme)
     body = app.renders.get(key)
     if body is None:
-        found = await run_blocking(app.dataset, services, dataset)
+        found = await run_blocking(app.dataset, context, dataset)
         if found is None:
             raise HTTPException(
                 status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
@@ -145,14 +144,14 @@ async def tile_theme(
             raise HTTPException(
                 status.HTTP_404_NOT_FOUND, f"{found.title} has no value {attribute!r}."
             )
-        body = await run_blocking(_theme_body, app, services, wall, found, layout, view, theme)
+        body = await run_blocking(_theme_body, app, context, wall, found, layout, view, theme)
         app.renders.put(key, body)
     return Response(body, media_type="application/json")
 
 
 def _theme_body(
-    app: CensusApp,
-    services: Services,
+    app: CensusMaps,
+    context: AppContext,
     wall: Wall,
     dataset: DataSet,
     layout_id: int,
@@ -161,7 +160,7 @@ def _theme_body(
 ) -> bytes:
     shading = app.shading(dataset, theme)
     assert shading is not None
-    record = services.layout(wall.id, layout_id)
+    record = context.layout(wall.id, layout_id)
     codes = [
         Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
     ]

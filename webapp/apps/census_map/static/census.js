@@ -4,8 +4,13 @@
 // wall's state names a theme, the tracts take their class's colour and the legend
 // stands where the server placed it (webapp/apps/census_map/legend.py).
 
-import {fitText} from "/static/js/balloons.js";
-import {angleOf, upright} from "/static/js/matrix.js";
+import {fitText} from "tagwall/balloons.js";
+import {angleOf, upright} from "tagwall/matrix.js";
+
+/** The census map's slot of the wall state: {dataset, theme} (both null: not set up). */
+export function censusOf(state) {
+  return {dataset: null, theme: null, ...state?.apps?.census};
+}
 
 const KEEP = 4;
 // The legend's box as the codes' captions have theirs (static/js/codes.js), its text a
@@ -26,21 +31,22 @@ export class CensusViews {
   /** The query of the wall's theme (null: the plain map); the same for every tile.
    * The view goes with it: the legend keeps off the map where it can. */
   static themeKeyOf(state) {
-    const theme = state?.theme;
-    if (state?.app !== "census" || !state.dataset || !theme) return null;
+    const {dataset, theme} = censusOf(state);
+    if (state?.app !== "census" || !dataset || !theme) return null;
     const [cx, cy] = state.view?.center ?? [0.5, 0.5];
     return new URLSearchParams({
-      dataset: state.dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
+      dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
       attribute: theme.attribute, scheme: theme.scheme, method: theme.method,
       classes: theme.classes,
     }).toString();
   }
 
   static keyOf(state) {
-    if (state?.app !== "census" || !state.dataset) return null;
+    const {dataset} = censusOf(state);
+    if (state?.app !== "census" || !dataset) return null;
     const [cx, cy] = state.view?.center ?? [0.5, 0.5];
     const query = new URLSearchParams({
-      dataset: state.dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
+      dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
     });
     return query.toString();
   }
@@ -261,7 +267,7 @@ export function createLayer({wall, displays}) {
       const theme = loaded?.theme(state);
       return {
         census: view ? `${view.dataset} ${view.tracts.length}` : "",
-        censusTheme: theme ? `${state.theme.attribute} ${theme.classes.length}` : "",
+        censusTheme: theme ? `${censusOf(state).theme.attribute} ${theme.classes.length}` : "",
       };
     },
   };

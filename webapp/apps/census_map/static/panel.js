@@ -1,7 +1,8 @@
 // The census map's dashboard panel: the data set, pan and zoom, the colouring, groups,
 // open balloons.
-import {STATUS_EVENT, api, changeState, wallId} from "/static/js/api.js";
-import {bindViewControls} from "/static/js/panels/view.js";
+import {STATUS_EVENT, api, changeState, wallId} from "tagwall/api.js";
+import {bindViewControls} from "tagwall/panels/view.js";
+import {censusOf} from "./census.js";
 
 const $ = (id) => document.getElementById(id);
 let state = null;
@@ -53,7 +54,7 @@ async function loadSchemes() {
 // The wall's colouring as the status says: the controls follow it (another instructor,
 // or a phone, may have changed it).
 function showTheme() {
-  const theme = state.app === "census" ? state.theme : null;
+  const theme = state.app === "census" ? censusOf(state).theme : null;
   const label = attributes.find((a) => a.key === theme?.attribute)?.label ?? theme?.attribute;
   $("census-theme-shown").textContent = theme
     ? `Coloured by ${label}: ${theme.classes} classes by ${METHODS[theme.method]}, ${theme.scheme}.`
@@ -98,11 +99,12 @@ document.addEventListener(STATUS_EVENT, async (event) => {
   state = event.detail.status.state;
   // The map showing a data set the list does not have as current (its first time on
   // a wall seeds the shipped one; an import elsewhere makes another current).
-  if (state.app === "census" && state.dataset !== seenDataset) {
-    seenDataset = state.dataset;
-    if (state.dataset !== listedCurrent) await loadDatasets();
+  const {dataset} = censusOf(state);
+  if (state.app === "census" && dataset !== seenDataset) {
+    seenDataset = dataset;
+    if (dataset !== listedCurrent) await loadDatasets();
   }
-  await loadGroups(state.app === "census" ? state.dataset : null);
+  await loadGroups(state.app === "census" ? dataset : null);
   showTheme();
   showGroups();
   showBalloons();

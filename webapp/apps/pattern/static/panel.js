@@ -1,6 +1,6 @@
 // The test pattern's dashboard panel: layers, pan and zoom.
-import {STATUS_EVENT, changeState} from "/static/js/api.js";
-import {bindViewControls} from "/static/js/panels/view.js";
+import {STATUS_EVENT, changeState} from "tagwall/api.js";
+import {bindViewControls} from "tagwall/panels/view.js";
 
 const panel = document.getElementById("pattern-panel");
 let state = null;

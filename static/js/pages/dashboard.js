@@ -1,7 +1,7 @@
 // The instructor dashboard: live status and scans over its own socket, actions through
 // the JSON API. App panels listen for the STATUS_EVENT this page dispatches.
-import {STATUS_EVENT, api, changeState, wallId} from "./api.js";
-import {socketUrl} from "./wallsocket.js";
+import {STATUS_EVENT, api, changeState, wallId} from "../api.js";
+import {socketUrl} from "../wallsocket.js";
 
 const $ = (id) => document.getElementById(id);
 const MAX_FEED = 50;

@@ -1,6 +1,6 @@
 // The dashboard's volume controls: which volume, how it is drawn, the view, and the
 // level-of-detail map (the finest level each tile can afford, coloured per level).
-import {STATUS_EVENT, api, changeState, wallId} from "./api.js";
+import {STATUS_EVENT, api, changeState, wallId} from "../api.js";
 
 const $ = (id) => document.getElementById(id);
 const wall = JSON.parse(document.body.dataset.wallInfo);

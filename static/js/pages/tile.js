@@ -1,8 +1,8 @@
 // A kiosk tile: draws its viewport of the wall scene from the state the server sends,
 // through the layers the apps register (layers.js).
-import {LayerStack, followClock} from "./layers.js";
-import {showLive} from "./live.js";
-import {PublicScreen} from "./public.js";
+import {LayerStack, followClock} from "../layers.js";
+import {showLive} from "../live.js";
+import {PublicScreen} from "../public.js";
 
 const body = document.body;
 const viewport = JSON.parse(body.dataset.viewport);

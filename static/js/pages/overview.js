@@ -1,7 +1,7 @@
 // The whole wall in one window, at scale, bezels drawn: what each tile shows, live,
 // drawn through the same layers as the tiles (layers.js).
-import {LayerStack, followClock} from "./layers.js";
-import {showLive} from "./live.js";
+import {LayerStack, followClock} from "../layers.js";
+import {showLive} from "../live.js";
 
 const wall = JSON.parse(document.body.dataset.wallInfo);
 // Without a tile token the overview gets each display's quick fallback image.

@@ -1,0 +1,76 @@
+"""The app contract: every part an app owns in its package reaches the server."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.conftest import services_of
+from webapp.apps.contract import WallApp, heavy_keys, placing_keys, static_url
+from webapp.apps.discovery import installed_apps
+from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS
+from webapp.web.templating import IMPORT_MAP_HASH
+
+APPS = installed_apps()
+IMPORTED = re.compile(r'^import .* from "([^"]+)";', re.MULTILINE)
+
+
+@pytest.mark.parametrize("wall_app", APPS.values(), ids=lambda wall_app: wall_app.name)
+def test_an_apps_templates_live_under_its_own_name(wall_app: WallApp) -> None:
+    """Apps share one template search path: a prefix per app keeps them apart."""
+    if wall_app.templates is None:
+        return
+    names = [p.relative_to(wall_app.templates) for p in wall_app.templates.rglob("*.html")]
+    assert names and all(name.parts[0] == wall_app.name for name in names), names
+
+
+@pytest.mark.parametrize("wall_app", APPS.values(), ids=lambda wall_app: wall_app.name)
+def test_an_apps_modules_are_served_and_import_only_what_is_served(
+    wall_app: WallApp, client: TestClient
+) -> None:
+    """Every module of the app's ``static`` folder and its scene layers load in a browser:
+    each is served as JavaScript, and so is everything it imports: the core's modules
+    through the import map (``tagwall/``), the app's own beside it (``./``)."""
+    urls = set(wall_app.layers)
+    if wall_app.static is not None:
+        urls |= {f"{static_url(wall_app.name)}/{p.name}" for p in wall_app.static.glob("*.js")}
+    for url in sorted(urls):
+        response = client.get(url)
+        assert response.status_code == 200, url
+        assert "javascript" in response.headers["content-type"], url
+        for imported in IMPORTED.findall(response.text):
+            if imported.startswith("tagwall/"):
+                served = "/static/js/" + imported.removeprefix("tagwall/")
+            else:
+                assert imported.startswith("./"), f"{url} imports {imported} by a server path"
+                served = url.rsplit("/", 1)[0] + imported.removeprefix(".")
+            assert client.get(served).status_code == 200, f"{url} imports {imported}"
+
+
+def test_the_app_factory_registers_the_installed_apps(client: TestClient) -> None:
+    assert set(services_of(client).apps) == set(APPS) >= {"core", "pattern", "census", "brain"}
+
+
+def test_apps_add_their_slots_keys_to_the_cores() -> None:
+    """The census map's data set and colouring make tiles prepare; its data set and the
+    brain's round move codes; the core's own keys stay whatever the apps say."""
+    assert heavy_keys(APPS) >= CORE_HEAVY_KEYS | {"census.dataset", "census.theme"}
+    assert placing_keys(APPS) >= CORE_PLACING_KEYS | {"census.dataset", "brain.quiz_round"}
+    assert "census.theme" not in placing_keys(APPS) and "brain.quiz_round" not in heavy_keys(APPS)
+
+
+def test_pages_carry_the_import_map_the_policy_allows(client: TestClient) -> None:
+    page = client.get("/wall/demo/overview")
+    assert '<script type="importmap">{"imports":{"tagwall/":"/static/js/"}}</script>' in page.text
+    assert f"'{IMPORT_MAP_HASH}'" in page.headers["content-security-policy"]
+
+
+def test_a_panel_template_is_found_from_its_app(client: TestClient) -> None:
+    templates = client.app.state.templates  # type: ignore[attr-defined]
+    wall = services_of(client).walls["demo"]
+    for app in APPS.values():
+        panel = app.dashboard_panel(wall)
+        if panel is not None:
+            assert templates.get_template(panel).filename.startswith(str(app.templates)), panel
