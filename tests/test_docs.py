@@ -59,7 +59,9 @@ def test_every_wall_state_field_is_documented_with_its_weight() -> None:
         assert (row.group(1).strip() == "yes") == (field in CORE_HEAVY_KEYS), field
 
 
-@pytest.mark.parametrize("app", [a for a in installed_apps().values() if a.state], ids=str)
+@pytest.mark.parametrize(
+    "app", [a for a in installed_apps().values() if a.state], ids=lambda app: app.name
+)
 def test_every_app_slot_key_is_documented_with_its_weight(app: WallApp) -> None:
     assert app.state is not None
     heavy = heavy_keys({app.name: app})

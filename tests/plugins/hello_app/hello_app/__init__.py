@@ -1,0 +1,1 @@
+"""A tiny tagwall app: a greeting across the wall and one code that opens it on a phone."""
