@@ -369,3 +369,29 @@ def test_several_workers_without_what_they_share_refuse_to_start(env: dict[str, 
     line = refused(on_sqlite, "serve")
     assert line.startswith("error: TAGWALL_WORKERS=3 needs PostgreSQL")
     assert refused({**env, "TAGWALL_WORKERS": "0"}, "serve").startswith("error: TAGWALL_WORKERS: ")
+
+
+def _install_broken_app(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """An installed distribution whose app entry point names a module that is not there."""
+    info = folder / "broken_app-1.0.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: broken-app\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[tagwall.apps]\nbroken = no_such_module.app:App\n")
+    monkeypatch.syspath_prepend(str(folder))
+
+
+def test_an_app_that_cannot_be_loaded_stops_the_command_with_one_line(
+    env: dict[str, str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _install_broken_app(tmp_path / "site", monkeypatch)
+    for args in (["--help"], ["serve"]):
+        code, out, err = run(env, *args)
+        assert code == 2, (args, out)
+        assert err.strip().startswith("error: app 'broken' (no_such_module.app:App) could not be")
+        assert "Traceback" not in err
+
+
+def test_serve_refuses_a_first_app_that_is_not_installed(env: dict[str, str]) -> None:
+    code, _, err = run({**env, "TAGWALL_FIRST_APP": "painting"}, "serve")
+    assert code == 2
+    assert "TAGWALL_FIRST_APP='painting' is not an installed app" in err
