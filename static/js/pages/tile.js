@@ -23,8 +23,8 @@ function drawer(state, clock) {
   };
 }
 
-// What the tile shows, for people (and tests) inspecting it: the layers' marks (the
-// volume's detail, the census data set), the census groups hidden, the balloons open.
+// What the tile shows, for people (and tests) inspecting it: the layers' marks (a
+// volume's detail, an app's data), the layers switched off, the balloons open.
 function mark(state, clock) {
   Object.assign(body.dataset, stack.marks(state));
   body.dataset.hiddenGroups = Object.entries(state.layers ?? {})
