@@ -35,6 +35,8 @@ PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touc
 @pytest.fixture(scope="module")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The hello app installed into a folder of its own (with its entry point's metadata)."""
+    source = tmp_path_factory.mktemp("source") / "hello_app"
+    shutil.copytree(PLUGIN, source)  # building writes beside the sources: not in the checkout
     target = tmp_path_factory.mktemp("site")
     subprocess.run(
         [
@@ -47,7 +49,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
             "--no-build-isolation",
             "--target",
             str(target),
-            str(PLUGIN),
+            str(source),
         ],
         check=True,
     )
