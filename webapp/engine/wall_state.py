@@ -181,7 +181,7 @@ class StatePatch(BaseModel):
     view: View | None = None
     layers: dict[str, bool] | None = None
     balloons: list[Balloon] | None = Field(default=None, max_length=100)
-    # ``public`` changes only through ``webapp.publishing.publication``, which renders it safely.
+    # ``public`` changes only through ``webapp.publishing.screen``, which renders it safely.
     public_policy: PublicPolicy | None = None
     volume: VolumeLayer | None = None  # null takes the volume off the wall
 

@@ -1,4 +1,5 @@
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any, ClassVar
 
 import pytest
 from pydantic import ValidationError
@@ -6,12 +7,16 @@ from pydantic import ValidationError
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import (
+    CORE_HEAVY_KEYS,
+    AppState,
     StatePatch,
     View,
     WallState,
+    changed_keys,
     commit_change,
     events_since,
     read_state,
+    state_changes,
 )
 
 
@@ -117,3 +122,58 @@ def test_failed_update_leaves_state_intact(db: Database) -> None:
     with pytest.raises(ValueError):
         commit_change(db, "demo", broken, keep_events=100)
     assert read_state(db, "demo") == (1, WallState(mode="kept"))
+
+
+class Lamp(AppState):
+    """An app's slot as a test keeps it: a colour (heavy) and a code's place (placing)."""
+
+    app: ClassVar[str] = "lamp"
+    version: ClassVar[int] = 2
+    heavy: ClassVar[frozenset[str]] = frozenset({"colour"})
+    placing: ClassVar[frozenset[str]] = frozenset({"spot"})
+
+    colour: str = "white"
+    spot: int = 0
+
+    @classmethod
+    def upgrade(cls, stored: dict[str, Any], version: int) -> dict[str, Any]:
+        return {"colour": stored["hue"]} if version == 1 else super().upgrade(stored, version)
+
+
+def test_an_apps_slot_reads_its_defaults_until_the_app_keeps_something() -> None:
+    assert Lamp.of(WallState()) == Lamp()
+    state = Lamp(colour="red").put(WallState())
+    assert state.apps == {"lamp": {"colour": "red", "spot": 0, "version": 2}}
+    assert Lamp.of(state).colour == "red"
+
+
+def test_a_slot_stored_by_an_earlier_version_is_read_through_the_apps_upgrade() -> None:
+    old = WallState(apps={"lamp": {"hue": "blue", "version": 1}})
+    assert Lamp.of(old) == Lamp(colour="blue")
+    with pytest.raises(ValueError, match="no upgrade from slot version 7"):
+        Lamp.of(WallState(apps={"lamp": {"version": 7}}))
+
+
+def test_a_change_carries_only_the_slot_keys_that_changed_named_by_their_app() -> None:
+    before = Lamp(colour="red").put(WallState()).model_dump(mode="json")
+    after = Lamp(colour="red", spot=3).put(WallState(mode="x")).model_dump(mode="json")
+    changes = state_changes(before, after)
+    assert changes == {"mode": "x", "apps": {"lamp": {"spot": 3}}}
+    assert changed_keys(changes) == {"mode", "lamp.spot"}
+    assert Lamp.keys() == (frozenset({"lamp.colour"}), frozenset({"lamp.spot"}))
+
+
+def test_a_commit_is_heavy_when_an_apps_heavy_key_changes(db: Database) -> None:
+    heavy = CORE_HEAVY_KEYS | Lamp.keys()[0]
+    appeared = commit_change(db, "w", Lamp().put, keep_events=10, heavy_keys=heavy)
+    assert appeared is not None and appeared.heavy  # a new slot: every key of it is new
+    moved = commit_change(db, "w", Lamp(spot=1).put, keep_events=10, heavy_keys=heavy)
+    assert moved is not None and not moved.heavy
+    assert moved.changes == {"apps": {"lamp": {"spot": 1}}}
+
+    def colour(state: WallState) -> WallState:
+        return Lamp.of(state).model_copy(update={"colour": "red"}).put(state)
+
+    coloured = commit_change(db, "w", colour, keep_events=10, heavy_keys=heavy)
+    assert coloured is not None and coloured.heavy
+    assert coloured.changes == {"apps": {"lamp": {"colour": "red"}}}
