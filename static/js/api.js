@@ -18,4 +18,21 @@ export function changeState(patch) {
 }
 
 /** Panels follow the wall through this event: detail = {status, waiting}. */
-export const STATUS_EVENT = "wall-status";
+const STATUS_EVENT = "wall-status";
+let lastStatus = null;
+
+/** Tell the page's panels the wall's status (the dashboard does, at every status). */
+export function publishStatus(detail) {
+  lastStatus = detail;
+  document.dispatchEvent(new CustomEvent(STATUS_EVENT, {detail}));
+}
+
+/**
+ * Follow the wall's status: `listener(detail)` at once with the latest one, if any, and
+ * at every one after. A panel whose modules load after the first status still starts
+ * from it, so its buttons work from the moment they show.
+ */
+export function onStatus(listener) {
+  document.addEventListener(STATUS_EVENT, (event) => listener(event.detail));
+  if (lastStatus) listener(lastStatus);
+}

@@ -1,6 +1,6 @@
 // The instructor dashboard: live status and scans over its own socket, actions through
-// the JSON API. App panels listen for the STATUS_EVENT this page dispatches.
-import {STATUS_EVENT, api, changeState, wallId} from "../api.js";
+// the JSON API. App panels follow the status this page publishes (onStatus).
+import {api, changeState, onStatus, publishStatus, wallId} from "../api.js";
 import {socketUrl} from "../wallsocket.js";
 
 const $ = (id) => document.getElementById(id);
@@ -53,7 +53,7 @@ function showStatus(status, waiting) {
   $("public-locked").checked = state.public_policy.locked;
   showWaiting(waiting);
   showTiles(status);
-  document.dispatchEvent(new CustomEvent(STATUS_EVENT, {detail: {status, waiting}}));
+  publishStatus({status, waiting});
 }
 
 function showWaiting(waiting) {
@@ -181,9 +181,9 @@ tagSetSelect.addEventListener("change", () => {
   api(`/api/walls/${wallId}/tag-set`, {method: "PUT", body: JSON.stringify({name})})
     .then(refreshCodes);
 });
-document.addEventListener(STATUS_EVENT, (event) => {
-  if (tagSetSelect.dataset.layout !== String(event.detail.status.state.tag_layout)) {
-    tagSetSelect.dataset.layout = event.detail.status.state.tag_layout;
+onStatus((detail) => {
+  if (tagSetSelect.dataset.layout !== String(detail.status.state.tag_layout)) {
+    tagSetSelect.dataset.layout = detail.status.state.tag_layout;
     refreshCodes();
   }
 });

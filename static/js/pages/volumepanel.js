@@ -1,6 +1,6 @@
 // The dashboard's volume controls: which volume, how it is drawn, the view, and the
 // level-of-detail map (the finest level each tile can afford, coloured per level).
-import {STATUS_EVENT, api, changeState, wallId} from "../api.js";
+import {api, changeState, onStatus, wallId} from "../api.js";
 
 const $ = (id) => document.getElementById(id);
 const wall = JSON.parse(document.body.dataset.wallInfo);
@@ -119,6 +119,6 @@ for (const button of $("volume-panel").querySelectorAll("[data-zoom]")) {
 }
 $("view-reset").addEventListener("click", () =>
   changeState({view: {center: [0.5, 0.5], zoom: 1, yaw: 0, pitch: 0}}));
-document.addEventListener(STATUS_EVENT, (event) =>
-  showVolume(event.detail.status.state, event.detail.status.version));
+onStatus((detail) =>
+  showVolume(detail.status.state, detail.status.version));
 loadVolumes();

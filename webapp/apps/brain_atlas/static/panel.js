@@ -1,7 +1,7 @@
 // The brain atlas's dashboard panel: mode, pin set, view presets, who may switch the
 // wall's pins, the quiz round (open or closed, when names are shown) and the class's
 // results (refreshed with the wall's status, at most every two seconds).
-import {STATUS_EVENT, api, wallId} from "tagwall/api.js";
+import {api, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 
 const $ = (id) => document.getElementById(id);
@@ -99,8 +99,8 @@ $("brain-reset").addEventListener("click", async () => {
   const body = JSON.stringify({reveal: $("brain-reveal").value});
   show(await api(`/api/walls/${wallId}/brain/quiz/reset`, {method: "POST", body}));
 });
-document.addEventListener(STATUS_EVENT, (event) => {
-  state = event.detail.status.state;
+onStatus((detail) => {
+  state = detail.status.state;
   refresh();
 });
 bindViewControls($("brain-panel"), () => state);

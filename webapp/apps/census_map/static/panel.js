@@ -1,6 +1,6 @@
 // The census map's dashboard panel: the data set, pan and zoom, the colouring, groups,
 // open balloons.
-import {STATUS_EVENT, api, changeState, wallId} from "tagwall/api.js";
+import {api, changeState, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 import {censusOf} from "./census.js";
 
@@ -95,8 +95,8 @@ function showBalloons() {
     changeState({balloons: state.balloons.filter((other) => other.id !== b.id)}))));
 }
 
-document.addEventListener(STATUS_EVENT, async (event) => {
-  state = event.detail.status.state;
+onStatus(async (detail) => {
+  state = detail.status.state;
   // The map showing a data set the list does not have as current (its first time on
   // a wall seeds the shipped one; an import elsewhere makes another current).
   const {dataset} = censusOf(state);

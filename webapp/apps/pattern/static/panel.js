@@ -1,12 +1,12 @@
 // The test pattern's dashboard panel: layers, pan and zoom.
-import {STATUS_EVENT, changeState} from "tagwall/api.js";
+import {changeState, onStatus} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 
 const panel = document.getElementById("pattern-panel");
 let state = null;
 
-document.addEventListener(STATUS_EVENT, (event) => {
-  state = event.detail.status.state;
+onStatus((detail) => {
+  state = detail.status.state;
   for (const box of panel.querySelectorAll("[data-layer]")) {
     box.checked = state.layers[box.dataset.layer] ?? true;
   }
