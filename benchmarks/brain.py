@@ -18,7 +18,7 @@ from tag_service.codes import CODE_LENGTH, modules_across, symbol_variants, url_
 from tag_service.placement import PlacementRequest, place
 from tag_service.sizing import min_module_mm
 from wall_client.config import load_wall
-from webapp.apps.brain_atlas.app import PIN_CLEARANCE_OF_CODE
+from webapp.apps.brain_atlas.atlas import PIN_CLEARANCE_OF_CODE
 from webapp.apps.brain_atlas.content import load_content
 from webapp.apps.brain_atlas.matching import answer_key
 from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache, scene_pins

@@ -31,7 +31,7 @@ from tag_service.verify import Decoded, decode_image, phone_frame, random_shots
 from tests.browser.conftest import open_tiles, version_of
 from wall_client.config import load_wall
 from wall_client.layout import Wall, apply_affine
-from webapp.apps.brain_atlas.app import PIN_CLEARANCE_OF_CODE
+from webapp.apps.brain_atlas.atlas import PIN_CLEARANCE_OF_CODE
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR

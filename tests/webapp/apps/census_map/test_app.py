@@ -558,7 +558,10 @@ def test_a_restart_keeps_the_map_its_groups_and_its_codes(client: TestClient) ->
     before = state_of(client)
     with TestClient(create_app(services_of(client).settings)) as restarted:
         after = state_of(restarted)
-        assert after.app == "census" and after.dataset == before.dataset
+        assert (
+            after.app == "census"
+            and CensusState.of(after).dataset == CensusState.of(before).dataset
+        )
         assert after.layers == before.layers and after.tag_layout == before.tag_layout
         assert census_codes(restarted) == codes, "the same codes, still live"
         assert len(list_datasets(services_of(restarted).db)) == 1, "seeded once"
@@ -613,7 +616,7 @@ def test_the_instructor_colours_the_wall_by_a_value(client: TestClient) -> None:
     assert tile_theme(client, state, "r1c1") == body, "the same for every tile"
 
     assert colour(client, None).status_code == 200
-    assert state_of(client).theme is None
+    assert CensusState.of(state_of(client)).theme is None
 
 
 @pytest.mark.parametrize(
@@ -630,7 +633,7 @@ def test_a_colouring_the_data_cannot_have_is_refused(
 ) -> None:
     show_census(client)
     assert colour(client, theme).status_code == status
-    assert state_of(client).theme is None
+    assert CensusState.of(state_of(client)).theme is None
 
 
 def test_colouring_needs_staff_and_the_map_on_the_wall(client: TestClient) -> None:
@@ -687,7 +690,10 @@ def test_a_tract_page_says_where_it_stands_and_an_instructor_can_colour_from_it(
         follow_redirects=False,
     )
     assert refused.status_code == 303 and refused.headers["location"].startswith("/login")
-    assert state_of(client).theme is not None and state_of(client).theme.attribute == "HH_INC"
+    assert (
+        CensusState.of(state_of(client)).theme is not None
+        and CensusState.of(state_of(client)).theme.attribute == "HH_INC"
+    )
 
     with TestClient(client.app) as instructor:
         sign_in(instructor, "instructor")
@@ -702,7 +708,7 @@ def test_a_tract_page_says_where_it_stands_and_an_instructor_can_colour_from_it(
         assert answer.status_code == 200 and "Total population" in answer.text
         assert answer.text.count('class="swatch"') == 6
         assert "/apps/census/demo/tracts/06061022001/here" in answer.text
-        theme = state_of(client).theme
+        theme = CensusState.of(state_of(client)).theme
         assert theme is not None and theme.attribute == "TOT_POP"
         assert (theme.scheme, theme.method, theme.classes) == ("YlGnBu", "natural", 6), "kept"
         missing = instructor.post(
@@ -711,7 +717,7 @@ def test_a_tract_page_says_where_it_stands_and_an_instructor_can_colour_from_it(
         assert missing.status_code == 404
         plain = instructor.post("/apps/census/demo/theme", data={"csrf": token.group(1)})
         assert plain.status_code == 200 and "One plain colour" in plain.text
-    assert state_of(client).theme is None
+    assert CensusState.of(state_of(client)).theme is None
 
 
 def test_google_earth_gets_the_wall_s_colours(client: TestClient) -> None:
@@ -739,7 +745,7 @@ def test_a_colouring_survives_a_restart_and_leaves_with_a_data_set_without_its_v
     show_census(client)
     colour(client, INCOME_THEME)
     with TestClient(create_app(services_of(client).settings)) as restarted:
-        theme = state_of(restarted).theme
+        theme = CensusState.of(state_of(restarted)).theme
         assert theme is not None and theme.model_dump() == INCOME_THEME
     new_id = import_files(
         services_of(client).db,

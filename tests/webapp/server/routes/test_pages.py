@@ -78,8 +78,8 @@ def test_scene_pages_list_each_apps_layers_and_import_no_app_module(client: Test
         assert stacks["apps"]["pattern"] == pattern
         assert stacks["apps"]["census"] == ["/static/apps/census/census.js"]
     for page in ("tile", "overview"):
-        source = (STATIC / "js" / f"{page}.js").read_text()
-        imported = set(re.findall(r'from "\./([a-z]+)\.js"', source))
+        source = (STATIC / "js" / "pages" / f"{page}.js").read_text()
+        imported = set(re.findall(r'from "\.\./([a-z]+)\.js"', source))
         assert imported <= {"layers", "live", "public"}, imported
 
 

@@ -26,6 +26,7 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
+from webapp.apps.census_map.state import CensusState
 from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
 from webapp.people.accounts import add_account
 from webapp.people.address_rules import add_rule
@@ -71,7 +72,7 @@ def matrix(client: TestClient) -> list[Row]:
         headers={"Authorization": f"Bearer {services_of(client).operator_token}"},
     )
     assert census.status_code == 200, census.text
-    dataset = read_state(db, "kl-3x3")[1].dataset
+    dataset = CensusState.of(read_state(db, "kl-3x3")[1]).dataset
     group = next(t.params["group"] for t in wall_tags(db, "kl-3x3") if t.action == "toggle")
     tract = "/apps/census/kl-3x3/tracts/06061022001"
     census_state = read_state(db, "kl-3x3")[1]
