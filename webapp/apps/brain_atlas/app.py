@@ -43,8 +43,10 @@ class BrainApp(Atlas):
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall the brain shows the MNI template (its store built on first use)
-        in the first preset view, in quiz mode, unless it is already up; and a quiz
-        round: the open one, or a new one."""
+        in the first preset view, in quiz mode, unless it is already up. The first time
+        it comes on a wall it opens the wall's first round; after that the round on the
+        wall stays as the instructor left it, open or closed, whatever restarts: a
+        round opens only when an instructor opens one."""
         if VOLUME not in context.volumes:
             build_store(
                 open_source(ATLAS_DIR / TEMPLATE_FILE),
@@ -59,8 +61,7 @@ class BrainApp(Atlas):
             update["view"] = first.view
             update["volume"] = first.layer(VOLUME)
         settled = state.model_copy(update=update) if update else state
-        shown = self.round_on_wall(context, wall.id, state)
-        if shown is None or not shown.open:
+        if BrainState.of(state).quiz_round is None:
             opened = open_round(context.db, wall.id, f"app:{APP}", self.fresh_orders())
             settled = BrainState(quiz_round=opened.number).put(settled)
         return settled

@@ -247,7 +247,7 @@ def start_round(
 
 def open_round(db: Database, wall_id: str, started_by: str, orders: dict[str, list[str]]) -> Round:
     """The wall's latest round if it is still open, else a new one with ``orders``
-    (the brain coming on a wall, at start too: every server process may ask)."""
+    (the brain coming on a wall for the first time: every server process may ask)."""
     with db.session() as session:
         number = _latest_number(session, wall_id)
         record = session.get(BrainQuizRoundRecord, (wall_id, number)) if number else None

@@ -632,3 +632,56 @@ def test_controls_refuse_when_the_brain_is_not_on_the_wall(client: TestClient) -
         "/api/walls/demo/brain", json={"mode": "tutor"}, headers=operator_headers(client)
     )
     assert response.status_code == 409
+
+
+def _restarted(settings: Settings) -> TestClient:
+    """The same wall and database under a server started again (its start settles the
+    app on the wall, as every restart does)."""
+    return TestClient(create_app(settings))
+
+
+def test_tutor_mode_survives_a_restart_with_no_round_opened(
+    settings: Settings, on_wall: TestClient
+) -> None:
+    """Issue 31: a restart opened a new round in tutor mode, and every pin answered 409."""
+    control(on_wall, mode="tutor")
+    before = BrainState.of(state_of(on_wall)).quiz_round
+    with _restarted(settings) as again:
+        register_student(again)
+        status = control(again)
+        assert status["mode"] == "tutor" and status["round"]["open"] is False
+        assert BrainState.of(state_of(again)).quiz_round == before
+        _, code = next(iter(pins_on_wall(again, "full").items()))
+        assert again.get(f"/t/{code}").status_code == 200  # the tutor page, not 409
+
+
+def test_a_closed_round_stays_closed_across_a_restart_and_students_keep_their_results(
+    settings: Settings, on_wall: TestClient
+) -> None:
+    register_student(on_wall)
+    pins = pins_on_wall(on_wall, "full")
+    number, code = next(iter(pins.items()))
+    answer(on_wall, code, region_of(on_wall, "full", number).name)
+    closed = on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    assert closed.status_code == 200, closed.text
+    cookies = dict(on_wall.cookies)
+    with _restarted(settings) as again:
+        again.cookies.update(cookies)
+        status = control(again)
+        assert (status["round"]["number"], status["round"]["open"]) == (1, False)
+        assert BrainState.of(state_of(again)).quiz_round == 1
+        mine = again.get("/apps/brain/demo/quiz/full")
+        assert mine.status_code == 200
+        assert "Round 1 · closed" in mine.text and "✓" in mine.text  # their result, shown
+
+
+def test_a_round_opens_again_only_when_an_instructor_opens_one(on_wall: TestClient) -> None:
+    """Leaving the wall and coming back keeps the closed round; quiz mode or a reset opens
+    the next."""
+    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall))
+    show_brain(on_wall)
+    shown = control(on_wall)["round"]
+    assert (shown["number"], shown["open"]) == (1, False)
+    reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+    assert reset.json()["round"]["number"] == 2 and reset.json()["round"]["open"] is True
