@@ -17,7 +17,9 @@ from webapp.apps.census_map.earth import (
     MAX_REFRESH_S,
     MIN_FOV,
     MIN_REFRESH_S,
+    EarthBase,
     EarthOptions,
+    base_signature,
     opener_kml,
     opener_url,
     screen_role,
@@ -204,6 +206,11 @@ def earth(
     if not base.startswith(("http://", "https://")):
         fail(f"--base-url must be an http:// or https:// URL, not {base!r}")
     options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
+    public = settings.resolved_public_base_url
+    # Another base than the public one is signed, so the server names URLs on it.
+    earth_base = EarthBase(base)
+    if base != public:
+        earth_base = EarthBase(base, base_signature(settings.resolved_secret_key, base))
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
     width = max(len(d.id) for d in wall.displays)
@@ -214,8 +221,8 @@ def earth(
             what = f"(the {role} screen: a browser tile, see `tagwall tiles`)"
         elif out is not None:
             path = out / f"{display.id}.kml"
-            path.write_text(opener_kml(base, wall, display.id, options))
+            path.write_text(opener_kml(earth_base, wall, display.id, options))
             what = str(path)
         else:
-            what = opener_url(base, wall.id, display.id, options)
+            what = opener_url(earth_base, wall.id, display.id, options)
         click.echo(f"{display.id:<{width}}  {what}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import socket
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlencode
 
 import httpx
 import pytest
@@ -15,6 +16,7 @@ from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
+from webapp.apps.census_map.earth import base_signature
 from webapp.cli.commands import main
 from webapp.database.connection import Database
 from webapp.people.security import operator_token
@@ -186,8 +188,16 @@ def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
     lines = out.splitlines()
     assert lines[0].split() == ["display", "Google", "Earth", "Pro", "opens"]
     rows = dict(line.split(maxsplit=1) for line in lines[1:])
+    # not the public base URL: the links carry the base with the server's signature
+    signed = urlencode(
+        {
+            "base": "http://wall.example:8000",
+            "sig": base_signature(TEST_SECRET, "http://wall.example:8000"),
+        }
+    )
     assert rows["r2c2"] == (
         "http://wall.example:8000/apps/census/earth/demo/r2c2.kml?fov=45&refresh=2&map_refresh=60"
+        f"&{signed}"
     )
     assert rows["r1c2"] == "(the public screen: a browser tile, see `tagwall tiles`)"
     assert len(rows) == 6
