@@ -176,8 +176,41 @@ def test_import_asks_a_running_server_to_switch_the_map(
     assert code == 0 and out.splitlines()[-1].endswith(said)
     ((url, kwargs),) = sent
     assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/census/current"
-    assert kwargs["json"] == {"dataset": 1} and kwargs["timeout"] == 5
+    assert kwargs["json"] == {"dataset": 1}
+    assert kwargs["timeout"] == httpx.Timeout(60.0, connect=5.0)
     assert kwargs["headers"] == {"Authorization": f"Bearer {operator_token(TEST_SECRET)}"}
+
+
+@pytest.mark.parametrize(
+    "error,said",
+    [
+        (
+            httpx.ReadTimeout("timed out"),
+            "is busy: it took the request but did not answer within 60 s, so it may still be "
+            "switching the map; data set 1 is imported and current either way",
+        ),
+        (httpx.ConnectError("refused"), "is not reachable; the map switches to data set 1"),
+        (httpx.ConnectTimeout("timed out"), "is not reachable; the map switches to data set 1"),
+    ],
+)
+def test_a_busy_server_is_told_from_one_that_is_not_there(
+    env: dict[str, str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    error: httpx.HTTPError,
+    said: str,
+) -> None:
+    """Issue 31: a request that timed out on a busy machine read "the server is not
+    reachable", though the server had switched the map."""
+
+    def post(url: str, **kwargs: Any) -> httpx.Response:
+        raise error
+
+    monkeypatch.setattr(httpx, "post", post)
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    code, out, err = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
+    assert code == 0 and said in out.splitlines()[-1], out
+    assert "Traceback" not in out + err
 
 
 def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
