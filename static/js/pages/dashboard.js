@@ -47,6 +47,9 @@ function showStatus(status, waiting) {
   $("mode").textContent = state.mode;
   follow("mode-choice", state.mode);
   follow("app-choice", state.app);
+  for (const panel of document.querySelectorAll("[data-app-panel]")) {
+    panel.hidden = panel.dataset.appPanel !== state.app;  // only the app on the wall's
+  }
   $("public-shown").textContent = state.public
     ? `${state.public.title} (by ${state.public.author})` : "nothing";
   $("public-moderated").checked = state.public_policy.moderated;
