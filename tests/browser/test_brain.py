@@ -19,7 +19,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, serve, version_of
-from tests.browser.phone_audit import SERIOUS, axe_violations
+from tests.browser.phone_audit import SERIOUS, axe_violations, fits
 from tests.browser.test_phone_pages import all_pin_codes
 from wall_client.config import load_wall
 from wall_client.layout import Rect, apply_affine
@@ -417,6 +417,8 @@ def test_the_class_results_on_the_dashboard_fit_an_instructors_phone(
         )
         assert overflow == 0, f"{width} px: {overflow} cells run over"
         assert stats.evaluate("(t) => t.parentElement.scrollWidth <= t.parentElement.clientWidth")
+    problems = [p for fit in fits(phone, tables_scroll=True).values() for p in fit.problems]
+    assert not problems, problems
     phone.set_viewport_size({"width": 390, "height": 844})
     stats.screenshot(path=tmp_path / "dashboard-results-390.png")
     violations = [v for v in axe_violations(phone) if v["impact"] in SERIOUS]
