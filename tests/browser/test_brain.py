@@ -19,6 +19,8 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.phone_audit import SERIOUS, axe_violations, fits
+from tests.browser.test_phone_pages import all_pin_codes
 from wall_client.config import load_wall
 from wall_client.layout import Rect, apply_affine
 from webapp.apps.brain_atlas.content import load_content
@@ -377,3 +379,49 @@ def test_the_instructor_turns_the_brain_and_follows_the_class_from_the_dashboard
     phone.context.close()
     tile.context.close()
     dashboard.close()
+
+
+def test_the_class_results_on_the_dashboard_fit_an_instructors_phone(
+    browser: Browser, atlas: ServerProcess, tmp_path: Path
+) -> None:
+    """Issue 31: the brain's results table on the dashboard ran off the right of a
+    390 px phone (it scrolled sideways in its box): on a phone each pin's row stacks,
+    every column named, within 360-430 px."""
+    pins = all_pin_codes(atlas)
+    student = browser.new_context(**PHONE).new_page()
+    student.goto(next(c.payload for c in layout_of(atlas).placed if c.label == "Student"))
+    student.goto(next(iter(pins.values())))
+    csrf = student.locator("input[name=csrf]").first.get_attribute("value") or ""
+    for pin, payload in list(pins.items())[:6]:
+        response = student.request.post(
+            f"{atlas.url}/apps/brain/demo/pins/{payload.rsplit('/', 1)[1]}/answer",
+            form={"csrf": csrf, "answer": f"the superior temporal gyrus near region {pin}"},
+            max_redirects=0,
+        )
+        assert response.status == 303, response.text()
+    phone = browser.new_context(**PHONE).new_page()
+    phone.goto(f"{atlas.url}/login/operator?token={operator_token(atlas.secret)}")
+    stats = phone.locator("#brain-stats")
+    expect(stats.locator("tbody tr").first).to_be_visible()
+    expect(stats).to_contain_text("the superior temporal gyrus near region")
+    for width in (360, 390, 430):
+        phone.set_viewport_size({"width": width, "height": 844})
+        box = stats.bounding_box()
+        assert box is not None and box["x"] >= 0 and box["x"] + box["width"] <= width, (
+            f"{width} px: the table spans {box}"
+        )
+        overflow = stats.evaluate(
+            """(table) => [...table.querySelectorAll("td")].filter((td) =>
+                 td.scrollWidth > td.clientWidth + 1
+                 || td.getBoundingClientRect().right > innerWidth + 0.5).length"""
+        )
+        assert overflow == 0, f"{width} px: {overflow} cells run over"
+        assert stats.evaluate("(t) => t.parentElement.scrollWidth <= t.parentElement.clientWidth")
+    problems = [p for fit in fits(phone, tables_scroll=True).values() for p in fit.problems]
+    assert not problems, problems
+    phone.set_viewport_size({"width": 390, "height": 844})
+    stats.screenshot(path=tmp_path / "dashboard-results-390.png")
+    violations = [v for v in axe_violations(phone) if v["impact"] in SERIOUS]
+    assert not violations, violations
+    phone.context.close()
+    student.context.close()

@@ -30,6 +30,25 @@ def test_switching_a_layer_on_the_dashboard_changes_the_tiles(
     page.close()
 
 
+def test_the_dashboard_shows_the_panel_of_the_app_on_the_wall_and_follows_switches(
+    browser: Browser, server: ServerProcess
+) -> None:
+    """Issue 31: the census panel said "none yet" while the brain was on the wall: only
+    the app on the wall's panel shows, and it changes with the app, live."""
+    page = browser.new_page()
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+    expect(page.locator("#app")).to_have_text("pattern")
+    expect(page.locator("#pattern-panel")).to_be_visible()
+    expect(page.locator("#census-panel")).to_be_hidden()
+    expect(page.locator("#brain-panel")).to_be_hidden()
+    server.change("demo", {"app": "census"})
+    expect(page.locator("#app")).to_have_text("census", timeout=60_000)
+    expect(page.locator("#census-panel")).to_be_visible()
+    expect(page.locator("#pattern-panel")).to_be_hidden()
+    expect(page.locator("#brain-panel")).to_be_hidden()
+    page.close()
+
+
 def test_the_operator_link_refuses_a_wrong_token(browser: Browser, server: ServerProcess) -> None:
     page = browser.new_page()
     response = page.goto(f"{server.url}/login/operator?token=wrong")

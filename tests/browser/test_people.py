@@ -5,7 +5,9 @@ publications reach the public tile, at once or after approval."""
 from __future__ import annotations
 
 import io
+import os
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 from PIL import Image
@@ -13,6 +15,7 @@ from playwright.sync_api import Browser, BrowserContext, Locator, Page, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles
+from tests.browser.phone_audit import fits
 from tests.conftest import TEST_PASSWORD
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess
@@ -127,10 +130,36 @@ def test_students_register_instructors_pair_and_publications_reach_the_public_ti
     expect(student.locator("#outcome")).to_contain_text("instructor will look at it")
     waiting = dashboard.locator("#waiting li", has_text="Display r2c3")
     expect(waiting).to_be_visible()
+    # a preview of what would go up: the server's escaped HTML, in a frame with no rights
+    frame = waiting.locator("iframe.preview")
+    expect(frame).to_have_attribute("sandbox", "")
+    preview = waiting.frame_locator("iframe.preview")
+    expect(preview.locator("h1")).to_have_text("Display r2c3")
+    expect(preview.locator("footer")).to_contain_text("Published by a student")
+    if shots := os.environ.get("TAGWALL_SCREENSHOTS"):
+        waiting.screenshot(path=Path(shots) / "moderation-queue.png")
     expect(shown).to_have_text("Display r2c2")  # not shown yet
     waiting.get_by_role("button", name="Approve").click()
     expect(shown).to_have_text("Display r2c3")
     expect(dashboard.locator("#waiting li")).to_have_count(0)
+
+    # One declined: the student's page says so.
+    student.goto(setup["Display r1c1"])
+    student.get_by_role("button", name="Publish to the public screen").click()
+    expect(student.locator("#outcome")).to_contain_text("instructor will look at it")
+    declined = dashboard.locator("#waiting li", has_text="Display r1c1")
+    declined.get_by_role("button", name="Reject").click()
+    expect(dashboard.locator("#waiting li")).to_have_count(0)
+    student.get_by_role("link", name="Your page").click()
+    expect(student.locator("#published")).to_contain_text(
+        "Display r1c1: not shown: the instructor declined it"
+    )
+    expect(student.locator("#published")).to_contain_text("Display r2c3: on the public screen")
+    problems = [p for fit in fits(student).values() for p in fit.problems]
+    assert not problems, problems
+    if shots:
+        student.set_viewport_size({"width": 390, "height": 844})
+        student.screenshot(path=Path(shots) / "me-published.png", full_page=True)
 
     # Clearing empties the public tile.
     dashboard.get_by_role("button", name="Clear the public screen").click()

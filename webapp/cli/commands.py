@@ -28,6 +28,7 @@ from webapp.cli.console import (
     load_settings,
     open_database,
     pick_wall,
+    require_installation,
 )
 from webapp.core.logs import redact, redact_root_handlers, uvicorn_log_config
 from webapp.core.settings import Settings, lan_address
@@ -198,6 +199,7 @@ def urls() -> None:
     settings = load_settings()
     walls = load_configured_walls(settings)
     pick_wall(walls, None, settings)
+    require_installation(settings)
     print_urls(settings, walls, current_tokens(settings))
 
 
@@ -207,6 +209,7 @@ def tiles(wall_id: str | None) -> None:
     """Print one tile URL per line, token included (for kiosk browsers)."""
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)
+    require_installation(settings)
     tokens = current_tokens(settings)
     for display in wall.displays:
         click.echo(tile_url(settings, tokens, wall.id, display.id))

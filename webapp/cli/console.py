@@ -100,6 +100,25 @@ def check_bus(settings: Settings) -> None:
         fail(problem)
 
 
+def require_installation(settings: Settings) -> None:
+    """Exit 2 with one line when ``TAGWALL_VAR_DIR`` holds no installation to read: no
+    secret key there (none configured) or no SQLite database there (none configured),
+    rather than make a new one up and print links that no server answers. Creates
+    nothing."""
+    var_dir = settings.var_dir
+    lacking = []
+    if not settings.secret_key and not (var_dir / "secret_key").is_file():
+        lacking.append("no secret_key")
+    if not settings.database_url and not (var_dir / "tagwall.db").is_file():
+        lacking.append("no tagwall.db")
+    if lacking:
+        fail(
+            f"there is no tagwall installation in {var_dir.resolve()} ({' and '.join(lacking)}"
+            f" there): point TAGWALL_VAR_DIR at the installation's folder, or start one"
+            f" there with `tagwall serve`"
+        )
+
+
 def current_tokens(settings: Settings) -> Tokens:
     """The operator and tile tokens as the server checks them (rotations included)."""
     database = open_database(settings, migrate=False)

@@ -9,7 +9,7 @@ A change:
    (a tag-set switch racing an app switch cannot leave codes that belong to another
    view);
 2. lets an app leaving the wall take what only it shows (its volume) and an app
-   coming on settle and bring its own tag set;
+   coming on start from the default view, settle and bring its own tag set;
 3. when it moves what codes stand on (the core's placing keys and each app's), has
    the apps on the wall declare their tags for the new state and places the set
    shown, so the codes arrive in the same swap as the scene;
@@ -30,6 +30,7 @@ from webapp.apps.contract import WallApp, placing_keys
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import (
     Change,
+    View,
     WallState,
     changed_keys,
     read_state,
@@ -116,7 +117,14 @@ class WallDoor:
         fields: dict[str, Any] = {}
         tag_set = target.tag_set
         if target.app != current.app:
-            ready = leaving.leave(target) if leaving is not None else target
+            ready = target
+            if target.view == current.view:
+                # The app coming on starts from the whole stage (its settle may choose
+                # its own view), not from where the app leaving looked; a change that
+                # names a view with the app keeps it. Only a switch does this: at
+                # start (open) an instructor's pan stays.
+                ready = ready.model_copy(update={"view": View()})
+            ready = leaving.leave(ready) if leaving is not None else ready
             if app is not None:
                 tag_set = app.default_tag_set
                 ready = app.settle(self.context, wall, ready)

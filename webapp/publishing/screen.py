@@ -193,3 +193,27 @@ def waiting(db: Database, wall_id: str) -> list[PublicationRecord]:
                 .order_by(PublicationRecord.id)
             )
         )
+
+
+# What became of a publication, in the words its author reads on their phone.
+OUTCOMES = {
+    "pending": "waiting for the instructor to look at it",
+    "shown": "on the public screen now",
+    "cleared": "was on the public screen",
+    "rejected": "not shown: the instructor declined it",
+}
+OWN_LISTED = 5
+
+
+def own(db: Database, visitor_id: str, limit: int = OWN_LISTED) -> list[PublicationRecord]:
+    """A visitor's latest publications, newest first, so their phone can say what
+    became of each (waiting, shown, declined)."""
+    with db.session() as session:
+        return list(
+            session.scalars(
+                select(PublicationRecord)
+                .where(PublicationRecord.visitor_id == visitor_id)
+                .order_by(PublicationRecord.id.desc())
+                .limit(limit)
+            )
+        )

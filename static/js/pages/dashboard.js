@@ -47,6 +47,9 @@ function showStatus(status, waiting) {
   $("mode").textContent = state.mode;
   follow("mode-choice", state.mode);
   follow("app-choice", state.app);
+  for (const panel of document.querySelectorAll("[data-app-panel]")) {
+    panel.hidden = panel.dataset.appPanel !== state.app;  // only the app on the wall's
+  }
   $("public-shown").textContent = state.public
     ? `${state.public.title} (by ${state.public.author})` : "nothing";
   $("public-moderated").checked = state.public_policy.moderated;
@@ -70,9 +73,25 @@ function showWaiting(waiting) {
       text,
       button("Approve", () => moderate(item.id, "approve")),
       button("Reject", () => moderate(item.id, "reject")),
+      preview(item),
     );
     return li;
   }));
+}
+
+/** What the public screen would show: the publication's HTML as the server rendered it
+ * (escaped), in a frame sandboxed without any permission: no script runs there, no
+ * form sends, and it cannot reach this page or its session. */
+function preview(item) {
+  const frame = document.createElement("iframe");
+  frame.className = "preview";
+  frame.title = `Preview: ${item.title}`;
+  frame.setAttribute("sandbox", "");
+  frame.setAttribute("referrerpolicy", "no-referrer");
+  frame.srcdoc = "<!doctype html><meta charset=utf-8>"
+    + `<link rel="stylesheet" href="${location.origin}/static/css/tagwall.css">`
+    + `<body class="preview">${item.html}</body>`;
+  return frame;
 }
 
 // Apply times relative to the earliest tile at the wall's version: how in step they are.

@@ -55,6 +55,29 @@ def test_urls_prints_dashboard_overview_and_tiles(env: dict[str, str]) -> None:
     assert out.count("/tile/") == 6
 
 
+@pytest.mark.parametrize("command", ["urls", "tiles"])
+def test_links_from_a_folder_without_an_installation_are_refused(
+    env: dict[str, str], tmp_path: Path, command: str
+) -> None:
+    """Issue 31: `tagwall urls` with another TAGWALL_VAR_DIR printed links of a secret it
+    had just made up there (no server answers them) and created the folder."""
+    elsewhere = tmp_path / "elsewhere"
+    bare = {
+        **env,
+        "TAGWALL_VAR_DIR": str(elsewhere),
+        "TAGWALL_SECRET_KEY": "",
+        "TAGWALL_DATABASE_URL": "",
+    }
+    code, out, err = run(bare, command)
+    assert code == 2 and out == ""
+    assert err.splitlines() == [
+        f"error: there is no tagwall installation in {elsewhere} (no secret_key and no"
+        " tagwall.db there): point TAGWALL_VAR_DIR at the installation's folder, or start"
+        " one there with `tagwall serve`"
+    ]
+    assert not elsewhere.exists(), "nothing was created"
+
+
 def test_config_check_accepts_shipped_walls(env: dict[str, str]) -> None:
     files = sorted(str(p) for p in (CONTENT_DIR / "walls").glob("*.toml"))
     code, out, _ = run(env, "config", "check", *files)

@@ -120,9 +120,10 @@ def urls(env: dict[str, str]) -> str:
 
 
 @pytest.fixture
-def env(tmp_path: Path) -> dict[str, str]:
+def env(tmp_path: Path, database_url: str) -> dict[str, str]:
     return {
         "TAGWALL_VAR_DIR": str(tmp_path / "var"),
+        "TAGWALL_DATABASE_URL": database_url,  # an installation's: `urls` reads its tokens
         "TAGWALL_SECRET_KEY": TEST_SECRET,
         "TAGWALL_PORT": "8111",
         "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),

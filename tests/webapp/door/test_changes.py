@@ -136,6 +136,45 @@ async def test_a_new_view_moves_the_codes_with_it(services: Services) -> None:
     assert x == pytest.approx(wall.stage.x + 0.25 * wall.stage.width)
 
 
+async def test_an_app_coming_on_starts_from_the_default_view(services: Services) -> None:
+    """Issue 31: the census came on at the brain's zoom 1.75 and covered the
+    registration and public screens until someone pressed "whole map"."""
+    wall = wall_of(services)
+    await services.change_wall(wall, to_marker)
+    zoomed = View(center=(0.3, 0.6), zoom=1.75)
+    await services.change_wall(wall, lambda s: s.model_copy(update={"view": zoomed}))
+    change = await services.change_wall(wall, lambda s: s.model_copy(update={"app": "pattern"}))
+    assert change is not None and "view" in change.changes
+    assert read_state(services.db, WALL)[1].view == View()
+    await services.change_wall(wall, lambda s: s.model_copy(update={"view": zoomed}))
+    await services.change_wall(wall, to_marker)
+    _, state = read_state(services.db, WALL)
+    assert state.view == View()
+    assert marker_anchor(services, state) == pytest.approx(wall.stage.center), (
+        "the codes of the app coming on are placed for its own view"
+    )
+
+
+async def test_a_switch_that_names_a_view_keeps_it(services: Services) -> None:
+    wall = wall_of(services)
+    await services.change_wall(wall, looking_at(0.5, 0.5))
+    named = View(center=(0.25, 0.5), zoom=2.0)
+    await services.change_wall(
+        wall, lambda s: s.model_copy(update={"app": "marker", "view": named})
+    )
+    assert read_state(services.db, WALL)[1].view == named
+
+
+async def test_a_start_keeps_the_view_an_instructor_chose(services: Services) -> None:
+    """``settle`` runs at every start too: the pan stays there."""
+    wall = wall_of(services)
+    await services.change_wall(wall, to_marker)
+    panned = View(center=(0.3, 0.6), zoom=1.75)
+    await services.change_wall(wall, lambda s: s.model_copy(update={"view": panned}))
+    await services.door.open(wall)
+    assert read_state(services.db, WALL)[1].view == panned
+
+
 async def test_scans_see_codes_that_came_with_a_change_at_once(services: Services) -> None:
     """The scan path's cache is dropped by the door: a code that just came on the wall
     resolves as live without waiting for the cache to expire."""

@@ -67,7 +67,7 @@ class BrainApp(Atlas):
         return settled
 
     def leave(self, state: WallState) -> WallState:
-        """The brain's volume goes with it (its view and quiz round stay for its return)."""
+        """The brain's volume goes with it (its quiz round stays for its return)."""
         return state.model_copy(update={"volume": None})
 
     async def on_scan(self, scan: Scan) -> Response:

@@ -17,7 +17,9 @@ from webapp.apps.census_map.earth import (
     MAX_REFRESH_S,
     MIN_FOV,
     MIN_REFRESH_S,
+    EarthBase,
     EarthOptions,
+    base_signature,
     opener_kml,
     opener_url,
     screen_role,
@@ -96,6 +98,11 @@ def census_import(
     click.echo(_switch_census_map(settings, report.dataset_id))
 
 
+# Connecting is quick or fails at once (no server); switching the map loads the data set
+# and places codes on every wall that shows it, which a busy machine takes a while over.
+SWITCH_TIMEOUT = httpx.Timeout(60.0, connect=5.0)
+
+
 def _switch_census_map(settings: Settings, dataset_id: int) -> str:
     """Ask a running server to show the new data set now; what happened, as a line.
     The import already made it current, so a server that is down shows it at start."""
@@ -106,12 +113,21 @@ def _switch_census_map(settings: Settings, dataset_id: int) -> str:
             url,
             json={"dataset": dataset_id},
             headers={"Authorization": f"Bearer {token}"},
-            timeout=5,
+            timeout=SWITCH_TIMEOUT,
         )
-    except (httpx.ConnectError, httpx.TimeoutException):
+    except (httpx.ConnectError, httpx.ConnectTimeout):
         return (
             f"the server ({settings.local_url}) is not reachable; "
             f"the map switches to data set {dataset_id} when it next starts"
+        )
+    except httpx.TimeoutException:
+        # It took the request and is still at it (a busy machine loads the data set and
+        # places codes on every wall showing the map): the switch may yet happen.
+        return (
+            f"the server ({settings.local_url}) is busy: it took the request but did not "
+            f"answer within {SWITCH_TIMEOUT.read:g} s, so it may still be switching the map; "
+            f"data set {dataset_id} is imported and current either way (the dashboard shows "
+            f"which the map shows; a restart shows it)"
         )
     except httpx.HTTPError as error:
         return (
@@ -204,6 +220,11 @@ def earth(
     if not base.startswith(("http://", "https://")):
         fail(f"--base-url must be an http:// or https:// URL, not {base!r}")
     options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
+    public = settings.resolved_public_base_url
+    # Another base than the public one is signed, so the server names URLs on it.
+    earth_base = EarthBase(base)
+    if base != public:
+        earth_base = EarthBase(base, base_signature(settings.resolved_secret_key, base))
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
     width = max(len(d.id) for d in wall.displays)
@@ -214,8 +235,8 @@ def earth(
             what = f"(the {role} screen: a browser tile, see `tagwall tiles`)"
         elif out is not None:
             path = out / f"{display.id}.kml"
-            path.write_text(opener_kml(base, wall, display.id, options))
+            path.write_text(opener_kml(earth_base, wall, display.id, options))
             what = str(path)
         else:
-            what = opener_url(base, wall.id, display.id, options)
+            what = opener_url(earth_base, wall.id, display.id, options)
         click.echo(f"{display.id:<{width}}  {what}")

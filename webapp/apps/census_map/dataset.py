@@ -108,6 +108,10 @@ class DataSetSettings(BaseModel):
     charts: list[Chart] = Field(default_factory=list, max_length=8)
     groups: Grouping = Field(default_factory=Grouping)
     counties: dict[str, str] = Field(default_factory=dict)  # county FIPS (5 digits) -> name
+    # The text column whose values name the tracts ("Foggy Bottom"); an import reads it
+    # into ``names`` (tract key -> name). Without it an import takes NAME when that is text.
+    name_column: str | None = Field(default=None, min_length=1, max_length=64)
+    names: dict[str, str] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _known_keys(self) -> DataSetSettings:
@@ -151,6 +155,7 @@ class Tract:
     county: str  # county FIPS, or "" when the key is not a census GEOID
     shape: Polygon | MultiPolygon  # longitude/latitude
     values: dict[str, Value]
+    name: str = ""  # its name in the data set's name column ("Foggy Bottom"), if any
 
     @property
     def base_number(self) -> int:
@@ -192,7 +197,12 @@ class DataSet:
         return self.settings.counties.get(tract.county, tract.county)
 
     def tract_title(self, tract: Tract) -> str:
-        """How pages, balloons and KML name a tract: "Tract 220.01, Placer"."""
+        """How pages, balloons and KML name a tract: "Tract 220.01, Placer"; by its name
+        where the data set gives one ("Foggy Bottom", with the county's name when the
+        data set names counties and the name does not)."""
+        if tract.name:
+            county = self.settings.counties.get(tract.county, "")
+            return f"{tract.name}, {county}" if county and county not in tract.name else tract.name
         county = self.county_name(tract)
         return f"Tract {tract.label}, {county}" if county else f"Tract {tract.label}"
 
@@ -292,7 +302,7 @@ def make_groups(tracts: Sequence[Tract], settings: DataSetSettings) -> list[Grou
     groups = []
     for low, high in ranges:
         members = frozenset(t.geoid for t in tracts if low <= t.base_number <= high)
-        name = f"{low:04d}-{high:04d}"
+        name = f"{low:04d}-{high:04d}" if high != low else f"{low:04d}"  # not "0003-0003"
         groups.append(Group(f"tracts-{low:04d}-{high:04d}", name, members))
     leftover = frozenset(t.geoid for t in tracts) - {g for group in groups for g in group.geoids}
     if leftover:

@@ -25,8 +25,10 @@ Style but not ``Create`` one, so every id a theme may need is there from the sta
 
 Google Earth applies an ``Update`` only to a file a NetworkLink loaded, found by the
 exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url`), on
-the server address Earth fetched the wall document from, which is the one the opener
-named for both links.
+the base URL the opener named for both links: the public base URL
+(``TAGWALL_PUBLIC_BASE_URL``), or the one ``tagwall earth --base-url`` gave, which the
+opener's links carry with the server's signature (:class:`EarthBase`); never on the
+Host header of a request, which whoever sends it chooses.
 
 Views: Google Earth looks straight down (heading 0, tilt 0) at the middle of the
 display's rectangle of the map, from the height at which its horizontal field of view
@@ -37,6 +39,8 @@ percent of a display (the tests measure it).
 
 from __future__ import annotations
 
+import hashlib
+import hmac
 import io
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
@@ -112,20 +116,56 @@ def screen_role(wall: Wall, display_id: str) -> str | None:
     return next((role for role, ids in wall.screens.items() if display_id in ids), None)
 
 
+@dataclass(frozen=True)
+class EarthBase:
+    """Where Google Earth reaches this server: ``url``, and ``signature`` when it is not
+    the public base URL (``tagwall earth --base-url``): links carry the URL with its
+    signature, so the server names URLs on it only where the operator chose it."""
+
+    url: str
+    signature: str | None = None
+
+    @classmethod
+    def of_request(
+        cls, secret: str, public: str, url: str | None, signature: str | None
+    ) -> EarthBase | None:
+        """The base a link named (``url`` and ``signature`` from its query), the public
+        base when it named none; None when its signature is not this server's."""
+        if url is None and signature is None:
+            return cls(public)
+        if url is None or signature is None:
+            return None
+        if not hmac.compare_digest(signature, base_signature(secret, url)):
+            return None
+        return cls(url, signature)
+
+    def query(self) -> dict[str, str]:
+        return {"base": self.url, "sig": self.signature} if self.signature else {}
+
+
+def base_signature(secret: str, url: str) -> str:
+    return hmac.new(secret.encode(), f"earth-base:{url}".encode(), hashlib.sha256).hexdigest()[:32]
+
+
 def map_url(base_url: str, wall_id: str) -> str:
     return f"{base_url}{PREFIX}/{quote(wall_id)}/map.kmz"
 
 
-def opener_url(base_url: str, wall_id: str, display_id: str, options: EarthOptions) -> str:
+def opener_url(base: EarthBase, wall_id: str, display_id: str, options: EarthOptions) -> str:
     query = urlencode(
-        {"fov": f"{options.fov:g}", "refresh": options.refresh, "map_refresh": options.map_refresh}
+        {
+            "fov": f"{options.fov:g}",
+            "refresh": options.refresh,
+            "map_refresh": options.map_refresh,
+            **base.query(),
+        }
     )
-    return f"{base_url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml?{query}"
+    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml?{query}"
 
 
-def wall_document_url(base_url: str, wall_id: str, display_id: str, fov: float) -> str:
-    query = urlencode({"fov": f"{fov:g}"})
-    return f"{base_url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml?{query}"
+def wall_document_url(base: EarthBase, wall_id: str, display_id: str, fov: float) -> str:
+    query = urlencode({"fov": f"{fov:g}", **base.query()})
+    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml?{query}"
 
 
 def code_image_url(base_url: str, code: PlacedCode) -> str:
@@ -352,8 +392,8 @@ def display_document(
     display's Earth's cookie says what it shows: ``opened``, the balloon it opened last
     (closed unless still the one to show), and ``coloured``, the key of its colouring
     (``shading_of`` colours the data set by that key's theme, to change only what
-    differs). ``base_url`` is where Earth reaches this server, so ``targetHref`` is the
-    very URL it loaded the map from."""
+    differs). ``base_url`` is the base the opener named the map by (the public base
+    URL, or a signed one), so ``targetHref`` is the very URL Earth loaded the map from."""
     balloons = state.balloons if on_wall else []
     closing = {b.id.removeprefix("tract-") for b in balloons} | ({opened} if opened else set())
     record = get_layout(db, wall.id, state.tag_layout) if on_wall and state.tag_layout else None
@@ -373,7 +413,7 @@ def display_document(
     )
 
 
-def opener_kml(base_url: str, wall: Wall, display_id: str, options: EarthOptions) -> str:
+def opener_kml(base: EarthBase, wall: Wall, display_id: str, options: EarthOptions) -> str:
     """What the Earth instance on ``display_id`` opens (once, by hand or at start): the
     map and the display's wall document as network links."""
     root = _kml()
@@ -390,11 +430,11 @@ def opener_kml(base_url: str, wall: Wall, display_id: str, options: EarthOptions
     _add(the_map, "name", "Census map")
     _add(the_map, "refreshVisibility", 1)  # the refreshed map's groups, not the user's ticks
     _add(the_map, "flyToView", 0)
-    _link(the_map, map_url(base_url, wall.id), options.map_refresh)
+    _link(the_map, map_url(base.url, wall.id), options.map_refresh)
     state = _add(document, "NetworkLink")
     _add(state, "name", "The wall: view, groups, balloon, colours, codes")
     _add(state, "flyToView", 1)  # to the NetworkLinkControl's view, on every fetch
-    _link(state, wall_document_url(base_url, wall.id, display_id, options.fov), options.refresh)
+    _link(state, wall_document_url(base, wall.id, display_id, options.fov), options.refresh)
     return _text(root)
 
 

@@ -42,6 +42,10 @@ PROJECTED = re.compile(r'^\s*PROJ(?:CS|CRS)\s*\[\s*"([^"]*)"', re.IGNORECASE)
 SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
 GEOJSON_SUFFIXES = (".geojson", ".json")
 NAME_LENGTH = 64  # census_datasets.name
+# The text column taken for the tracts' names when the settings name none (a GeoJSON's
+# or CSV's NAME: "Foggy Bottom"); a Census Bureau table's NAME names counties instead.
+NAME_COLUMNS = ("NAME",)
+TRACT_NAME_LENGTH = 120
 
 
 class CensusImportError(Exception):
@@ -62,6 +66,8 @@ class ImportReport:
     skipped: tuple[tuple[str, str], ...]  # (key, why the tract was left out)
     ignored_columns: tuple[str, ...] = ()  # not numeric, so not attributes
     margins: tuple[str, ...] = ()  # columns stored as attributes' margins of error
+    name_column: str | None = None  # the text column the tracts' names came from
+    named: int = 0  # how many tracts it named
 
     def lines(self) -> list[str]:
         """The summary a person reads: counts first, then the keys behind each problem."""
@@ -75,6 +81,10 @@ class ImportReport:
         ]
         if self.margins:
             lines.append(f"margins of error: {listed(self.margins)}")
+        if self.name_column:
+            lines.append(
+                f"tract names: {self.name_column} ({self.named} of {self.tracts} tracts named)"
+            )
         if self.ignored_columns:
             lines.append(f"left out, not numeric: {listed(self.ignored_columns)}")
         return lines + problem_lines(
@@ -159,6 +169,11 @@ def import_files(
         raise CensusImportError(f"no numeric columns to show besides {key!r}")
     chosen = chosen or _generated_settings(table.title or shapes.stem, attributes, table)
     _require_known_attributes(chosen, attributes, margins, settings_file)
+    stored_keys = {row.geoid for row in rows}
+    name_column = _name_column(chosen, table, joined, attributes, settings_file)
+    names = _tract_names(name_column, [f for f in joined if f.key in stored_keys], records)
+    if name_column:
+        chosen = chosen.model_copy(update={"name_column": name_column, "names": names})
     source = " + ".join(p.name for p in (shapes, *tables))
     dataset_id = store.save(db, name, chosen, rows, source=source)
     return ImportReport(
@@ -171,10 +186,81 @@ def import_files(
         repaired=tuple(repaired),
         skipped=tuple(skipped),
         ignored_columns=tuple(
-            [*table.left_out, *(c for c in table.columns if c not in attributes)]
+            [
+                *table.left_out,
+                *(c for c in table.columns if c not in attributes and c != name_column),
+            ]
         ),
         margins=tuple(margins),
+        name_column=(
+            name_column
+            if name_column is None or name_column in table.columns
+            else f"{name_column} of the shapes"
+        ),
+        named=len(names),
     )
+
+
+def _name_column(
+    chosen: DataSetSettings,
+    table: _Table,
+    joined: Sequence[_Feature],
+    attributes: Sequence[str],
+    settings_file: Path | None,
+) -> str | None:
+    """The column that names the tracts: the settings' ``name_column`` (which the data
+    must have), else the first of :data:`NAME_COLUMNS` that holds text, else none."""
+    columns = list(dict.fromkeys([*table.columns, *(c for f in joined for c in f.properties)]))
+    if chosen.name_column:
+        if chosen.name_column not in columns:
+            raise CensusImportError(
+                f"{settings_file or 'the settings'} names the tracts by column "
+                f"{chosen.name_column!r}, which the data lack (columns: {listed(columns)})"
+            )
+        return chosen.name_column
+    return next(
+        (
+            c
+            for c in NAME_COLUMNS
+            if c in columns and c not in attributes and _holds_text(c, joined, table.records)
+        ),
+        None,
+    )
+
+
+def _holds_text(
+    column: str, features: Sequence[_Feature], records: Mapping[str, Mapping[str, Any]]
+) -> bool:
+    """Whether ``column`` holds text, not only numbers (TIGER/Line's NAME is the tract
+    number, "220.01": no name)."""
+    for feature in features:
+        try:
+            _number(_cell(column, feature, records))
+        except ValueError:
+            return True
+    return False
+
+
+def _cell(column: str, feature: _Feature, records: Mapping[str, Mapping[str, Any]]) -> Any:
+    """``column`` of a tract: the table's, else the shape's own."""
+    record = records.get(feature.key, {})
+    return record[column] if column in record else feature.properties.get(column)
+
+
+def _tract_names(
+    column: str | None, features: Sequence[_Feature], records: Mapping[str, Mapping[str, Any]]
+) -> dict[str, str]:
+    """Each tract's name in ``column`` (the table's, else the shape's own), by key;
+    tracts whose cell is empty go unnamed."""
+    if column is None:
+        return {}
+    names = {}
+    for feature in features:
+        raw = _cell(column, feature, records)
+        text = " ".join(str(raw).split()) if raw is not None else ""
+        if text:
+            names[feature.key] = text[:TRACT_NAME_LENGTH]
+    return names
 
 
 @dataclass

@@ -152,6 +152,7 @@ def load(db: Database, dataset_id: int) -> DataSet | None:
                 county=county_of(row.geoid),
                 shape=shape(row.geometry),
                 values=settings.clean(row.values),
+                name=settings.names.get(row.geoid, ""),
             )
             for row in rows
         )

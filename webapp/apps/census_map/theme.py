@@ -135,6 +135,18 @@ def shade(dataset: DataSet, theme: Theme) -> Shading:
     )
 
 
+def in_sentence(label: str) -> str:
+    """``label`` inside a sentence: a first word written as an ordinary capitalised word
+    ("Median income") starts lower-case; any other keeps its case, so a column's code
+    ("ENROLL"), an acronym ("ACS estimate") or a word with capitals inside ("iPhone
+    owners", "McDonald") reads as the data set names it."""
+    first = label.split(maxsplit=1)[0] if label.strip() else ""
+    if first[:1].isupper() and first[1:] == first[1:].lower():
+        stripped = label.lstrip()
+        return stripped[:1].lower() + stripped[1:]
+    return label
+
+
 def describe(shading: Shading, tract: Tract, info_class: int) -> list[str]:
     """Where the tract stands on the wall's colouring, in words for ``info_class``:
     groups and "more than" for the youngest, classes, ranks and the median from the
@@ -143,7 +155,9 @@ def describe(shading: Shading, tract: Tract, info_class: int) -> list[str]:
     label = shading.attribute.label
     standing = shading.standing(tract)
     if standing is None:
-        return [f"This tract has no value for {label.lower()}, so the wall shows it striped grey."]
+        return [
+            f"This tract has no value for {in_sentence(label)}, so the wall shows it striped grey."
+        ]
     group, groups = standing.band + 1, standing.bands
     value = format_value(shading.attribute, standing.value)
     median = format_value(shading.attribute, standing.median)
@@ -151,7 +165,7 @@ def describe(shading: Shading, tract: Tract, info_class: int) -> list[str]:
         return [
             f"On the wall this tract is in colour group {group} of {groups}:"
             f" group 1 has the least, group {groups} the most.",
-            f"Its {label[:1].lower()}{label[1:]} is bigger than in {standing.below}"
+            f"Its {in_sentence(label)} is bigger than in {standing.below}"
             f" of the {standing.of} tracts.",
         ]
     if info_class == 2:

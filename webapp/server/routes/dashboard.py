@@ -17,6 +17,7 @@ from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.bus.base import BusUnavailable, SubscriberTooSlow, Subscription
 from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TRY_AGAIN, DashboardStatus
+from webapp.engine.wall_state import read_state
 from webapp.people.accounts import AccountError, add_account, list_accounts, remove_account
 from webapp.people.address_rules import RuleError, add_rule, list_rules, remove_rule
 from webapp.people.addresses import address_of
@@ -54,7 +55,10 @@ def dashboard_page(
     current = services.walls.get(wall or "") or services.walls.get(services.settings.default_wall)
     current = current or walls[0]
     apps = list(services.wall_apps.values())
-    panels = [panel for app in apps if (panel := app.dashboard_panel(current))]
+    # Every app's panel is on the page; only the one of the app on the wall shows (the
+    # page follows switches), so an app's panel never speaks while another is up.
+    panels = [(app.name, panel) for app in apps if (panel := app.dashboard_panel(current))]
+    _, state = read_state(services.db, current.id)
     return render(
         request,
         "dashboard.html",
@@ -62,6 +66,7 @@ def dashboard_page(
         wall=current,
         apps=apps,
         panels=panels,
+        shown_app=state.app,
         wall_json=WallInfo.of(current).model_dump_json(),
         tile_urls={d.id: services.tile_url(current.id, d.id) for d in current.displays},
     )

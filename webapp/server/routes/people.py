@@ -13,6 +13,7 @@ from webapp.people.accounts import authenticate
 from webapp.people.audit import audit
 from webapp.people.person import (
     GROUP_LABELS,
+    Person,
     grant,
     plain_text,
     remember_person,
@@ -22,6 +23,7 @@ from webapp.people.person import (
 from webapp.people.ratelimit import retry_after_s
 from webapp.people.security import token_matches
 from webapp.people.signin import DEVICE_COOKIE, Attempt, device_cookie, device_of
+from webapp.publishing.screen import OUTCOMES, own
 from webapp.server.deps import ServicesDep
 from webapp.server.services import Services
 from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep
@@ -147,9 +149,20 @@ async def logout(
     return RedirectResponse("/", status.HTTP_303_SEE_OTHER)
 
 
+async def _profile(
+    request: Request, person: Person, services: Services, *, saved: bool
+) -> HTMLResponse:
+    """The profile page, with what became of the visitor's latest publications (a
+    student learns there that the instructor declined one)."""
+    published = await run_blocking(own, services.db, person.visitor.id)
+    return render(
+        request, "me.html", groups=GROUP_LABELS, saved=saved, published=published, outcomes=OUTCOMES
+    )
+
+
 @router.get("/me")
-async def profile_page(request: Request, person: PersonDep) -> HTMLResponse:
-    return render(request, "me.html", groups=GROUP_LABELS, saved=False)
+async def profile_page(request: Request, person: PersonDep, services: ServicesDep) -> HTMLResponse:
+    return await _profile(request, person, services, saved=False)
 
 
 @router.post("/me", dependencies=[CsrfDep])
@@ -180,4 +193,4 @@ async def change_profile(
         )
     )
     remember_person(request, changed)
-    return render(request, "me.html", groups=GROUP_LABELS, saved=True)
+    return await _profile(request, changed, services, saved=True)

@@ -65,7 +65,8 @@ def test_an_acs_table_imports_with_labels_margins_and_symbols(db: Database, tmp_
     )
     assert report.attributes == ("B19013_001E", "B25077_001E")
     assert report.margins == ("B19013_001M", "B25077_001M")
-    assert report.ignored_columns == ("NAME",)
+    assert report.ignored_columns == ("NAME",)  # the table's; the shapes' names the tracts
+    assert "tract names: NAME of the shapes (3 of 3 tracts named)" in report.lines()
     assert not report.unmatched_rows and not report.unmatched_shapes  # GEO_ID joins GEOID
     assert "margins of error: B19013_001M, B25077_001M" in report.lines()
     dataset = store.load(db, report.dataset_id)
@@ -83,7 +84,8 @@ def test_an_acs_table_imports_with_labels_margins_and_symbols(db: Database, tmp_
     assert settings.headline == ["B19013_001E", "B25077_001E"]
     assert settings.counties == {"06067": "Sacramento County"}  # from NAME
     one, two, three = dataset.tracts
-    assert dataset.tract_title(one) == "Tract 1, Sacramento County"
+    # the shapes' text NAME ("Census Tract 1"; TIGER/Line's is the number "1", no name)
+    assert dataset.tract_title(one) == "Census Tract 1, Sacramento County"
     assert one.values == {
         "B19013_001E": 52941,
         "B19013_001M": 6123,

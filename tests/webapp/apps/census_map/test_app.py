@@ -13,7 +13,13 @@ from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
 from tests.webapp.apps.census_map.test_acs import INCOME, VALUE, downloaded
-from tests.webapp.apps.census_map.test_importer import write_shapefile
+from tests.webapp.apps.census_map.test_importer import (
+    DC,
+    polygon,
+    square,
+    write_geojson,
+    write_shapefile,
+)
 from wall_client.layout import Rect
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import projection, shown_area
@@ -454,6 +460,31 @@ def test_the_index_lists_every_tract_by_group(client: TestClient) -> None:
     page = client.get("/apps/census/demo/tracts").text
     assert page.count("/apps/census/demo/tracts/06") == 403
     assert page.count('class="tract-group"') == 10
+
+
+def test_the_index_names_tracts_by_their_name_and_counts_one_tract_as_one(
+    client: TestClient, tmp_path: Path
+) -> None:
+    """Issue 31: a GeoJSON's text NAME was dropped, so the index read "Tract 3, 11001",
+    and a group of one read "0003-0003 · 1 tracts"."""
+    import_files(
+        services_of(client).db,
+        shapes=write_geojson(
+            tmp_path / "dc.geojson",
+            [
+                (key, polygon(square(i)), {"ENROLL": 10 * (i + 1), "NAME": name})
+                for i, (key, name) in enumerate(
+                    zip(DC, ("Foggy Bottom", "Dupont", "Shaw"), strict=True)
+                )
+            ],
+        ),
+        key="GEOID",
+    )
+    show_census(client)
+    page = client.get("/apps/census/demo/tracts").text
+    assert ">Foggy Bottom</a>" in page and "Tract 3, 11001" not in page
+    assert "<summary>0003 · 1 tract</summary>" in page and "1 tracts" not in page
+    assert "3 tracts in 3 groups" in page
 
 
 def test_pages_say_when_the_map_is_not_on_the_wall(client: TestClient) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import socket
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlencode
 
 import httpx
 import pytest
@@ -15,6 +16,7 @@ from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
 from tests.webapp.apps.census_map.test_importer import three_tracts
 from webapp.apps.census_map import store
+from webapp.apps.census_map.earth import base_signature
 from webapp.cli.commands import main
 from webapp.database.connection import Database
 from webapp.people.security import operator_token
@@ -174,8 +176,41 @@ def test_import_asks_a_running_server_to_switch_the_map(
     assert code == 0 and out.splitlines()[-1].endswith(said)
     ((url, kwargs),) = sent
     assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/census/current"
-    assert kwargs["json"] == {"dataset": 1} and kwargs["timeout"] == 5
+    assert kwargs["json"] == {"dataset": 1}
+    assert kwargs["timeout"] == httpx.Timeout(60.0, connect=5.0)
     assert kwargs["headers"] == {"Authorization": f"Bearer {operator_token(TEST_SECRET)}"}
+
+
+@pytest.mark.parametrize(
+    "error,said",
+    [
+        (
+            httpx.ReadTimeout("timed out"),
+            "is busy: it took the request but did not answer within 60 s, so it may still be "
+            "switching the map; data set 1 is imported and current either way",
+        ),
+        (httpx.ConnectError("refused"), "is not reachable; the map switches to data set 1"),
+        (httpx.ConnectTimeout("timed out"), "is not reachable; the map switches to data set 1"),
+    ],
+)
+def test_a_busy_server_is_told_from_one_that_is_not_there(
+    env: dict[str, str],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    error: httpx.HTTPError,
+    said: str,
+) -> None:
+    """Issue 31: a request that timed out on a busy machine read "the server is not
+    reachable", though the server had switched the map."""
+
+    def post(url: str, **kwargs: Any) -> httpx.Response:
+        raise error
+
+    monkeypatch.setattr(httpx, "post", post)
+    shapes = three_tracts(tmp_path / "tracts.geojson")
+    code, out, err = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
+    assert code == 0 and said in out.splitlines()[-1], out
+    assert "Traceback" not in out + err
 
 
 def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
@@ -186,8 +221,16 @@ def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
     lines = out.splitlines()
     assert lines[0].split() == ["display", "Google", "Earth", "Pro", "opens"]
     rows = dict(line.split(maxsplit=1) for line in lines[1:])
+    # not the public base URL: the links carry the base with the server's signature
+    signed = urlencode(
+        {
+            "base": "http://wall.example:8000",
+            "sig": base_signature(TEST_SECRET, "http://wall.example:8000"),
+        }
+    )
     assert rows["r2c2"] == (
         "http://wall.example:8000/apps/census/earth/demo/r2c2.kml?fov=45&refresh=2&map_refresh=60"
+        f"&{signed}"
     )
     assert rows["r1c2"] == "(the public screen: a browser tile, see `tagwall tiles`)"
     assert len(rows) == 6

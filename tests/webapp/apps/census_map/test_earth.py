@@ -11,7 +11,7 @@ import zipfile
 from functools import cache
 from itertools import pairwise
 from typing import Any
-from urllib.parse import parse_qsl
+from urllib.parse import parse_qsl, urlsplit
 
 import numpy as np
 import pytest
@@ -38,8 +38,10 @@ from wall_client.layout import Wall
 from webapp.apps.census_map.earth import (
     EARTH_RADIUS_M,
     DisplayView,
+    EarthBase,
     EarthOptions,
     ScreenImage,
+    base_signature,
     colouring,
     colouring_key,
     display_balloon,
@@ -240,7 +242,8 @@ def parsed(text: str) -> Any:
 
 def test_the_opener_links_the_map_and_the_displays_wall_document() -> None:
     wall = wall_named("demo")
-    root = parsed(opener_kml(BASE, wall, "r2c2", EarthOptions(fov=45, refresh=3, map_refresh=90)))
+    options = EarthOptions(fov=45, refresh=3, map_refresh=90)
+    root = parsed(opener_kml(EarthBase(BASE), wall, "r2c2", options))
     the_map, state = root.findall(".//k:NetworkLink", NS)
     assert the_map.findtext("k:Link/k:href", namespaces=NS) == map_url(BASE, "demo")
     assert the_map.findtext("k:Link/k:refreshInterval", namespaces=NS) == "90"
@@ -418,9 +421,9 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     ]
 
     root = wall_document(client, "r2c2", fov=50)
-    # Earth reached the server at the test client's address: the map's URL there
+    # the map's URL exactly as the opener named it
     target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
-    assert target == "http://testserver/apps/census/earth/demo/map.kmz"
+    assert target == hrefs[0]
     dataset = services.apps["census"].datasets.current(services.db)
     expected = display_view(MapGeometry.of(dataset), wall_named("demo"), state.view, "r2c2", 50)
     look_at = root.find("k:NetworkLinkControl/k:LookAt", NS)
@@ -457,6 +460,50 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     other = f"/apps/census/earth/demo/captions/{state.tag_layout}/NOSUCHCODE.png"
     assert client.get(other).status_code == 404
     assert client.get("/apps/census/earth/demo/captions/0/X.png").status_code == 422
+
+
+def test_the_wall_document_names_urls_on_the_public_base_not_the_host_header(
+    client: TestClient,
+) -> None:
+    """Issue 31 (security): ``targetHref`` and the code images were built from the
+    request's Host header, which whoever sends the request chooses."""
+    show_census(client)
+    base = services_of(client).base_url
+    response = client.get(
+        "/apps/census/earth/demo/r2c2/wall.kml",
+        params={"fov": 50},
+        headers={"Host": "evil.example"},
+    )
+    assert response.status_code == 200, response.text
+    text = response.text
+    root = parsed(text)
+    target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
+    assert target == f"{base}/apps/census/earth/demo/map.kmz"
+    hrefs = [h.text for h in root.iterfind(".//k:ScreenOverlay/k:Icon/k:href", NS)]
+    assert hrefs and all(h.startswith(f"{base}/") for h in hrefs)
+    assert "evil.example" not in text
+
+
+def test_a_base_url_the_operator_chose_is_signed_and_followed(client: TestClient) -> None:
+    """`tagwall earth --base-url` names another base than the public one: its links carry
+    it signed, and the server names the map there; a base not signed is refused."""
+    show_census(client)
+    secret = services_of(client).settings.resolved_secret_key
+    chosen = "http://earth.lan:8000"
+    base = EarthBase(chosen, base_signature(secret, chosen))
+    opener = parsed(opener_kml(base, wall_named("demo"), "r2c2", EarthOptions()))
+    _, state = opener.findall(".//k:NetworkLink", NS)
+    link = urlsplit(state.findtext("k:Link/k:href", namespaces=NS))
+    assert link.netloc == "earth.lan:8000"
+    query = dict(parse_qsl(link.query))
+    assert query["base"] == chosen
+    root = wall_document(client, "r2c2", **query)
+    target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
+    assert target == f"{chosen}/apps/census/earth/demo/map.kmz"
+    for forged in ({**query, "base": "http://evil.example"}, {"base": chosen}):
+        response = client.get("/apps/census/earth/demo/r2c2/wall.kml", params=forged)
+        assert response.status_code == 400 and "not signed" in response.text
+        assert "evil.example" not in response.text
 
 
 def test_groups_and_balloons_follow_the_wall(client: TestClient) -> None:

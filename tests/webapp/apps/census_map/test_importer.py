@@ -148,9 +148,11 @@ def test_a_shapefile_joins_a_csv_by_key(db: Database, tmp_path: Path) -> None:
         db, shapes=shapes, key="GEOID", tables=[write_csv(tmp_path / "t.csv", TABLE)]
     )
     assert (report.name, report.tracts, report.attributes) == ("tracts", 3, ("POP", "INCOME"))
-    assert report.ignored_columns == ("NAME",)
+    assert report.ignored_columns == ()  # the text NAME names the tracts
+    assert (report.name_column, report.named) == ("NAME", 3)
     dataset = store.load(db, report.dataset_id)
     assert dataset is not None and dataset.title == "tracts"  # default settings
+    assert [dataset.tract_title(t) for t in dataset.tracts] == ["One", "Two", "Three"]
     values = {t.geoid: t.values for t in dataset.tracts}
     assert values["06067000100"] == {"POP": 1200, "INCOME": 52000.5}
     assert values["06067000200"] == {"POP": 800, "INCOME": None}
@@ -364,6 +366,66 @@ def test_a_failure_inside_the_transaction_changes_nothing(
     assert_only(db, first)
 
 
+DC = ("11001000300", "11001000400", "11001000500")
+
+
+def test_a_geojson_names_its_tracts_by_its_text_name_column(db: Database, tmp_path: Path) -> None:
+    """Issue 31: a GeoJSON's NAME was dropped as "not numeric", so its tracts read
+    "Tract 3, 11001"."""
+    names = ("Foggy Bottom", "Dupont Circle", "")
+    shapes = write_geojson(
+        tmp_path / "dc.geojson",
+        [
+            (key, polygon(square(i)), {"ENROLL": 10 * (i + 1), "NAME": name})
+            for i, (key, name) in enumerate(zip(DC, names, strict=True))
+        ],
+    )
+    report = import_files(db, shapes=shapes, key="GEOID")
+    assert report.attributes == ("ENROLL",) and report.ignored_columns == ()
+    assert "tract names: NAME (2 of 3 tracts named)" in report.lines()
+    assert not any("not numeric" in line for line in report.lines())
+    dataset = store.load(db, report.dataset_id)
+    assert dataset is not None
+    titles = [dataset.tract_title(t) for t in dataset.tracts]
+    assert titles == ["Foggy Bottom", "Dupont Circle", "Tract 5, 11001"]
+
+
+def test_a_name_column_of_numbers_names_no_tract(db: Database, tmp_path: Path) -> None:
+    """TIGER/Line's NAME is the tract number ("220.01"): a value, not a name."""
+    shapes = write_geojson(
+        tmp_path / "tiger.geojson",
+        [(key, polygon(square(i)), {"NAME": f"{i + 1}.01"}) for i, key in enumerate(KEYS)],
+    )
+    report = import_files(db, shapes=shapes, key="GEOID")
+    assert report.name_column is None and report.attributes == ("NAME",)
+    dataset = store.load(db, report.dataset_id)
+    assert dataset is not None and dataset.tract_title(dataset.tracts[0]) == "Tract 1, 06067"
+
+
+def test_settings_choose_the_name_column(db: Database, tmp_path: Path) -> None:
+    shapes = write_geojson(
+        tmp_path / "named.geojson",
+        [
+            (key, polygon(square(i)), {"POP": i, "NAME": "x", "LABEL": f"Ward {i + 1}"})
+            for i, key in enumerate(DC)
+        ],
+    )
+    settings = tmp_path / "settings.toml"
+    settings.write_text(
+        'title = "Wards"\nheadline = ["POP"]\nname_column = "LABEL"\n'
+        '[counties]\n"11001" = "District of Columbia"\n'
+        '[[attributes]]\nkey = "POP"\nlabel = "People"\n'
+    )
+    report = import_files(db, shapes=shapes, key="GEOID", settings=settings)
+    assert report.name_column == "LABEL" and report.ignored_columns == ("NAME",)
+    dataset = store.load(db, report.dataset_id)
+    assert dataset is not None
+    assert dataset.tract_title(dataset.tracts[0]) == "Ward 1, District of Columbia"
+    settings.write_text(settings.read_text().replace('"LABEL"', '"WARD"'))
+    with pytest.raises(CensusImportError, match=r"names the tracts by column 'WARD'"):
+        import_files(db, shapes=shapes, key="GEOID", settings=settings)
+
+
 def test_settings_beside_the_shapes_are_used(db: Database, tmp_path: Path) -> None:
     shapes = three_tracts(tmp_path / "mine.geojson")
     (tmp_path / "mine.toml").write_text(
@@ -399,7 +461,8 @@ def test_a_csv_with_a_bom_and_acs_jam_values(db: Database, tmp_path: Path) -> No
     )
     report = import_files(db, shapes=write_shapefile(tmp_path / "s"), key="GEOID", tables=[table])
     assert report.attributes == ("B01003_001E",)  # the others hold no number at all
-    assert report.ignored_columns == ("NAME", "B19013_001E", "B25077_001E", "NOTE")
+    assert report.ignored_columns == ("B19013_001E", "B25077_001E", "NOTE")
+    assert report.name_column == "NAME"
     dataset = store.load(db, report.dataset_id)
     assert dataset is not None
     assert [t.values for t in dataset.tracts] == [

@@ -10,7 +10,7 @@ import pytest
 
 from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
 from webapp.apps.census_map.dataset import Attribute, DataSet
-from webapp.apps.census_map.theme import describe, kept_theme, shade
+from webapp.apps.census_map.theme import describe, in_sentence, kept_theme, shade
 from webapp.choropleth.classes import Theme
 
 
@@ -72,6 +72,22 @@ def test_the_words_grow_with_the_information_class() -> None:
     assert "%" not in expert
     researcher = " ".join(describe(shading, tract, 5))
     assert "Higher than" in researcher and "Classes by quantiles" in researcher
+
+
+def test_a_label_keeps_its_case_inside_a_sentence() -> None:
+    """Issue 31: a column named ENROLL read "Its eNROLL is bigger than..."."""
+    base = grid_dataset(4, 3)
+    settings = base.settings.model_copy(
+        update={"attributes": [Attribute(key="POP", label="ENROLL"), *base.settings.attributes[1:]]}
+    )
+    dataset = DataSet(id=1, name="grid", settings=settings, tracts=base.tracts)
+    shading = shade(dataset, Theme(attribute="POP", classes=3))
+    words = " ".join(describe(shading, dataset.tracts[5], 1))
+    assert "Its ENROLL is bigger than in" in words
+    assert in_sentence("Median household income") == "median household income"
+    assert in_sentence("ACS estimate of people") == "ACS estimate of people"
+    assert in_sentence("McDonald's outlets") == "McDonald's outlets"
+    assert in_sentence("iPhone owners") == "iPhone owners"
 
 
 def test_a_researcher_reads_which_classes_the_margin_of_error_reaches() -> None:

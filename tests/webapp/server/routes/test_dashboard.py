@@ -3,6 +3,7 @@ socket, which closes when its instructor's authority ends."""
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -25,6 +26,17 @@ def test_the_dashboard_includes_each_apps_panel(client: TestClient) -> None:
     assert "Test pattern" in page and "/static/apps/pattern/panel.js" in page
     assert "Pair a phone" in page and "Public screen" in page
     assert "Accounts and address rules" not in page  # instructors are not admins
+
+
+def test_only_the_panel_of_the_app_on_the_wall_shows(client: TestClient) -> None:
+    """Issue 31: every app's panel showed at once (the census panel said "none yet"
+    while the brain was on the wall)."""
+    sign_in(client, "instructor")
+    page = client.get("/dashboard").text
+    shown = re.findall(r'<div class="app-panel" data-app-panel="(\w+)">', page)
+    hidden = re.findall(r'<div class="app-panel" data-app-panel="(\w+)" hidden>', page)
+    assert shown == ["pattern"]  # the first app on the demo wall
+    assert {"census", "brain"} <= set(hidden) and "pattern" not in hidden
 
 
 def test_admins_add_and_remove_accounts(client: TestClient) -> None:

@@ -86,6 +86,31 @@ def test_moderation_holds_students_until_approved(client: TestClient) -> None:
         assert public_item(client).title == "Display r2c3"  # type: ignore[attr-defined]
 
 
+def test_a_student_learns_on_their_page_that_a_publication_was_declined(
+    client: TestClient,
+) -> None:
+    """Issue 31: a student was never told that the instructor rejected their
+    publication."""
+    with TestClient(client.app) as instructor:  # type: ignore[arg-type]
+        sign_in(instructor, "instructor")
+        headers = {"X-CSRF-Token": csrf_of(instructor)}
+        instructor.put(
+            "/api/walls/demo/public/policy",
+            json={"moderated": True, "locked": False},
+            headers=headers,
+        )
+        register_student(client)
+        sent = publish(client, setup_code(client))
+        assert 'href="/me#published"' in sent.text  # type: ignore[attr-defined]
+        me = client.get("/me").text
+        assert "Display r2c2: waiting for the instructor to look at it" in me
+        (queued,) = instructor.get("/api/walls/demo/public").json()["waiting"]
+        instructor.post(f"/api/walls/demo/public/{queued['id']}/reject", headers=headers)
+        me = client.get("/me").text
+        assert "Display r2c2: not shown: the instructor declined it" in me
+        assert "Display r2c2" not in TestClient(client.app).get("/me").text, "only its author"
+
+
 def test_a_locked_screen_refuses_students_not_instructors(client: TestClient) -> None:
     with TestClient(client.app) as instructor:  # type: ignore[arg-type]
         sign_in(instructor, "instructor")

@@ -13,9 +13,10 @@ const REVEAL_HINTS = {
 let state = null;
 let fetchedAt = 0;
 
-function cell(text) {
+function cell(text, label) {
   const td = document.createElement("td");
   td.textContent = text;
+  td.dataset.label = label;  // a phone shows it before the value (table.stacked)
   return td;
 }
 
@@ -44,7 +45,10 @@ function showRound(status) {
     const tr = document.createElement("tr");
     const share = r.share_correct == null ? "–" : `${Math.round(100 * r.share_correct)} %`;
     const wrong = r.common_wrong.map(([text, count]) => `${text} (${count})`).join(", ");
-    tr.append(cell(r.pin), cell(r.name), cell(r.answered), cell(share), cell(wrong || "–"));
+    tr.append(
+      cell(r.pin, "Pin"), cell(r.name, "Region"), cell(r.answered, "Answered"),
+      cell(share, "Correct"), cell(wrong || "–", "Common wrong answers"),
+    );
     return tr;
   }));
 }

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 from functools import partial
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, HTTPException, Query, Response, status
 
 from wall_client.layout import Wall
 from webapp.apps.census_map.actions import (
@@ -22,6 +22,7 @@ from webapp.apps.census_map.earth import (
     MAX_REFRESH_S,
     MIN_FOV,
     MIN_REFRESH_S,
+    EarthBase,
     EarthOptions,
     caption_png,
     display_document,
@@ -209,6 +210,27 @@ OpenedQuery = Annotated[str | None, Query(alias="open", max_length=64)]
 ColouredQuery = Annotated[str | None, Query(alias="theme", max_length=128)]
 
 
+BaseQuery = Annotated[str | None, Query(max_length=500)]
+
+
+SignatureQuery = Annotated[str | None, Query(alias="sig", max_length=64)]
+
+
+def _earth_base(context: AppContext, url: str | None, signature: str | None) -> EarthBase:
+    """The base URL a link named: the public base URL, or one `tagwall earth --base-url`
+    signed; never the request's Host header."""
+    base = EarthBase.of_request(
+        context.settings.resolved_secret_key, context.base_url, url, signature
+    )
+    if base is None:
+        raise HTTPException(
+            status.HTTP_400_BAD_REQUEST,
+            "This link's base URL is not signed by this server: "
+            "write the Earth files again with `tagwall earth`.",
+        )
+    return base
+
+
 def _earth_display(wall: Wall, display_id: str) -> None:
     """404 unless ``display_id`` is one of the wall's displays Google Earth can drive."""
     if display_id not in {d.id for d in earth_displays(wall)}:
@@ -240,12 +262,14 @@ async def earth_opener(
     fov: FovQuery = DEFAULT_FOV,
     refresh: RefreshQuery = DEFAULT_REFRESH_S,
     map_refresh: RefreshQuery = DEFAULT_MAP_REFRESH_S,
+    base: BaseQuery = None,
+    signature: SignatureQuery = None,
 ) -> Response:
     """What the Google Earth on one display opens: the map and its wall document."""
     _earth_display(wall, display_id)
     options = EarthOptions(fov=fov, refresh=refresh, map_refresh=map_refresh)
     return Response(
-        opener_kml(context.base_url, wall, display_id, options),
+        opener_kml(_earth_base(context, base, signature), wall, display_id, options),
         media_type=KML_TYPE,
         headers={"Content-Disposition": 'attachment; filename="tagwall-earth.kml"'},
     )
@@ -253,18 +277,20 @@ async def earth_opener(
 
 @router.get("/apps/census/earth/{wall_id}/{display_id}/wall.kml", responses=errors(404))
 async def earth_display(
-    request: Request,
     wall: WallDep,
     display_id: str,
     context: ContextDep,
     fov: FovQuery = DEFAULT_FOV,
     opened: OpenedQuery = None,
     coloured: ColouredQuery = None,
+    base: BaseQuery = None,
+    signature: SignatureQuery = None,
 ) -> Response:
     """One display's wall document, fetched every few seconds by its Google Earth: the
     view, groups, balloon and colouring (an Update of the map) and the codes on the
     display. ``open`` and ``theme`` come from the previous document's cookie."""
     _earth_display(wall, display_id)
+    earth_base = _earth_base(context, base, signature)
     shown = await _map_now(context, wall.id)
     app = census_maps(context)
     geometry = await run_blocking(app.geometry, shown.dataset)
@@ -282,7 +308,9 @@ async def earth_display(
             fov=fov,
             opened=opened,
             coloured=coloured,
-            base_url=str(request.base_url).rstrip("/"),  # as Earth reached us: targetHref
+            # the opener's base, never the request's Host header (a client's to choose):
+            # targetHref is the very URL the opener named for the map
+            base_url=earth_base.url,
             now=now_ms(),
         )
     )
