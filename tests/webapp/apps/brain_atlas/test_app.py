@@ -679,7 +679,9 @@ def test_a_round_opens_again_only_when_an_instructor_opens_one(on_wall: TestClie
     """Leaving the wall and coming back keeps the closed round; quiz mode or a reset opens
     the next."""
     on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
-    on_wall.post("/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall))
+    on_wall.post(
+        "/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall)
+    )
     show_brain(on_wall)
     shown = control(on_wall)["round"]
     assert (shown["number"], shown["open"]) == (1, False)
