@@ -4,11 +4,17 @@ With TAGWALL_TEST_DATABASE_URL set (a PostgreSQL URL) each test gets a fresh
 PostgreSQL database created from it; otherwise a SQLite file in its tmp_path. Tests of
 what several processes share use Redis: TAGWALL_TEST_REDIS_URL, else a private
 redis-server, with a key prefix of their own.
+
+`make test` runs them in a worker per core (pytest-xdist): servers take ports from
+their worker's block (``server_port``), and tests marked ``alone`` run with nothing
+beside them.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
+import itertools
 import os
 import re
 import shutil
@@ -57,6 +63,10 @@ def pytest_configure(config: pytest.Config) -> None:
     )
     config.addinivalue_line(
         "markers",
+        "alone: runs with no other test beside it (under xdist: a lock over the workers)",
+    )
+    config.addinivalue_line(
+        "markers",
         "persistence: a browser test of what the database keeps across restarts and crashes "
         "(CI's PostgreSQL pass runs these and every test that is not a browser test)",
     )
@@ -70,6 +80,59 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.browser)
         if "postgres" in item.keywords and not POSTGRES_URL:
             item.add_marker(skip)
+
+
+# --- running in parallel (pytest-xdist: `make test` runs a worker per core) ---------------
+
+WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ... ("" without xdist)
+# Each worker takes server ports from a block of its own, below the kernel's ephemeral
+# range (32768-60999 on Linux), so a port a test's server gave up (to restart on it, say)
+# is never handed to another worker's server, nor to a client socket, meanwhile.
+PORT_BLOCK = 200
+_FIRST_PORT = 20_000 + PORT_BLOCK * int(WORKER.removeprefix("gw") or 0)
+_next_ports = itertools.cycle(range(_FIRST_PORT, _FIRST_PORT + PORT_BLOCK))
+
+
+def server_port() -> int:
+    """A port for a test's server process: the next free one of this worker's block."""
+    for _ in range(PORT_BLOCK):
+        port = next(_next_ports)
+        with socket.socket() as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+            try:
+                probe.bind(("0.0.0.0", port))
+            except OSError:
+                continue
+        return port
+    raise RuntimeError(f"no free port in {_FIRST_PORT}-{_FIRST_PORT + PORT_BLOCK - 1}")
+
+
+@pytest.fixture(autouse=True)
+def _share_the_machine(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[None]:
+    """Tests marked ``alone`` (a kill -9 with requests in flight, tiles that must show a
+    change in step, several server processes at once) run with no other test beside
+    them: a readers-writer lock over the run's workers, shared by every other test.
+    A turnstile in front keeps a waiting ``alone`` test from being starved."""
+    if not WORKER:
+        yield
+        return
+    run_dir = tmp_path_factory.getbasetemp().parent  # shared by this run's workers
+    alone = request.node.get_closest_marker("alone") is not None
+    with (
+        (run_dir / "turnstile.lock").open("a") as turnstile,
+        (run_dir / "machine.lock").open("a") as machine,
+    ):
+        fcntl.flock(turnstile, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(machine, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(turnstile, fcntl.LOCK_UN)
+        try:
+            yield
+        finally:
+            fcntl.flock(machine, fcntl.LOCK_UN)
 
 
 @pytest.fixture(scope="session")

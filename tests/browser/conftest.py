@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from playwright.sync_api import Browser, Page, sync_playwright
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port
 from webapp.settings import CONTENT_DIR
 from webapp.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
 
@@ -25,6 +25,7 @@ def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret=TEST_SECRET,
+        port=server_port(),
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
             "TAGWALL_APPLY_LEAD_MS": "400",

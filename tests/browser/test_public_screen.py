@@ -389,6 +389,7 @@ def test_a_census_tract_at_class_5_shows_its_table_and_charts_whole(
     assert tiles[0].evaluate(LOOK)["byline"].startswith("Published by an instructor · ")
 
 
+@pytest.mark.alone  # pages turn in step, within a second
 def test_what_does_not_fit_takes_pages_that_turn_in_step_on_every_public_tile(
     browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
 ) -> None:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port
 from webapp import cli, settings
 from webapp.check import fetch_layout
 from webapp.people.security import operator_token
@@ -79,7 +79,7 @@ def student_code(server: ServerProcess) -> str:
 def test_by_default_codes_point_where_the_server_listens_and_the_banner_says_so(
     tmp_path: Path, database_url: str
 ) -> None:
-    server = start(DefaultServer(tmp_path / "var", database_url, TEST_SECRET))
+    server = start(DefaultServer(tmp_path / "var", database_url, TEST_SECRET, server_port()))
     try:
         text = banner(server)
         host = code_host(text)
@@ -98,7 +98,7 @@ def test_by_default_codes_point_where_the_server_listens_and_the_banner_says_so(
 def test_kept_on_this_machine_codes_say_so_and_the_banner_says_how_to_let_phones_in(
     tmp_path: Path, database_url: str
 ) -> None:
-    server = DefaultServer(tmp_path / "var", database_url, TEST_SECRET)
+    server = DefaultServer(tmp_path / "var", database_url, TEST_SECRET, server_port())
     server.extra_env["TAGWALL_HOST"] = "127.0.0.1"
     start(server)
     try:
