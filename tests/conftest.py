@@ -7,7 +7,8 @@ redis-server, with a key prefix of their own.
 
 `make test` runs them in a worker per core (pytest-xdist): servers take ports from
 their worker's block (``server_port``), and tests marked ``alone`` run with nothing
-beside them.
+beside them. Apps open the demo wall only, unless a test's ``walls`` marker names
+others.
 """
 
 from __future__ import annotations
@@ -64,6 +65,10 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line(
         "markers",
         "alone: runs with no other test beside it (under xdist: a lock over the workers)",
+    )
+    config.addinivalue_line(
+        "markers",
+        "walls(*names): the shipped walls the test's app opens (default: demo only)",
     )
     config.addinivalue_line(
         "markers",
@@ -295,14 +300,27 @@ def tag_spec(**fields: object) -> TagSpec:
     return TagSpec.model_validate({**base, **fields})
 
 
+def wall_files(*names: str) -> list[Path]:
+    """The shipped configs of the walls ``names``."""
+    return [CONTENT_DIR / "walls" / f"{name}.toml" for name in names]
+
+
+def walls_of(request: pytest.FixtureRequest) -> tuple[str, ...]:
+    """The shipped walls a test's app opens: ``demo``, or those of its ``walls`` marker."""
+    marker = request.node.get_closest_marker("walls")
+    return tuple(marker.args) if marker else ("demo",)
+
+
 @pytest.fixture
-def settings(tmp_path: Path, database_url: str) -> Settings:
+def settings(tmp_path: Path, database_url: str, request: pytest.FixtureRequest) -> Settings:
+    # Opening a wall places every one of its codes; the big walls (hiperwall's fifty
+    # displays) cost a second each, so only tests that use them (marked) open them.
     return Settings(
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret_key=TEST_SECRET,
         public_base_url="http://192.168.1.20:8000",
-        wall_configs=[CONTENT_DIR / "walls"],
+        wall_configs=wall_files(*walls_of(request)),
         apply_lead_ms=50,
         swap_timeout_ms=500,
         # Tests act faster than people: a phone counts as settled at once. The abuse

@@ -139,7 +139,12 @@ class WallPages:
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ServerProcess]:
     """One server for every wall (their states are separate); balloons stay open."""
     tmp = tmp_path_factory.mktemp("composite")
-    process = serve(tmp, f"sqlite:///{tmp / 'tagwall.db'}", TAGWALL_BALLOON_SECONDS="3600")
+    process = serve(
+        tmp,
+        f"sqlite:///{tmp / 'tagwall.db'}",
+        [case.wall for case in WALLS],
+        TAGWALL_BALLOON_SECONDS="3600",
+    )
     yield process
     process.stop()
 

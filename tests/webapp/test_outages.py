@@ -86,6 +86,7 @@ def exhaust_pool(engine: Engine, connections: ExitStack) -> None:
             connections.enter_context(engine.connect())
 
 
+@pytest.mark.walls("hiperwall")
 def test_a_server_out_of_connections_is_503_not_500(
     settings: Settings, monkeypatch: pytest.MonkeyPatch
 ) -> None:
