@@ -8,19 +8,23 @@ redis-server, with a key prefix of their own.
 `make test` runs them in a worker per core (pytest-xdist): servers take ports from
 their worker's block (``server_port``), and tests marked ``alone`` run with nothing
 beside them. Apps open the demo wall only, unless a test's ``walls`` marker names
-others.
+others. What is costly and only read is made once per worker: the migrated SQLite
+file each test's database starts as (``migrate``).
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import fcntl
+import functools
 import itertools
 import os
 import re
 import shutil
 import socket
 import subprocess
+import tempfile
 import threading
 import uuid
 from collections.abc import Iterator
@@ -33,6 +37,7 @@ import pytest
 from fastapi import FastAPI
 from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
+from sqlalchemy.engine import make_url
 
 from webapp.app import create_app
 from webapp.database.connection import Database
@@ -285,10 +290,34 @@ def database_url(tmp_path: Path) -> Iterator[str]:
         yield url
 
 
+@functools.cache
+def _migrated_sqlite() -> Path:
+    """A SQLite database migrated to the newest revision, once per test process."""
+    folder = Path(tempfile.mkdtemp(prefix="tagwall-migrated-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    path = folder / "tagwall.db"
+    upgrade(f"sqlite:///{path}")
+    return path
+
+
+def migrate(url: str) -> None:
+    """Bring a test's database at ``url`` to the newest revision, as ``upgrade`` does: a
+    SQLite file not made yet is a copy of one migrated once per process (alembic costs
+    a tenth of a second a test); anything else (PostgreSQL, a file that exists) is
+    upgraded by alembic. tests/test_migrations.py runs the migrations themselves."""
+    database = make_url(url)
+    path = Path(database.database or "")
+    if database.get_backend_name() == "sqlite" and database.database and not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(_migrated_sqlite(), path)
+        return
+    upgrade(url)
+
+
 @pytest.fixture
 def db(database_url: str) -> Iterator[Database]:
     """A migrated database of its own, for tests below the HTTP layer."""
-    upgrade(database_url)
+    migrate(database_url)
     database = Database(database_url)
     yield database
     database.dispose()
@@ -331,7 +360,7 @@ def settings(tmp_path: Path, database_url: str, request: pytest.FixtureRequest) 
 
 @pytest.fixture
 def app(settings: Settings) -> FastAPI:
-    upgrade(settings.resolved_database_url)
+    migrate(settings.resolved_database_url)
     return create_app(settings)
 
 

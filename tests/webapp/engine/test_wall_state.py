@@ -3,8 +3,8 @@ from concurrent.futures import ThreadPoolExecutor
 import pytest
 from pydantic import ValidationError
 
+from tests.conftest import migrate
 from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import (
     StatePatch,
     View,
@@ -17,7 +17,7 @@ from webapp.engine.wall_state import (
 
 @pytest.fixture
 def db(database_url: str) -> Database:
-    upgrade(database_url)
+    migrate(database_url)
     return Database(database_url)
 
 

@@ -16,6 +16,7 @@ from sqlalchemy import select
 from tests.conftest import (
     TEST_PASSWORD,
     csrf_of,
+    migrate,
     register_student,
     services_of,
     sign_in,
@@ -218,10 +219,9 @@ def with_settings(settings: Settings, **changes: object) -> Settings:
 @pytest.fixture
 def make_app() -> Callable[[Settings], FastAPI]:
     from webapp.app import create_app
-    from webapp.database.migrate import upgrade
 
     def build(settings: Settings) -> FastAPI:
-        upgrade(settings.resolved_database_url)
+        migrate(settings.resolved_database_url)
         return create_app(settings)
 
     return build
