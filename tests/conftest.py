@@ -9,7 +9,7 @@ redis-server, with a key prefix of their own.
 their worker's block (``server_port``), and tests marked ``alone`` run with nothing
 beside them. Apps open the demo wall only, unless a test's ``walls`` marker names
 others. What is costly and only read is made once per worker: the migrated SQLite
-file each test's database starts as (``migrate``).
+file each test's database starts as (``migrate``) and the brain atlas's volume store.
 """
 
 from __future__ import annotations
@@ -29,6 +29,7 @@ import threading
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 from urllib.parse import urlsplit
 
 import hypothesis
@@ -40,6 +41,9 @@ from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
 from webapp.app import create_app
+from webapp.apps.brain_atlas import app as brain_app
+from webapp.apps.brain_atlas.content import ATLAS_DIR
+from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
 from webapp.database.connection import Database
 from webapp.database.migrate import upgrade
 from webapp.people.accounts import add_account
@@ -47,7 +51,8 @@ from webapp.services import Services
 from webapp.settings import CONTENT_DIR, Settings
 from webapp.tags.registry import TagSpec, wall_tags
 from webapp.testing import fresh_database, wait_until
-from webapp.volume.build import build_store, open_source
+from webapp.volume.build import Source, build_store, open_source
+from webapp.volume.store import VolumeMeta
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
@@ -143,6 +148,39 @@ def _share_the_machine(
             yield
         finally:
             fcntl.flock(machine, fcntl.LOCK_UN)
+
+
+# --- the brain atlas's volume, built once per test process ----------------------------
+
+_MNI152: list[tuple[Path, VolumeMeta]] = []
+_MNI152_GUARD = threading.Lock()
+
+
+def _mni152_once(source: Source, out: Path, **options: Any) -> VolumeMeta:
+    """``build_store`` as the brain atlas calls it on a wall's first show: the MNI
+    template's store (seconds of CPU) is built for real once per test process and then
+    hard-linked into each test's volume folder (stores are only ever read, and rebuilt
+    by replacing the folder), as a copy would be. Any other build is built."""
+    if source.path != ATLAS_DIR / TEMPLATE_FILE or options != {"name": VOLUME}:
+        return build_store(source, out, **options)
+    with _MNI152_GUARD:
+        if not _MNI152:
+            folder = Path(tempfile.mkdtemp(prefix="tagwall-mni152-"))
+            atexit.register(shutil.rmtree, folder, ignore_errors=True)
+            _MNI152.append((folder / VOLUME, build_store(source, folder / VOLUME, **options)))
+        built, meta = _MNI152[0]
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+        shutil.copytree(built, staging, copy_function=os.link, dirs_exist_ok=True)
+        if out.exists():
+            shutil.rmtree(out)
+        staging.rename(out)
+        return meta
+
+
+@pytest.fixture(autouse=True)
+def _brain_volume_built_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(brain_app, "build_store", _mni152_once)
 
 
 @pytest.fixture(scope="session")
