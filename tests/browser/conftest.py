@@ -13,10 +13,15 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, Page, expect, sync_playwright
 
 from tests.conftest import TEST_SECRET, server_port, wall_files, walls_of
 from webapp.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
+
+# Playwright's assertions wait 5 s by default; with a test beside it on each core a tile
+# can take longer to draw what it was sent (a dashboard colouring check missed 5 s under
+# load). Slow, not wrong: every assertion still fails when the page never gets there.
+expect.set_options(timeout=15_000)
 
 
 def serve(
