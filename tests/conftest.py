@@ -102,9 +102,13 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
 WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ... ("" without xdist)
 # Each worker takes server ports from a block of its own, below the kernel's ephemeral
 # range (32768-60999 on Linux), so a port a test's server gave up (to restart on it, say)
-# is never handed to another worker's server, nor to a client socket, meanwhile.
+# is never handed to another worker's server, nor to a client socket, meanwhile. A run's
+# workers take consecutive blocks from one chosen by the run's id, so two runs on one
+# machine (two worktrees) seldom share blocks; a port in use is passed over anyway.
 PORT_BLOCK = 200
-_FIRST_PORT = 20_000 + PORT_BLOCK * int(WORKER.removeprefix("gw") or 0)
+_BLOCKS = (32_768 - 20_000) // PORT_BLOCK
+_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "0")[:8] or "0", 16)
+_FIRST_PORT = 20_000 + PORT_BLOCK * ((_RUN + int(WORKER.removeprefix("gw") or 0)) % _BLOCKS)
 _next_ports = itertools.cycle(range(_FIRST_PORT, _FIRST_PORT + PORT_BLOCK))
 
 
