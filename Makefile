@@ -16,8 +16,11 @@ AXE := node_modules/axe-core/axe.min.js
 run: $(STAMP) $(DEMO_VOLUME)/volume.json
 	$(BIN)/tagwall serve
 
+# Tests run in a worker per core (pytest-xdist); PYTEST_WORKERS=1 runs them in one.
+PYTEST_WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
+
 test: $(STAMP) $(SYSTEM_STAMP) $(AXE) lint
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
 
 lint: $(STAMP)
 	$(BIN)/ruff check .

@@ -112,12 +112,12 @@ def make_symbol(payload: str, error: ErrorLevel = "M") -> segno.QRCode:
 def symbol_variants(payload: str) -> tuple[segno.QRCode, ...]:
     """Level M, then level L when it is smaller: what placement may try, in order."""
     medium = make_symbol(payload, "M")
-    low = make_symbol(payload, "L")
-    return (
-        (medium, low)
-        if low.symbol_size(border=0)[0] < medium.symbol_size(border=0)[0]
-        else (medium,)
-    )
+    # The L symbol's size does not depend on its mask: size it with a fixed mask (choosing
+    # one scores all eight) and build the real symbol only when it is smaller.
+    low_size = segno.make_qr(payload, error="l", mask=0).symbol_size(border=0)[0]
+    if low_size < medium.symbol_size(border=0)[0]:
+        return (medium, make_symbol(payload, "L"))
+    return (medium,)
 
 
 def modules_across(symbol: segno.QRCode) -> int:

@@ -4,20 +4,32 @@ With TAGWALL_TEST_DATABASE_URL set (a PostgreSQL URL) each test gets a fresh
 PostgreSQL database created from it; otherwise a SQLite file in its tmp_path. Tests of
 what several processes share use Redis: TAGWALL_TEST_REDIS_URL, else a private
 redis-server, with a key prefix of their own.
+
+`make test` runs them in a worker per core (pytest-xdist): servers take ports from
+their worker's block (``server_port``), and tests marked ``alone`` run with nothing
+beside them. Apps open the demo wall only, unless a test's ``walls`` marker names
+others. What is costly and only read is made once per worker: the migrated SQLite
+file each test's database starts as (``migrate``) and the brain atlas's volume store.
 """
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import fcntl
+import functools
+import itertools
 import os
 import re
 import shutil
 import socket
 import subprocess
+import tempfile
 import threading
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 from urllib.parse import urlsplit
 
 import hypothesis
@@ -26,7 +38,11 @@ import pytest
 from fastapi import FastAPI
 from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
+from sqlalchemy.engine import make_url
 
+from webapp.apps.brain_atlas import app as brain_app
+from webapp.apps.brain_atlas.content import ATLAS_DIR
+from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
 from webapp.cli.testing import fresh_database, wait_until
 from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
@@ -35,7 +51,8 @@ from webapp.people.accounts import add_account
 from webapp.server.app import create_app
 from webapp.server.services import Services
 from webapp.tags.registry import TagSpec, wall_tags
-from webapp.volume.build import build_store, open_source
+from webapp.volume.build import Source, build_store, open_source
+from webapp.volume.store import VolumeMeta
 
 TEST_SECRET = "test-secret-key-not-for-production"
 POSTGRES_URL = os.environ.get("TAGWALL_TEST_DATABASE_URL", "")
@@ -57,6 +74,14 @@ def pytest_configure(config: pytest.Config) -> None:
     )
     config.addinivalue_line(
         "markers",
+        "alone: runs with no other test beside it (under xdist: a lock over the workers)",
+    )
+    config.addinivalue_line(
+        "markers",
+        "walls(*names): the shipped walls the test's app opens (default: demo only)",
+    )
+    config.addinivalue_line(
+        "markers",
         "persistence: a browser test of what the database keeps across restarts and crashes "
         "(CI's PostgreSQL pass runs these and every test that is not a browser test)",
     )
@@ -70,6 +95,96 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
             item.add_marker(pytest.mark.browser)
         if "postgres" in item.keywords and not POSTGRES_URL:
             item.add_marker(skip)
+
+
+# --- running in parallel (pytest-xdist: `make test` runs a worker per core) ---------------
+
+WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ... ("" without xdist)
+# Each worker takes server ports from a block of its own, below the kernel's ephemeral
+# range (32768-60999 on Linux), so a port a test's server gave up (to restart on it, say)
+# is never handed to another worker's server, nor to a client socket, meanwhile. A run's
+# workers take consecutive blocks from one chosen by the run's id, so two runs on one
+# machine (two worktrees) seldom share blocks; a port in use is passed over anyway.
+PORT_BLOCK = 200
+_BLOCKS = (32_768 - 20_000) // PORT_BLOCK
+_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "0")[:8] or "0", 16)
+_FIRST_PORT = 20_000 + PORT_BLOCK * ((_RUN + int(WORKER.removeprefix("gw") or 0)) % _BLOCKS)
+_next_ports = itertools.cycle(range(_FIRST_PORT, _FIRST_PORT + PORT_BLOCK))
+
+
+def server_port() -> int:
+    """A port for a test's server process: the next free one of this worker's block."""
+    for _ in range(PORT_BLOCK):
+        port = next(_next_ports)
+        with socket.socket() as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+            try:
+                probe.bind(("0.0.0.0", port))
+            except OSError:
+                continue
+        return port
+    raise RuntimeError(f"no free port in {_FIRST_PORT}-{_FIRST_PORT + PORT_BLOCK - 1}")
+
+
+@pytest.fixture(autouse=True)
+def _share_the_machine(
+    request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[None]:
+    """Tests marked ``alone`` (a kill -9 with requests in flight, tiles that must show a
+    change in step, several server processes at once) run with no other test beside
+    them: a readers-writer lock over the run's workers, shared by every other test.
+    A turnstile in front keeps a waiting ``alone`` test from being starved."""
+    if not WORKER:
+        yield
+        return
+    run_dir = tmp_path_factory.getbasetemp().parent  # shared by this run's workers
+    alone = request.node.get_closest_marker("alone") is not None
+    with (
+        (run_dir / "turnstile.lock").open("a") as turnstile,
+        (run_dir / "machine.lock").open("a") as machine,
+    ):
+        fcntl.flock(turnstile, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(machine, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(turnstile, fcntl.LOCK_UN)
+        try:
+            yield
+        finally:
+            fcntl.flock(machine, fcntl.LOCK_UN)
+
+
+# --- the brain atlas's volume, built once per test process ----------------------------
+
+_MNI152: list[tuple[Path, VolumeMeta]] = []
+_MNI152_GUARD = threading.Lock()
+
+
+def _mni152_once(source: Source, out: Path, **options: Any) -> VolumeMeta:
+    """``build_store`` as the brain atlas calls it on a wall's first show: the MNI
+    template's store (seconds of CPU) is built for real once per test process and then
+    hard-linked into each test's volume folder (stores are only ever read, and rebuilt
+    by replacing the folder), as a copy would be. Any other build is built."""
+    if source.path != ATLAS_DIR / TEMPLATE_FILE or options != {"name": VOLUME}:
+        return build_store(source, out, **options)
+    with _MNI152_GUARD:
+        if not _MNI152:
+            folder = Path(tempfile.mkdtemp(prefix="tagwall-mni152-"))
+            atexit.register(shutil.rmtree, folder, ignore_errors=True)
+            _MNI152.append((folder / VOLUME, build_store(source, folder / VOLUME, **options)))
+        built, meta = _MNI152[0]
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}-", dir=out.parent))
+        shutil.copytree(built, staging, copy_function=os.link, dirs_exist_ok=True)
+        if out.exists():
+            shutil.rmtree(out)
+        staging.rename(out)
+        return meta
+
+
+@pytest.fixture(autouse=True)
+def _brain_volume_built_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(brain_app, "build_store", _mni152_once)
 
 
 @pytest.fixture(scope="session")
@@ -217,10 +332,34 @@ def database_url(tmp_path: Path) -> Iterator[str]:
         yield url
 
 
+@functools.cache
+def _migrated_sqlite() -> Path:
+    """A SQLite database migrated to the newest revision, once per test process."""
+    folder = Path(tempfile.mkdtemp(prefix="tagwall-migrated-"))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    path = folder / "tagwall.db"
+    upgrade(f"sqlite:///{path}")
+    return path
+
+
+def migrate(url: str) -> None:
+    """Bring a test's database at ``url`` to the newest revision, as ``upgrade`` does: a
+    SQLite file not made yet is a copy of one migrated once per process (alembic costs
+    a tenth of a second a test); anything else (PostgreSQL, a file that exists) is
+    upgraded by alembic. tests/test_migrations.py runs the migrations themselves."""
+    database = make_url(url)
+    path = Path(database.database or "")
+    if database.get_backend_name() == "sqlite" and database.database and not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(_migrated_sqlite(), path)
+        return
+    upgrade(url)
+
+
 @pytest.fixture
 def db(database_url: str) -> Iterator[Database]:
     """A migrated database of its own, for tests below the HTTP layer."""
-    upgrade(database_url)
+    migrate(database_url)
     database = Database(database_url)
     yield database
     database.dispose()
@@ -232,14 +371,27 @@ def tag_spec(**fields: object) -> TagSpec:
     return TagSpec.model_validate({**base, **fields})
 
 
+def wall_files(*names: str) -> list[Path]:
+    """The shipped configs of the walls ``names``."""
+    return [CONTENT_DIR / "walls" / f"{name}.toml" for name in names]
+
+
+def walls_of(request: pytest.FixtureRequest) -> tuple[str, ...]:
+    """The shipped walls a test's app opens: ``demo``, or those of its ``walls`` marker."""
+    marker = request.node.get_closest_marker("walls")
+    return tuple(marker.args) if marker else ("demo",)
+
+
 @pytest.fixture
-def settings(tmp_path: Path, database_url: str) -> Settings:
+def settings(tmp_path: Path, database_url: str, request: pytest.FixtureRequest) -> Settings:
+    # Opening a wall places every one of its codes; the big walls (hiperwall's fifty
+    # displays) cost a second each, so only tests that use them (marked) open them.
     return Settings(
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret_key=TEST_SECRET,
         public_base_url="http://192.168.1.20:8000",
-        wall_configs=[CONTENT_DIR / "walls"],
+        wall_configs=wall_files(*walls_of(request)),
         apply_lead_ms=50,
         swap_timeout_ms=500,
         # Tests act faster than people: a phone counts as settled at once. The abuse
@@ -250,7 +402,7 @@ def settings(tmp_path: Path, database_url: str) -> Settings:
 
 @pytest.fixture
 def app(settings: Settings) -> FastAPI:
-    upgrade(settings.resolved_database_url)
+    migrate(settings.resolved_database_url)
     return create_app(settings)
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port
 from webapp.cli.testing import ServerProcess
 from webapp.core.settings import CONTENT_DIR
 from webapp.database.migrate import upgrade
@@ -35,6 +35,7 @@ def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret=TEST_SECRET,
+        port=server_port(),
         extra_env={"TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls")},
     )
     process.start()

@@ -433,13 +433,13 @@ def _free_stage(wall: Wall) -> tuple[str, ...]:
             for j, y0 in enumerate(ys):
                 for y1 in ys[j + 1 :]:
                     area = Rect(x0, y0, x1 - x0, y1 - y0)
+                    picture = min(area.width / STAGE_ASPECT[0], area.height / STAGE_ASPECT[1])
+                    score = (picture, area.width * area.height, -y0, -x0)
+                    if best is not None and score <= best:
+                        continue  # cannot win: spare the overlap and containment tests
                     if any(area.intersects(r) for r in designated):
                         break  # a taller rectangle from the same top overlaps too
                     inside = tuple(d.id for d in free if area.contains(d.rect))
-                    if not inside:
-                        continue
-                    picture = min(area.width / STAGE_ASPECT[0], area.height / STAGE_ASPECT[1])
-                    score = (picture, area.width * area.height, -y0, -x0)
-                    if best is None or score > best:
+                    if inside:
                         best, chosen = score, inside
     return chosen or tuple(d.id for d in free)

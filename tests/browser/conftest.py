@@ -7,26 +7,35 @@ fixture (SQLite, or a fresh PostgreSQL database when one is configured).
 
 from __future__ import annotations
 
+import os
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import pytest
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, Page, expect, sync_playwright
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port, wall_files, walls_of
 from webapp.cli.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
-from webapp.core.settings import CONTENT_DIR
+
+# Playwright's assertions wait 5 s by default; with a test beside it on each core a tile
+# can take longer to draw what it was sent (a dashboard colouring check missed 5 s under
+# load). Slow, not wrong: every assertion still fails when the page never gets there.
+expect.set_options(timeout=15_000)
 
 
-def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
-    """A started server on the shipped walls; ``extra_env`` adds ``TAGWALL_*`` settings."""
+def serve(
+    tmp_path: Path, database_url: str, walls: Sequence[str] = ("demo",), **extra_env: str
+) -> ServerProcess:
+    """A started server on the shipped ``walls`` (each costs its codes' placement at
+    start); ``extra_env`` adds ``TAGWALL_*`` settings."""
     process = ServerProcess(
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret=TEST_SECRET,
+        port=server_port(),
         extra_env={
-            "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
+            "TAGWALL_WALL_CONFIGS": os.pathsep.join(str(path) for path in wall_files(*walls)),
             "TAGWALL_APPLY_LEAD_MS": "400",
             "TAGWALL_VISITOR_SETTLE_S": "0",  # test phones act faster than people
             **extra_env,
@@ -37,8 +46,10 @@ def serve(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
 
 
 @pytest.fixture
-def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
-    process = serve(tmp_path, database_url)
+def server(
+    tmp_path: Path, database_url: str, request: pytest.FixtureRequest
+) -> Iterator[ServerProcess]:
+    process = serve(tmp_path, database_url, walls_of(request))
     yield process
     process.stop()
 

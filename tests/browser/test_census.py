@@ -17,6 +17,7 @@ from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image, module_boxes, symbol_damage
 from tests.browser.conftest import open_tiles, serve, version_of
+from tests.conftest import walls_of
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine
 from webapp.apps.census_map.mapview import COLOURS
@@ -33,9 +34,16 @@ BALLOON_SECONDS = 5
 
 
 @pytest.fixture
-def census(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+def census(
+    tmp_path: Path, database_url: str, request: pytest.FixtureRequest
+) -> Iterator[ServerProcess]:
     """A server whose demo wall shows the census map, balloons closing after 5 s."""
-    process = serve(tmp_path, database_url, TAGWALL_BALLOON_SECONDS=str(BALLOON_SECONDS))
+    process = serve(
+        tmp_path,
+        database_url,
+        walls_of(request),
+        TAGWALL_BALLOON_SECONDS=str(BALLOON_SECONDS),
+    )
     process.change("demo", {"app": "census"})
     yield process
     process.stop()
@@ -310,6 +318,7 @@ def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
     tile.context.close()
 
 
+@pytest.mark.walls("demo", "kl-3x3")
 def test_menu_labels_leave_the_toggle_codes_intact_on_kl_3x3(
     browser: Browser, census: ServerProcess
 ) -> None:
@@ -364,7 +373,7 @@ def test_tract_numbers_and_captions_read_upright_as_the_portrait_panel_hangs(
     the way the panel hangs, shows each tract number and each code's caption
     ("Student", "Instructor", "Tract index") as the same text written upright (not
     sideways, not upside down)."""
-    server = serve(tmp_path, database_url)
+    server = serve(tmp_path, database_url, ("demo", "irregular"))
     try:
         server.change("irregular", {"app": "census"})
         version = server.change("irregular", {"view": PORTRAIT_VIEW})

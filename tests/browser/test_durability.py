@@ -95,6 +95,7 @@ def operator(server: ServerProcess, seen: Acknowledged, stop: threading.Event) -
 
 
 @pytest.mark.persistence
+@pytest.mark.alone  # a kill -9 with requests in flight
 def test_nothing_acknowledged_is_lost_to_a_kill_9(
     browser: Browser, tmp_path: Path, database_url: str
 ) -> None:

@@ -26,6 +26,7 @@ from PIL import Image
 from playwright.sync_api import Browser, BrowserContext, Page, expect
 
 from tests.browser.conftest import serve
+from tests.conftest import walls_of
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, skewed_clock, wait_until
 from webapp.people.security import operator_token
@@ -44,10 +45,13 @@ EDGE = 16  # px of the screen's border that must stay background: nothing runs o
 
 
 @pytest.fixture
-def server(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+def server(
+    tmp_path: Path, database_url: str, request: pytest.FixtureRequest
+) -> Iterator[ServerProcess]:
     process = serve(
         tmp_path,
         database_url,
+        walls_of(request),
         TAGWALL_PUBLIC_WORDS_PER_MINUTE="100000",  # every page lasts the minimum
         TAGWALL_PUBLIC_PAGE_MIN_S=str(PAGE_S),
         TAGWALL_PUBMED_URL="http://127.0.0.1:9/",
@@ -389,6 +393,8 @@ def test_a_census_tract_at_class_5_shows_its_table_and_charts_whole(
     assert tiles[0].evaluate(LOOK)["byline"].startswith("Published by an instructor · ")
 
 
+@pytest.mark.walls("demo", "hiperwall")
+@pytest.mark.alone  # pages turn in step, within a second
 def test_what_does_not_fit_takes_pages_that_turn_in_step_on_every_public_tile(
     browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
 ) -> None:

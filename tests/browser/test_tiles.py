@@ -76,6 +76,7 @@ def test_tiles_reconnect_after_a_server_restart_with_the_same_state(
 CHANGES = 9
 
 
+@pytest.mark.alone  # measures how closely together tiles apply a change
 def test_skewed_tile_clocks_still_apply_a_change_together(
     browser: Browser, server: ServerProcess
 ) -> None:

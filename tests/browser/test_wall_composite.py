@@ -69,6 +69,9 @@ WALLS = (
     # map (fitted to the free displays, it stands left of the stage's middle)
     WallCase("hiperwall", ("r3c4", "r3c5", "r3c6", "r4c4", "r4c5", "r4c6"), 0.3),
 )
+# Every case shares the module's one server and tile pages: one worker runs them all.
+pytestmark = pytest.mark.xdist_group("wall-composite")
+
 PRESETS = [preset.id for preset in load_views()]
 WHOLE = {"center": [0.5, 0.5], "zoom": 1.0}
 SCENES = [
@@ -136,7 +139,12 @@ class WallPages:
 def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ServerProcess]:
     """One server for every wall (their states are separate); balloons stay open."""
     tmp = tmp_path_factory.mktemp("composite")
-    process = serve(tmp, f"sqlite:///{tmp / 'tagwall.db'}", TAGWALL_BALLOON_SECONDS="3600")
+    process = serve(
+        tmp,
+        f"sqlite:///{tmp / 'tagwall.db'}",
+        [case.wall for case in WALLS],
+        TAGWALL_BALLOON_SECONDS="3600",
+    )
     yield process
     process.stop()
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port
 from webapp.cli import commands
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess
@@ -80,7 +80,7 @@ def student_code(server: ServerProcess) -> str:
 def test_by_default_codes_point_where_the_server_listens_and_the_banner_says_so(
     tmp_path: Path, database_url: str
 ) -> None:
-    server = start(DefaultServer(tmp_path / "var", database_url, TEST_SECRET))
+    server = start(DefaultServer(tmp_path / "var", database_url, TEST_SECRET, server_port()))
     try:
         text = banner(server)
         host = code_host(text)
@@ -99,7 +99,7 @@ def test_by_default_codes_point_where_the_server_listens_and_the_banner_says_so(
 def test_kept_on_this_machine_codes_say_so_and_the_banner_says_how_to_let_phones_in(
     tmp_path: Path, database_url: str
 ) -> None:
-    server = DefaultServer(tmp_path / "var", database_url, TEST_SECRET)
+    server = DefaultServer(tmp_path / "var", database_url, TEST_SECRET, server_port())
     server.extra_env["TAGWALL_HOST"] = "127.0.0.1"
     start(server)
     try:

@@ -10,13 +10,13 @@ from sqlalchemy import create_engine, event, select
 from sqlalchemy.exc import OperationalError, ProgrammingError, SQLAlchemyError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
+from tests.conftest import migrate
 from webapp.database.connection import SQLITE_POOL_SIZE, Database, is_outage, make_engine
-from webapp.database.migrate import upgrade
 from webapp.database.models import WallStateRecord
 
 
 def test_ping_answers_when_the_database_does(database_url: str) -> None:
-    upgrade(database_url)
+    migrate(database_url)
     db = Database(database_url)
     try:
         assert db.ping()
@@ -103,7 +103,7 @@ async def test_short_reads_stay_on_the_event_loop_with_sqlite_only(database_url:
 
 
 def test_a_reading_connection_sees_what_sessions_committed(database_url: str) -> None:
-    upgrade(database_url)
+    migrate(database_url)
     db = Database(database_url)
     try:
         with db.session() as session:

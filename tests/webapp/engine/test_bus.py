@@ -17,10 +17,9 @@ from redis.asyncio import Redis
 from redis.asyncio.lock import Lock
 from redis.exceptions import RedisError
 
-from tests.conftest import RedisCable
+from tests.conftest import RedisCable, migrate
 from webapp.core.settings import PROJECT_ROOT
 from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.database.redis import connect_redis
 from webapp.engine.bus.base import (
     BusUnavailable,
@@ -403,7 +402,7 @@ async def test_concurrent_changes_through_two_processes_arrive_in_version_order(
     """Two hubs on one database and one Redis change one wall at once, each holding the
     wall as the door does: every subscriber, of either process, sees versions one by
     one, and no two changes were ever inside at once."""
-    upgrade(database_url)
+    migrate(database_url)
     hubs = [
         WallHub(
             Database(database_url),

@@ -9,9 +9,8 @@ import pytest
 from anyio import to_thread
 from redis.exceptions import RedisError
 
-from tests.conftest import RedisCable
+from tests.conftest import RedisCable, migrate
 from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.database.redis import connect_redis
 from webapp.engine.bus.base import EventBus, Subscription
 from webapp.engine.bus.memory import MemoryBus
@@ -25,7 +24,7 @@ BOUND_S = 30  # what "soon" means on a loaded machine; the tests prove mechanism
 
 @pytest.fixture
 async def hub(database_url: str) -> AsyncIterator[WallHub]:
-    upgrade(database_url)
+    migrate(database_url)
     hub = WallHub(
         Database(database_url),
         MemoryBus(64),
@@ -162,7 +161,7 @@ async def test_a_change_the_bus_cannot_publish_stays_committed(
 ) -> None:
     """Redis gone between holding the wall and publishing: the change is made (the
     database is the truth) and said so in the log; tiles catch up by the version gap."""
-    upgrade(database_url)
+    migrate(database_url)
     bus = RedisBus(connect_redis(redis_cable.url), redis_prefix, queue_size=8, max_len=100)
     hub = WallHub(
         Database(database_url), bus, apply_lead_ms=0, swap_timeout_ms=300, keep_events=100
@@ -187,7 +186,7 @@ async def test_a_change_the_bus_cannot_publish_stays_committed(
 async def make_hub(request: pytest.FixtureRequest, database_url: str) -> AsyncIterator[Any]:
     """Hubs on one database, watching wall "demo": on Redis each with a client of its own
     (a process each); in memory all on one bus (one process, the same code path)."""
-    upgrade(database_url)
+    migrate(database_url)
     made: list[WallHub] = []
     shared = MemoryBus(64)
 

@@ -4,8 +4,8 @@ from typing import Any, ClassVar
 import pytest
 from pydantic import ValidationError
 
+from tests.conftest import migrate
 from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import (
     CORE_HEAVY_KEYS,
     AppState,
@@ -22,7 +22,7 @@ from webapp.engine.wall_state import (
 
 @pytest.fixture
 def db(database_url: str) -> Database:
-    upgrade(database_url)
+    migrate(database_url)
     return Database(database_url)
 
 

@@ -291,6 +291,7 @@ async def test_rejecting_leaves_the_screen_as_it_was(app: FastAPI) -> None:
         assert waiting(services.db, WALL) == []
 
 
+@pytest.mark.walls("demo", "kl-3x3")
 async def test_only_a_waiting_publication_can_be_decided(app: FastAPI) -> None:
     async with running(app) as services:
         shown = await publish(app, services, student(services), "Shown")

@@ -19,12 +19,12 @@ from tests.conftest import (
     TEST_SECRET,
     RedisCable,
     csrf_of,
+    migrate,
     operator_headers,
     register_student,
     services_of,
 )
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.people.security import tile_token
 from webapp.server.app import create_app
 from webapp.tags.registry import wall_tags
@@ -57,7 +57,7 @@ def test_a_database_outage_is_503_not_500(
     if database_url.startswith("sqlite"):  # in a folder of its own, so it can go away
         database_url = f"sqlite:///{tmp_path / 'db' / 'tagwall.db'}"
     settings = settings.model_copy(update={"database_url": database_url})
-    upgrade(database_url)
+    migrate(database_url)
     app = create_app(settings)
     take_down, bring_back = outage(database_url, tmp_path)
     with TestClient(app, raise_server_exceptions=False) as phone:
@@ -86,6 +86,7 @@ def exhaust_pool(engine: Engine, connections: ExitStack) -> None:
             connections.enter_context(engine.connect())
 
 
+@pytest.mark.walls("hiperwall")
 def test_a_server_out_of_connections_is_503_not_500(
     settings: Settings, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -93,7 +94,7 @@ def test_a_server_out_of_connections_is_503_not_500(
     (every one checked out by other requests) answers 503 with Retry-After, as for a
     database that does not answer, not a 500 with a traceback; the change was not
     made, and goes through once connections are free again."""
-    upgrade(settings.resolved_database_url)
+    migrate(settings.resolved_database_url)
     app = create_app(settings)
     with TestClient(app, raise_server_exceptions=False) as client:
         operator = operator_headers(client)
@@ -120,7 +121,7 @@ def test_a_redis_outage_is_503_not_500(
     500, and the rest of the site keeps working."""
     update = {"bus": "redis", "redis_url": redis_cable.url, "redis_prefix": redis_prefix}
     settings = settings.model_copy(update=update)
-    upgrade(settings.resolved_database_url)
+    migrate(settings.resolved_database_url)
     with TestClient(create_app(settings), raise_server_exceptions=False) as phone:
         code = next(
             t.code for t in wall_tags(services_of(phone).db, "demo") if t.name == "register-student"
@@ -150,7 +151,7 @@ def test_a_redis_outage_is_503_and_tiles_ride_it_out(
     when Redis is back and the tile receives the next change."""
     update = {"bus": "redis", "redis_url": redis_cable.url, "redis_prefix": redis_prefix}
     settings = settings.model_copy(update=update)
-    upgrade(settings.resolved_database_url)
+    migrate(settings.resolved_database_url)
     tile = f"/ws/wall/demo/tile/r1c1?token={tile_token(TEST_SECRET, 'demo')}"
     with TestClient(create_app(settings), raise_server_exceptions=False) as client:
         operator = operator_headers(client)

@@ -22,9 +22,12 @@ import pytest
 from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, server_port
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
+
+# Several server processes each, one of them killed -9 mid-session: nothing beside them.
+pytestmark = pytest.mark.alone
 
 DEMO_TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 
@@ -85,6 +88,7 @@ def start(tmp_path: Path, name: str, database_url: str, redis: dict[str, str]) -
         var_dir=tmp_path / name,
         database_url=database_url,
         secret=TEST_SECRET,
+        port=server_port(),
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
             "TAGWALL_APPLY_LEAD_MS": "100",
@@ -206,6 +210,7 @@ def test_serve_with_two_workers_keeps_every_tile_in_order_when_a_worker_is_kille
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret=TEST_SECRET,
+        port=server_port(),
         command=[str(tagwall), "serve", "--workers", "2"],
         extra_env={
             "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from sqlalchemy import delete
@@ -11,6 +12,7 @@ from webapp.engine.wall_state import read_state
 from webapp.server.services import Services
 
 
+@pytest.mark.walls("demo", "kl-3x3")  # a layout is not another wall's
 def test_a_layout_is_read_once_and_kept(app: FastAPI, client: TestClient) -> None:
     """Layouts never change (a new placement is a new row): the one read is kept, and
     a layout of another wall, or none, is not found."""

@@ -13,10 +13,9 @@ from sqlalchemy import update
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
-from tests.conftest import tag_spec
+from tests.conftest import migrate, tag_spec
 from webapp.core.tasks import cancel_and_wait
 from webapp.database.connection import Database
-from webapp.database.migrate import upgrade
 from webapp.database.models import TagRecord, WallStateRecord
 from webapp.database.redis import connect_redis
 from webapp.engine.bus.base import EventBus
@@ -142,7 +141,7 @@ def test_a_failed_write_keeps_the_scans_for_the_next_flush(database_url: str) ->
     log.record(tag, "visitor", "10.0.0.7", "ua")
     with pytest.raises(DBAPIError):
         log.flush()
-    upgrade(database_url)
+    migrate(database_url)
     with db.session() as session:
         session.add(TagRecord(code="ABCDEFG", wall_id="demo", app="quiz", action="ask"))
     assert log.flush() == 1

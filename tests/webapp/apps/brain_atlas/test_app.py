@@ -11,14 +11,20 @@ import pytest
 from fastapi.testclient import TestClient
 from markupsafe import escape
 
-from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from tests.conftest import (
+    csrf_of,
+    migrate,
+    operator_headers,
+    register_student,
+    services_of,
+    sign_in,
+)
 from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.quiz import get_round
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.markdown import markdown_html
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import WallState, events_since, read_state
 from webapp.server.app import create_app
 from webapp.tags.registry import get_layout, wall_tags
@@ -573,7 +579,7 @@ def test_the_offline_reading_list_sets_journal_titles_in_italics(settings: Setti
     offline = settings.model_copy(
         update={"pubmed_url": "http://127.0.0.1:9/", "pubmed_timeout": 1.0}
     )  # nothing listens: the atlas's own reading list
-    upgrade(offline.resolved_database_url)
+    migrate(offline.resolved_database_url)
     with TestClient(create_app(offline)) as client:
         show_brain(client)
         control(client, mode="tutor")

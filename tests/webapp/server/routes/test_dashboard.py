@@ -11,9 +11,8 @@ import pytest
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
-from tests.conftest import TEST_PASSWORD, csrf_of, register_student, services_of, sign_in
+from tests.conftest import TEST_PASSWORD, csrf_of, migrate, register_student, services_of, sign_in
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.engine.protocol import CLOSE_POLICY
 from webapp.people.accounts import authenticate, list_accounts, remove_account, set_password
 from webapp.people.address_rules import list_rules
@@ -171,7 +170,7 @@ def test_without_walls_the_dashboard_says_so(settings: Settings, tmp_path: Path)
     empty = tmp_path / "no-walls"
     empty.mkdir()
     bare = settings.model_copy(update={"wall_configs": [empty]})
-    upgrade(bare.resolved_database_url)
+    migrate(bare.resolved_database_url)
     with TestClient(create_app(bare)) as browser:
         sign_in(browser, "instructor")
         page = browser.get("/dashboard")

@@ -11,11 +11,10 @@ from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from httpx import Response
 
-from tests.conftest import csrf_of, operator_headers, services_of
+from tests.conftest import csrf_of, migrate, operator_headers, services_of
 from webapp.apps.census_map.app import CensusApp
 from webapp.apps.census_map.dataset import DataSet
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.engine.wall_state import WallState, read_state
 from webapp.server.app import create_app
 from webapp.tags.registry import get_layout, wall_tags
@@ -32,7 +31,7 @@ def defaults(settings: Settings) -> Settings:
 
 @pytest.fixture
 def app_with_defaults(defaults: Settings) -> FastAPI:
-    upgrade(defaults.resolved_database_url)
+    migrate(defaults.resolved_database_url)
     return create_app(defaults)
 
 
@@ -177,7 +176,7 @@ def test_a_cookie_dropper_cannot_keep_switching_the_brains_pins(defaults: Settin
     cooldown between audience switches: the wall follows only the new phones' budget.
     The phone still joins its group (the page says the wall waits)."""
     eager = defaults.model_copy(update={"brain_group_switch_cooldown": 0})
-    upgrade(eager.resolved_database_url)
+    migrate(eager.resolved_database_url)
     with TestClient(create_app(eager), client=("203.0.113.50", 5000)) as spammer:
         staff = operator_headers(spammer)
         assert spammer.post(
@@ -212,7 +211,7 @@ def test_the_wall_has_one_budget_for_phones_at_every_address(defaults: Settings)
             "trusted_proxies": [ip_network("10.0.0.2")],
         }
     )
-    upgrade(limited.resolved_database_url)
+    migrate(limited.resolved_database_url)
     with TestClient(create_app(limited), client=("10.0.0.2", 5000)) as proxy:
         dataset = census_on_the_wall(proxy)
         opened = 0
@@ -237,7 +236,7 @@ def test_one_address_has_one_budget_for_all_its_phones(defaults: Settings) -> No
     limited = defaults.model_copy(
         update={"visitor_settle_s": 0, "actions_per_address_per_minute": 4}
     )
-    upgrade(limited.resolved_database_url)
+    migrate(limited.resolved_database_url)
     with TestClient(create_app(limited), client=NAT) as room:
         changed = room.post(
             "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(room)
@@ -269,7 +268,7 @@ def test_settled_phones_of_one_address_are_limited_as_themselves(defaults: Setti
     """Phones that kept their cookie past the settle time each have their own budget:
     a room publishing together is not one person."""
     settled = defaults.model_copy(update={"visitor_settle_s": 0})
-    upgrade(settled.resolved_database_url)
+    migrate(settled.resolved_database_url)
     with TestClient(create_app(settled), client=NAT) as room:
         code = next(
             t.code for t in wall_tags(services_of(room).db, "demo") if t.name == "setup-r2c2"
@@ -288,7 +287,7 @@ def test_behind_a_trusted_proxy_each_phone_has_its_own_address(defaults: Setting
     """The census routes read the one client address too: phones behind the proxy are
     told apart by X-Forwarded-For, not lumped under the proxy's address."""
     proxied = defaults.model_copy(update={"trusted_proxies": [ip_network("10.0.0.2")]})
-    upgrade(proxied.resolved_database_url)
+    migrate(proxied.resolved_database_url)
     with TestClient(create_app(proxied), client=("10.0.0.2", 5000)) as proxy:
         dataset = census_on_the_wall(proxy)
         budget = proxied.new_visitor_actions_per_address_per_minute
@@ -322,7 +321,7 @@ def test_server_processes_on_one_redis_hold_one_wall_budget(
             "actions_per_wall_per_minute": 6,
         }
     )
-    upgrade(shared.resolved_database_url)
+    migrate(shared.resolved_database_url)
     with (
         TestClient(create_app(shared), client=NAT) as first,
         TestClient(create_app(shared), client=NAT) as second,

@@ -2,6 +2,7 @@ import html
 import json
 import re
 
+import pytest
 from fastapi.testclient import TestClient
 
 from webapp.server.app import STATIC_DIR as STATIC
@@ -28,6 +29,7 @@ def test_healthz_503_with_a_dead_database(client: TestClient) -> None:
     assert client.get("/healthz").status_code == 503
 
 
+@pytest.mark.walls("demo", "hiperwall")
 def test_start_page_lists_walls(client: TestClient) -> None:
     page = client.get("/").text
     assert "/wall/demo/overview" in page and "/wall/hiperwall/overview" in page
@@ -54,6 +56,7 @@ def test_unknown_wall_or_tile_is_a_friendly_404(client: TestClient) -> None:
         assert "Traceback" not in response.text
 
 
+@pytest.mark.walls("kl-3x3")
 def test_overview_page_carries_the_layout(client: TestClient) -> None:
     page = client.get("/wall/kl-3x3/overview")
     assert page.status_code == 200

@@ -16,6 +16,7 @@ from sqlalchemy import select
 from tests.conftest import (
     TEST_PASSWORD,
     csrf_of,
+    migrate,
     register_student,
     services_of,
     sign_in,
@@ -217,11 +218,10 @@ def with_settings(settings: Settings, **changes: object) -> Settings:
 
 @pytest.fixture
 def make_app() -> Callable[[Settings], FastAPI]:
-    from webapp.database.migrate import upgrade
     from webapp.server.app import create_app
 
     def build(settings: Settings) -> FastAPI:
-        upgrade(settings.resolved_database_url)
+        migrate(settings.resolved_database_url)
         return create_app(settings)
 
     return build

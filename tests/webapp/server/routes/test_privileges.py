@@ -387,6 +387,7 @@ def outcome(response: Any) -> object:
     return response.status_code
 
 
+@pytest.mark.walls("demo", "irregular", "kl-3x3")
 def test_the_privilege_matrix(app: FastAPI) -> None:
     clients = [client_as(app, role, index) for index, role in enumerate(ROLES)]
     try:
@@ -429,6 +430,7 @@ WEBSOCKETS = {
 }
 
 
+@pytest.mark.walls("demo", "irregular", "kl-3x3")
 def test_the_matrix_covers_every_route(client: TestClient) -> None:
     covered = {(row.method, row.route) for row in matrix(client)} | WEBSOCKETS
     missing = routes_of(client.app) - covered  # type: ignore[arg-type]

@@ -21,9 +21,8 @@ from tag_service.codes import (
 )
 from tag_service.sizing import min_module_mm
 from tag_service.verify import Shot, phone_frame
-from tests.conftest import services_of
+from tests.conftest import migrate, services_of
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.server.app import create_app
 from webapp.server.routes import scan
 from webapp.tags.registry import wall_tags
@@ -298,7 +297,7 @@ def test_a_missing_photo_gets_a_400(client: TestClient, request_kwargs: dict[str
 def small_app(settings: Settings) -> FastAPI:
     """An app that accepts photos of at most 20 000 bytes."""
     small = settings.model_copy(update={"scan_upload_max_bytes": 20_000})
-    upgrade(small.resolved_database_url)
+    migrate(small.resolved_database_url)
     return create_app(small)
 
 

@@ -15,9 +15,8 @@ from fastapi import FastAPI
 from fastapi.testclient import TestClient
 from sqlalchemy import func, select
 
-from tests.conftest import TEST_PASSWORD, csrf_of, services_of
+from tests.conftest import TEST_PASSWORD, csrf_of, migrate, services_of
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.database.models import AuditRecord
 from webapp.people import accounts
 from webapp.people.accounts import add_account
@@ -157,7 +156,7 @@ def test_failures_on_one_server_process_slow_the_guesser_on_another(
     shared = settings.model_copy(
         update={"bus": "redis", "redis_url": redis_server, "redis_prefix": redis_prefix}
     )
-    upgrade(shared.resolved_database_url)
+    migrate(shared.resolved_database_url)
     attacker = ("203.0.113.9", 4000)
     with (
         TestClient(create_app(shared), client=attacker) as first,

@@ -103,6 +103,7 @@ def test_switching_tag_sets(client: TestClient) -> None:
     assert unknown.status_code == 404 and "setup" in unknown.json()["detail"]
 
 
+@pytest.mark.walls("demo", "hiperwall")  # a layout is not another wall's
 def test_layouts_are_public_immutable_and_filter_by_display(client: TestClient) -> None:
     layout_id = client.get("/api/walls/demo/tag-sets", headers=operator_headers(client)).json()[
         "layout"

@@ -4,6 +4,7 @@ from fastapi.testclient import TestClient
 from tests.conftest import operator_headers as operator
 
 
+@pytest.mark.walls("demo", "hiperwall", "irregular", "kl-3x3")
 def test_lists_configured_walls(client: TestClient) -> None:
     walls = {w["id"]: w for w in client.get("/api/walls").json()}
     assert {"demo", "kl-3x3", "hiperwall", "irregular"} <= walls.keys()

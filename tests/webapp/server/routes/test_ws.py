@@ -10,10 +10,9 @@ import pytest
 from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect, WebSocketState
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, migrate
 from tests.conftest import operator_headers as operator
 from webapp.core.settings import Settings
-from webapp.database.migrate import upgrade
 from webapp.engine.bus.redis import RedisBus
 from webapp.engine.protocol import CLOSE_POLICY, CLOSE_TOO_BIG, CLOSE_TRY_AGAIN, CLOSE_UNKNOWN
 from webapp.people.security import tile_token
@@ -245,7 +244,7 @@ def redis_settings(settings: Settings, redis_server: str, redis_prefix: str) -> 
 
 
 def test_a_tile_on_the_redis_bus_receives_changes(redis_settings: Settings) -> None:
-    upgrade(redis_settings.resolved_database_url)
+    migrate(redis_settings.resolved_database_url)
     with TestClient(create_app(redis_settings)) as client:
         assert isinstance(client.app.state.services.hub.bus, RedisBus)  # type: ignore[attr-defined]
         start = version_now(client)
@@ -260,7 +259,7 @@ def test_a_tile_on_the_redis_bus_receives_changes(redis_settings: Settings) -> N
 
 def test_two_server_processes_serve_one_wall(redis_settings: Settings) -> None:
     """A change made through one process reaches the tiles of the other, in order."""
-    upgrade(redis_settings.resolved_database_url)
+    migrate(redis_settings.resolved_database_url)
     with (
         TestClient(create_app(redis_settings)) as one,
         TestClient(create_app(redis_settings)) as two,
