@@ -29,6 +29,7 @@ from webapp.apps.census_map.app import CensusApp
 from webapp.apps.census_map.importer import import_files
 from webapp.apps.census_map.mapview import MapGeometry, tile_view, tract_codes
 from webapp.apps.census_map.rules import APP, CENSUS_SET
+from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY, load
 from webapp.apps.registration.app import RegistrationApp
 from webapp.core.settings import CONTENT_DIR
@@ -58,7 +59,7 @@ def _codes(db: Database, wall: Wall, dataset_id: int, total: int, view: View) ->
     its tags, the wall's tag set is placed with the registration codes): how many
     tracts carry their own code, how many a cluster code, and how long that took."""
     services = SimpleNamespace(db=db, base_url=BASE_URL)
-    state = WallState(app=APP, dataset=dataset_id, view=view, tag_set=CENSUS_SET)
+    state = CensusState(dataset=dataset_id).put(WallState(app=APP, view=view, tag_set=CENSUS_SET))
     started = time.perf_counter()
     specs = CensusApp().declare_tags(services, wall, state)  # type: ignore[arg-type]
     chosen = time.perf_counter()

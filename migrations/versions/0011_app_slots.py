@@ -1,8 +1,9 @@
 """Apps keep their state in slots of their own: the census map's data set and colouring
 and the brain's quiz round move from the wall state's top level into ``apps``.
 
-Stored states and the event history (which tiles replay to catch up) move alike, so a
-tile reconnecting across the upgrade still reads every change. A state that never named
+Stored states and the event history (which tiles replay to catch up) move alike. Tiles
+read the slots with the new pages only: reload every kiosk after the upgrade (a tile that
+kept the old page open would miss the census map's changes). A state that never named
 its app showed the test pattern (the old default): it now says so.
 
 Revision ID: 0011
@@ -85,4 +86,10 @@ def upgrade() -> None:
 
 
 def downgrade() -> None:
-    _rewrite(lambda fields, _whole: _out_of_slots(fields))
+    def change(fields: dict[str, Any], whole: bool) -> dict[str, Any]:
+        moved = _out_of_slots(fields)
+        if whole and not moved.get("app"):
+            moved["app"] = "pattern"  # the old state required an app
+        return moved
+
+    _rewrite(change)

@@ -138,3 +138,12 @@ def heavy_keys(apps: dict[str, WallApp]) -> frozenset[str]:
 def placing_keys(apps: dict[str, WallApp]) -> frozenset[str]:
     """The state keys that move codes: the core's and every app's."""
     return CORE_PLACING_KEYS.union(*(app.state.keys()[1] for app in apps.values() if app.state))
+
+
+REGISTRATION = "core"
+"""The app of the registration codes: on every wall, never the app a wall shows."""
+
+
+def wall_apps(apps: dict[str, WallApp]) -> dict[str, WallApp]:
+    """The apps a wall can show: every installed app but the registration codes'."""
+    return {name: app for name, app in apps.items() if name != REGISTRATION}

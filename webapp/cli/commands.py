@@ -18,6 +18,7 @@ from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 from wall_client.config import WallConfigError, load_wall
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
+from webapp.apps.contract import wall_apps
 from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.cli.console import (
     EXIT_USAGE,
@@ -79,9 +80,10 @@ def check_apps(settings: Settings) -> None:
         apps = installed_apps()
     except AppLoadError as error:
         fail(str(error))
-    if settings.first_app not in apps or settings.first_app == "core":
-        shown = ", ".join(sorted(name for name in apps if name != "core"))
-        fail(f"TAGWALL_FIRST_APP={settings.first_app!r} is not an installed app (apps: {shown})")
+    shown = wall_apps(apps)
+    if settings.first_app not in shown:
+        names = ", ".join(sorted(shown))
+        fail(f"TAGWALL_FIRST_APP={settings.first_app!r} is not an installed app (apps: {names})")
 
 
 @click.group(cls=CommandsWithApps)

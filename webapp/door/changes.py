@@ -26,7 +26,7 @@ from collections.abc import Callable
 from typing import Any
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp, placing_keys
+from webapp.apps.contract import WallApp, placing_keys, wall_apps
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import (
     Change,
@@ -94,7 +94,8 @@ class WallDoor:
             )
 
     async def open(self, wall: Wall) -> Change | None:
-        """Bring a wall up at server start: the first app on a wall that shows none,
+        """Bring a wall up at server start: the first app on a wall that shows none (or an
+        app no longer installed),
         settle the app it shows, declare every app's tags and put the wall's tag set up.
 
         Idempotent: codes stay as they were and an unchanged set is not placed again, so
@@ -136,13 +137,15 @@ class WallDoor:
     def _opening_fields(self, wall: Wall, current: WallState) -> dict[str, Any]:
         """What a wall's state needs at start (see :meth:`open`)."""
         state = current
-        if not state.app and self.first_app in self.apps:
+        showable = wall_apps(self.apps)
+        arriving = state.app not in showable and self.first_app in showable
+        if arriving:  # never shown one, or left on an app no longer installed
             state = state.model_copy(update={"app": self.first_app})
         if (shown := self.apps.get(state.app)) is not None:
             state = shown.settle(self.context, wall, state)
         fields = _differing(state, current)
         tag_set = state.tag_set
-        if not state.tag_layout and shown is not None:
+        if (arriving or not state.tag_layout) and shown is not None:
             tag_set = shown.default_tag_set
         return {**fields, **self._declare_and_place(wall, list(self.apps.values()), state, tag_set)}
 

@@ -12,7 +12,7 @@ from anyio import CapacityLimiter
 from redis.asyncio import Redis
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp
+from webapp.apps.contract import WallApp, wall_apps
 from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
@@ -103,8 +103,8 @@ class Services:
 
     @property
     def wall_apps(self) -> dict[str, WallApp]:
-        """The apps a wall can show (the core app only adds the registration codes)."""
-        return {name: app for name, app in self.apps.items() if name != "core"}
+        """The apps a wall can show (the registration codes' app only adds its codes)."""
+        return wall_apps(self.apps)
 
     @property
     def base_url(self) -> str:

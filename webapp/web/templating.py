@@ -1,9 +1,10 @@
 """Pages from templates: one template search path and one ``render`` for the core's pages
 and every app's.
 
-Every page carries the import map: browser modules import the core's library modules as
-``tagwall/<module>.js`` (``static/js/``), so an app's modules name no server path of the
-core's. The map is inline, allowed by its hash in the content security policy.
+Every page that runs modules (its ``modules`` block) carries the import map first: browser
+modules import the core's library modules as ``tagwall/<module>.js`` (``static/js/``), so
+an app's modules name no server path of the core's. The map is inline, allowed by its hash
+in the content security policy; pages without script carry none.
 """
 
 from __future__ import annotations

@@ -276,3 +276,16 @@ def test_nothing_but_the_door_commits_wall_changes() -> None:
             if hub_commit or (isinstance(node, ast.Name) and node.id == "commit_change"):
                 callers.add(path.relative_to(webapp).as_posix())
     assert callers == {"door/changes.py", "engine/hub.py"}
+
+
+async def test_a_wall_left_on_an_app_no_longer_installed_opens_on_the_first_app(
+    services: Services,
+) -> None:
+    wall = wall_of(services)
+    await services.change_wall(wall, to_marker)
+    del services.apps["marker"]  # uninstalled before the next start
+    change = await services.door.open(wall)
+    assert change is not None
+    _, state = read_state(services.db, wall.id)
+    assert state.app == services.settings.first_app == "pattern"
+    assert state.tag_set == services.apps["pattern"].default_tag_set
