@@ -32,9 +32,8 @@ from webapp.engine.wall_state import (
     Change,
     View,
     WallState,
-    changed_keys,
+    differing_keys,
     read_state,
-    state_changes,
 )
 from webapp.tags.registry import declare, layout_for
 from webapp.web.context import AppContext, Plan, Update
@@ -107,8 +106,7 @@ class WallDoor:
             return await self.hub.commit(wall.id, lambda state: state.model_copy(update=fields))
 
     def _moves_codes(self, current: WallState, target: WallState) -> bool:
-        changes = state_changes(current.model_dump(mode="json"), target.model_dump(mode="json"))
-        return bool(self.placing_keys & changed_keys(changes))
+        return bool(self.placing_keys & differing_keys(current, target))
 
     def _place_codes(self, wall: Wall, current: WallState, target: WallState) -> dict[str, Any]:
         """The fields that put the right codes up for ``target``: what the app coming on

@@ -234,6 +234,18 @@ def state_changes(old: dict[str, Any], new: dict[str, Any]) -> dict[str, Any]:
     return changes
 
 
+def differing_keys(old: WallState, new: WallState) -> set[str]:
+    """The keys that differ between two states, named as :func:`changed_keys` names them,
+    read from the models (no JSON: the door asks this of every change)."""
+    keys = {n for n in WallState.model_fields if n != "apps" and getattr(old, n) != getattr(new, n)}
+    for name in old.apps.keys() | new.apps.keys():
+        before, after = old.apps.get(name, {}), new.apps.get(name, {})
+        keys.update(
+            f"{name}.{k}" for k in before.keys() | after.keys() if before.get(k) != after.get(k)
+        )
+    return keys
+
+
 def changed_keys(changes: dict[str, Any]) -> set[str]:
     """The keys of a change: core fields by name, app slot keys as ``app.key``."""
     keys = {k for k in changes if k != "apps"}

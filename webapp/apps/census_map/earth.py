@@ -39,8 +39,6 @@ percent of a display (the tests measure it).
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 import io
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
@@ -69,6 +67,7 @@ from webapp.apps.census_map.theme import Shading
 from webapp.choropleth.classes import Theme
 from webapp.database.connection import Database
 from webapp.engine.wall_state import Balloon, View, WallState
+from webapp.people.security import derive_token, token_matches
 from webapp.tags.registry import get_layout
 from webapp.tags.schemas import PlacedCode
 
@@ -135,7 +134,7 @@ class EarthBase:
             return cls(public)
         if url is None or signature is None:
             return None
-        if not hmac.compare_digest(signature, base_signature(secret, url)):
+        if not token_matches(base_signature(secret, url), signature):
             return None
         return cls(url, signature)
 
@@ -144,7 +143,8 @@ class EarthBase:
 
 
 def base_signature(secret: str, url: str) -> str:
-    return hmac.new(secret.encode(), f"earth-base:{url}".encode(), hashlib.sha256).hexdigest()[:32]
+    """The server's signature of an Earth base ``url`` (a token derived from the secret)."""
+    return derive_token(secret, f"earth-base:{url}")
 
 
 def map_url(base_url: str, wall_id: str) -> str:
