@@ -193,6 +193,7 @@ def test_the_export_defuses_answers_that_look_like_formulas(db: Database) -> Non
         "answer",
         "correct",
         "answered_at",
+        "class",
     ]
     assert rows[1][5] == "'=HYPERLINK(1)"
     assert rows[1][6] == "no"
