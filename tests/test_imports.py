@@ -110,6 +110,7 @@ FLOORS = {
     "webapp.people": 3,
     "webapp.classes": 3,
     "webapp.tags": 4,
+    "webapp.quiz": 4,
     "webapp.volume": 4,
     "webapp.web": 5,
     "webapp.publishing": 6,

@@ -42,7 +42,7 @@ def test_rounds_from_before_0007_are_closed_their_key_was_public(database_url: s
                 " VALUES ('demo', 1, CURRENT_TIMESTAMP, 'ann')"
             )
         )
-    upgrade(database_url)
+    upgrade(database_url, "0007")
     with engine.connect() as connection:
         row = connection.execute(
             text("SELECT closed_at, reveal, orders FROM brain_quiz_rounds")
@@ -147,3 +147,38 @@ def test_0011_moves_the_apps_fields_into_their_slots_and_back(database_url: str)
     assert states["brain"] == {"app": "brain", "mode": "quiz", "quiz_round": 7}
     events = _rows(database_url, "SELECT version, changes FROM wall_events ORDER BY version")
     assert events == [(1, {"view": {"zoom": 2}, "dataset": 3}), (2, {"theme": theme})]
+
+
+def test_0013_moves_the_brains_quiz_into_the_shared_engine_and_back(database_url: str) -> None:
+    """Rounds, answers and finishes alike, as the brain's (app ``brain``)."""
+    upgrade(database_url, "0012")
+    engine = make_engine(database_url)
+    with engine.begin() as connection:
+        for statement in (
+            "INSERT INTO brain_quiz_rounds (wall_id, number, started_at, started_by, orders,"
+            " reveal) VALUES ('demo', 4, CURRENT_TIMESTAMP, 'ann', '{\"k5\": [\"a\"]}',"
+            " 'finish')",
+            "INSERT INTO brain_answers (wall_id, round, visitor_id, tag_set, region_id, answer,"
+            " correct, answered_at) VALUES ('demo', 4, 'v1', 'k5', 'a', 'Alpha', true,"
+            " CURRENT_TIMESTAMP)",
+            "INSERT INTO brain_quiz_finishes (wall_id, round, visitor_id, tag_set, finished_at)"
+            " VALUES ('demo', 4, 'v1', 'k5', CURRENT_TIMESTAMP)",
+        ):
+            connection.execute(text(statement))
+    engine.dispose()
+    upgrade(database_url)
+    assert _rows(database_url, "SELECT app, wall_id, number, reveal FROM quiz_rounds") == [
+        ("brain", "demo", 4, "finish")
+    ]
+    assert _rows(
+        database_url, "SELECT app, round, visitor_id, set_name, item_id, answer FROM quiz_answers"
+    ) == [("brain", 4, "v1", "k5", "a", "Alpha")]
+    assert _rows(database_url, "SELECT app, set_name FROM quiz_finishes") == [("brain", "k5")]
+    command.downgrade(alembic_config(database_url), "0012")
+    assert _rows(database_url, "SELECT wall_id, number, reveal FROM brain_quiz_rounds") == [
+        ("demo", 4, "finish")
+    ]
+    assert _rows(database_url, "SELECT tag_set, region_id, answer FROM brain_answers") == [
+        ("k5", "a", "Alpha")
+    ]
+    assert _rows(database_url, "SELECT tag_set FROM brain_quiz_finishes") == [("k5",)]

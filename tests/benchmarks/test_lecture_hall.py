@@ -83,7 +83,7 @@ def test_a_profile_sums_to_the_whole(tmp_path: Path) -> None:
     raw = tmp_path / "profile.txt"
     raw.write_text(
         "Runner.run (asyncio/runners.py) 3\n"
-        "Thread.run (threading.py);record_answer (webapp/apps/brain_atlas/quiz.py);"
+        "Thread.run (threading.py);record_answer (webapp/quiz/engine.py);"
         "Session.commit (sqlalchemy/orm/session.py) 1\n"
     )
     summary = summarise_profile(raw, cpu_ms_per_request=8.0)

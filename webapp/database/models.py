@@ -319,28 +319,67 @@ class CensusTractRecord(Base):
     values: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
 
 
-class BrainQuizRoundRecord(Base):
-    """A round of the brain atlas quiz on a wall; resetting the quiz starts the next,
-    and earlier rounds' answers stay for export."""
+class QuizRoundRecord(Base):
+    """A round of an app's quiz on a wall (:mod:`webapp.quiz`); a new round starts the
+    next number, and earlier rounds' answers stay for export."""
 
-    __tablename__ = "brain_quiz_rounds"
+    __tablename__ = "quiz_rounds"
 
+    app: Mapped[str] = mapped_column(String(64), primary_key=True)
     wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
     number: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
     started_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, nullable=False
     )
     started_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")
-    # Per tag set, the region ids in pin order: pin n is the n-th (a fresh random
-    # order each round, so no pin number names a region for long).
+    # Per set, the item ids in question order: question n is the n-th (a fresh random
+    # order each round, so no number names an item for long).
     orders: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False, default=dict)
-    # When students see the correct names: when the round closes, or at finishing.
+    # When students see the correct answers: when the round closes, or at finishing.
     reveal: Mapped[str] = mapped_column(String(16), nullable=False, default="close")
     closed_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
     closed_by: Mapped[str | None] = mapped_column(String(120), nullable=True)
     # Written by every answer before it is stored: the row lock orders answers and the
     # closing of the round, so no answer lands in a closed round.
     last_answer_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+
+
+class QuizAnswerRecord(Base):
+    """A visitor's answer for one item of a set, in one round (changeable until the
+    visitor finishes that set)."""
+
+    __tablename__ = "quiz_answers"
+    __table_args__ = (
+        UniqueConstraint("app", "wall_id", "round", "visitor_id", "set_name", "item_id"),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    app: Mapped[str] = mapped_column(String(64), nullable=False)
+    wall_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    round: Mapped[int] = mapped_column(Integer, nullable=False)
+    visitor_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    set_name: Mapped[str] = mapped_column(String(64), nullable=False)
+    item_id: Mapped[str] = mapped_column(String(64), nullable=False)
+    answer: Mapped[str] = mapped_column(String(200), nullable=False)
+    correct: Mapped[bool] = mapped_column(nullable=False)
+    answered_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, onupdate=_utcnow, nullable=False
+    )
+
+
+class QuizFinishRecord(Base):
+    """A visitor finished a set's quiz in a round: answers are final, results shown."""
+
+    __tablename__ = "quiz_finishes"
+
+    app: Mapped[str] = mapped_column(String(64), primary_key=True)
+    wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    round: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
+    visitor_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    set_name: Mapped[str] = mapped_column(String(64), primary_key=True)
+    finished_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
 
 
 class BrainWallRecord(Base):
@@ -353,40 +392,6 @@ class BrainWallRecord(Base):
     audience_switches: Mapped[bool] = mapped_column(nullable=False, default=False)
     audience_switched_at: Mapped[datetime | None] = mapped_column(
         DateTime(timezone=True), nullable=True
-    )
-
-
-class BrainAnswerRecord(Base):
-    """A visitor's answer for one region of a tag set, in one round (changeable until
-    the visitor finishes that set)."""
-
-    __tablename__ = "brain_answers"
-    __table_args__ = (UniqueConstraint("wall_id", "round", "visitor_id", "tag_set", "region_id"),)
-
-    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
-    wall_id: Mapped[str] = mapped_column(String(64), nullable=False)
-    round: Mapped[int] = mapped_column(Integer, nullable=False)
-    visitor_id: Mapped[str] = mapped_column(String(64), nullable=False)
-    tag_set: Mapped[str] = mapped_column(String(16), nullable=False)
-    region_id: Mapped[str] = mapped_column(String(64), nullable=False)
-    answer: Mapped[str] = mapped_column(String(200), nullable=False)
-    correct: Mapped[bool] = mapped_column(nullable=False)
-    answered_at: Mapped[datetime] = mapped_column(
-        DateTime(timezone=True), default=_utcnow, onupdate=_utcnow, nullable=False
-    )
-
-
-class BrainQuizFinishRecord(Base):
-    """A visitor finished a tag set's quiz in a round: answers are final, results shown."""
-
-    __tablename__ = "brain_quiz_finishes"
-
-    wall_id: Mapped[str] = mapped_column(String(64), primary_key=True)
-    round: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=False)
-    visitor_id: Mapped[str] = mapped_column(String(64), primary_key=True)
-    tag_set: Mapped[str] = mapped_column(String(16), primary_key=True)
-    finished_at: Mapped[datetime] = mapped_column(
-        DateTime(timezone=True), default=_utcnow, nullable=False
     )
 
 

@@ -14,18 +14,12 @@ from webapp.apps.brain_atlas.content import (
     ATLAS_DIR,
 )
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
-from webapp.apps.brain_atlas.quiz import (
-    close_round,
-    get_round,
-    open_round,
-    rounds_during,
-    start_round,
-)
 from webapp.apps.brain_atlas.rules import (
     APP,
     MODES,
     TAG_SETS,
     mode_of_class,
+    quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.apps.contract import Export, Scan
@@ -71,7 +65,7 @@ class BrainApp(Atlas):
             update["volume"] = first.layer(VOLUME)
         settled = state.model_copy(update=update) if update else state
         if BrainState.of(state).quiz_round is None:
-            opened = open_round(context.db, wall.id, f"app:{APP}", self.fresh_orders())
+            opened = quiz_of(context).open_round(wall.id, f"app:{APP}", self.fresh_orders())
             settled = BrainState(quiz_round=opened.number).put(settled)
         return settled
 
@@ -91,7 +85,7 @@ class BrainApp(Atlas):
         )
         by = f"app:{APP}"
         if began.mode == "quiz":
-            started = start_round(context.db, wall.id, by, self.fresh_orders())
+            started = quiz_of(context).start_round(wall.id, by, self.fresh_orders())
             return BrainState.of(began).later_round(started.number).put(began)
         self._close_running(context, wall, began, by)
         return began
@@ -104,9 +98,10 @@ class BrainApp(Atlas):
 
     def _close_running(self, context: AppContext, wall: Wall, state: WallState, by: str) -> None:
         number = BrainState.of(state).quiz_round
-        shown = get_round(context.db, wall.id, number) if number is not None else None
+        quiz = quiz_of(context)
+        shown = quiz.get_round(wall.id, number) if number is not None else None
         if shown is not None and shown.open:
-            close_round(context.db, wall.id, shown.number, by)
+            quiz.close_round(wall.id, shown.number, by)
 
     def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
         """The answers of every quiz round the class ran, one CSV each."""
@@ -115,7 +110,7 @@ class BrainApp(Atlas):
                 f"Round {number} answers (CSV)",
                 f"/api/walls/{wall.id}/brain/answers.csv?round={number}",
             )
-            for number in rounds_during(context.db, wall.id, held)
+            for number in quiz_of(context).rounds_during(wall.id, held)
         ]
 
     async def on_scan(self, scan: Scan) -> Response:

@@ -22,13 +22,13 @@ from webapp.apps.brain_atlas.content import (
 from webapp.apps.brain_atlas.literature import PubMed
 from webapp.apps.brain_atlas.matching import AnswerKey, answer_key
 from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache, scene_pins
-from webapp.apps.brain_atlas.quiz import Round, get_round, new_order
 from webapp.apps.brain_atlas.rules import (
     APP,
     GROUP_LABELS,
     TAG_SETS,
     group_tag,
     pin_tag,
+    quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.apps.brain_atlas.views import ViewPreset, load_views
@@ -36,6 +36,7 @@ from webapp.core.caching import SizedCache
 from webapp.core.roles import UserGroup
 from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState
+from webapp.quiz.engine import Round, new_order
 from webapp.tags.registry import TagSpec, anchored_code_side_mm, preview, wall_tags
 from webapp.web.context import AppContext
 
@@ -116,7 +117,7 @@ class Atlas:
 
     def pins(self, quiz_round: Round, tag_set: TagSetName) -> dict[int, Region]:
         """Pin number -> region of a set in a round."""
-        return quiz_round.pins(tag_set, self.regions(tag_set))
+        return quiz_round.numbered(tag_set, self.regions(tag_set))
 
     def fresh_orders(self) -> dict[str, list[str]]:
         """A new round's pin numbering: every set in a fresh random order."""
@@ -125,7 +126,7 @@ class Atlas:
     def round_on_wall(self, context: AppContext, wall_id: str, state: WallState) -> Round | None:
         """The quiz round the wall state names (None before the brain's first)."""
         number = BrainState.of(state).quiz_round
-        return None if number is None else get_round(context.db, wall_id, number)
+        return None if number is None else quiz_of(context).get_round(wall_id, number)
 
     def guide(
         self,

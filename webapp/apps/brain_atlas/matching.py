@@ -27,10 +27,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from webapp.apps.brain_atlas.content import AtlasContent, Hemisphere, Region, TagSetName
-
-MAX_ANSWER_LENGTH = 200
-"""Longer answers are rejected outright: nobody types a region's name that long, and it
-keeps the cost of judging bounded."""
+from webapp.quiz.engine import MAX_ANSWER_LENGTH
 
 FILLER_WORDS = frozenset({"the", "a", "an", "of", "area", "region"})
 """Words left out of every name and answer (unless nothing else is left)."""

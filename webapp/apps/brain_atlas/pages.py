@@ -20,12 +20,12 @@ from wall_client.layout import Wall
 from webapp.apps.brain_atlas.atlas import Atlas, RoundGuide
 from webapp.apps.brain_atlas.audience import audience_switches, claim_audience_switch
 from webapp.apps.brain_atlas.content import Region, TagSetName
-from webapp.apps.brain_atlas.quiz import Progress, QuizError, Round, finish, progress, record_answer
 from webapp.apps.brain_atlas.rules import (
     APP,
     GROUP_LABELS,
     TAG_SETS,
     mode_of,
+    quiz_of,
     reveals_answers,
     set_of_group,
     set_on_wall,
@@ -38,6 +38,7 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.visitors import Visitor
+from webapp.quiz.engine import Progress, QuizError, Round
 from webapp.web.context import AppContext
 from webapp.web.templating import render
 
@@ -170,7 +171,7 @@ def pin_and_progress(
 ) -> tuple[Pin, Progress]:
     """The pin and how far the visitor is in its round (one ``db.read``)."""
     pin = pin_of(app, context, wall, tag)
-    return pin, progress(context.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+    return pin, quiz_of(context).progress(wall.id, pin.round.number, person.visitor.id, pin.tag_set)
 
 
 def question_page(
@@ -239,8 +240,7 @@ def store_answer(
     try:
         if mode_of(pin.state) != "quiz":
             raise QuizError("The wall is in tutor mode: answers are taken in quiz mode only.")
-        record_answer(
-            context.db,
+        quiz_of(context).record_answer(
             wall.id,
             pin.round.number,
             person.visitor.id,
@@ -250,7 +250,7 @@ def store_answer(
             correct,
         )
     except QuizError as error:
-        now = progress(context.db, wall.id, pin.round.number, person.visitor.id, pin.tag_set)
+        now = quiz_of(context).progress(wall.id, pin.round.number, person.visitor.id, pin.tag_set)
         return pin, (now, str(error))
     return pin, None
 
@@ -352,7 +352,7 @@ def progress_facts(
     state, quiz_round = current_round(app, context, wall)
     if quiz_round is None:
         return None
-    now = progress(context.db, wall.id, quiz_round.number, person.visitor.id, tag_set)
+    now = quiz_of(context).progress(wall.id, quiz_round.number, person.visitor.id, tag_set)
     return state, quiz_round, now, app.guide(context, wall, quiz_round, tag_set, state)
 
 
@@ -388,8 +388,7 @@ async def finished(
         if quiz_round is None:
             raise QuizError("The quiz has not started yet.")
         await run_blocking(
-            finish,
-            context.db,
+            quiz_of(context).finish,
             wall.id,
             quiz_round.number,
             person.visitor.id,

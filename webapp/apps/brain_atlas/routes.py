@@ -16,22 +16,12 @@ from webapp.apps.brain_atlas.audience import allow_audience_switches, audience_s
 from webapp.apps.brain_atlas.content import TagSetName
 from webapp.apps.brain_atlas.literature import literature_for
 from webapp.apps.brain_atlas.pins import VOLUME
-from webapp.apps.brain_atlas.quiz import (
-    QuizError,
-    Reveal,
-    Round,
-    close_round,
-    export_csv,
-    get_round,
-    set_reveal,
-    start_round,
-    statistics,
-)
 from webapp.apps.brain_atlas.rules import (
     APP,
     TAG_SETS,
     Mode,
     mode_of,
+    quiz_of,
     set_on_wall,
 )
 from webapp.apps.brain_atlas.state import BrainState
@@ -39,6 +29,7 @@ from webapp.classes.roll import class_at
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
+from webapp.quiz.engine import QuizError, Reveal, Round
 from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, WallDep
 from webapp.web.downloads import attachment
 from webapp.web.problems import errors
@@ -220,7 +211,7 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
         numbered = sorted(app.pins(quiz_round, tag_set).items())
         regions = [region for _, region in numbered]
         stats = await run_blocking(
-            statistics, context.db, wall.id, quiz_round.number, tag_set, regions
+            quiz_of(context).statistics, wall.id, quiz_round.number, tag_set, regions
         )
         quiz[tag_set] = SetStats(
             participants=stats.participants,
@@ -234,7 +225,7 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
                     share_correct=s.share_correct,
                     common_wrong=s.common_wrong,
                 )
-                for (n, region), s in zip(numbered, stats.regions, strict=True)
+                for (n, region), s in zip(numbered, stats.items, strict=True)
             ],
         )
     return BrainStatus(
@@ -269,13 +260,13 @@ async def control(
     if choice.audience_switches is not None:
         await run_blocking(allow_audience_switches, context.db, wall.id, choice.audience_switches)
     if choice.reveal is not None and quiz_round is not None and quiz_round.open:
-        await quiz_step(set_reveal, context.db, wall.id, quiz_round.number, choice.reveal)
+        await quiz_step(quiz_of(context).set_reveal, wall.id, quiz_round.number, choice.reveal)
     switching = choice.mode is not None and choice.mode != mode_of(state)
     new_round: int | None = None
     if switching and choice.mode == "tutor" and quiz_round is not None and quiz_round.open:
-        await quiz_step(close_round, context.db, wall.id, quiz_round.number, staff)
+        await quiz_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
     elif switching and choice.mode == "quiz" and (quiz_round is None or not quiz_round.open):
-        started = await quiz_step(start_round, context.db, wall.id, staff, app.fresh_orders())
+        started = await quiz_step(quiz_of(context).start_round, wall.id, staff, app.fresh_orders())
         new_round = started.number
 
     def apply(current: WallState) -> WallState:
@@ -306,7 +297,9 @@ async def reset_quiz(
     new numbers and codes on every tile at once; earlier rounds stay for export."""
     app = brain_atlas(context)
     reveal = choice.reveal if choice is not None else "close"
-    started = await quiz_step(start_round, context.db, wall.id, staff, app.fresh_orders(), reveal)
+    started = await quiz_step(
+        quiz_of(context).start_round, wall.id, staff, app.fresh_orders(), reveal
+    )
 
     def apply(current: WallState) -> WallState:
         return BrainState.of(current).later_round(started.number).put(current)
@@ -323,7 +316,7 @@ async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> Bra
     _, quiz_round = await pages.round_now(app, context, wall)
     if quiz_round is None:
         raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
-    await quiz_step(close_round, context.db, wall.id, quiz_round.number, staff)
+    await quiz_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
     return await brain_status(wall, context, staff)
 
 
@@ -339,10 +332,11 @@ async def answers_csv(
     if round_number is None:
         _, quiz_round = await pages.round_now(brain_atlas(context), context, wall)
     else:
-        quiz_round = await run_blocking(get_round, context.db, wall.id, round_number)
+        quiz_round = await run_blocking(quiz_of(context).get_round, wall.id, round_number)
     if quiz_round is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
-    body = await run_blocking(export_csv, context.db, wall.id, quiz_round.number, wall.time_zone)
+    export = quiz_of(context).export_csv
+    body = await run_blocking(export, wall.id, quiz_round.number, wall.time_zone)
     held = await run_blocking(class_at, context.db, wall.id, quiz_round.started_at)
     day = wall.local_time(quiz_round.started_at).date().isoformat()
     parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]

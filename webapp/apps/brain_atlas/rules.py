@@ -9,6 +9,8 @@ from webapp.apps.brain_atlas.content import TagSetName
 from webapp.core.roles import UserGroup
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
+from webapp.quiz.engine import Quiz
+from webapp.web.context import AppContext
 
 APP = "brain"
 Mode = Literal["quiz", "tutor"]
@@ -20,6 +22,11 @@ GROUP_LABELS: dict[UserGroup, str] = {
     "medical": "Medical",
     "research": "Research",
 }
+
+
+def quiz_of(context: AppContext) -> Quiz:
+    """The atlas's quiz: its rounds and answers in the shared quiz engine."""
+    return Quiz(context.db, APP)
 
 
 def set_of_group(group: UserGroup) -> TagSetName:

@@ -10,10 +10,10 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, operator_headers, services_of, sign_in
-from webapp.apps.brain_atlas.quiz import get_round
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.classes.roll import roll_names, running_class
 from webapp.engine.wall_state import PublicItem, WallState, read_state
+from webapp.quiz.engine import Quiz
 from webapp.tags.registry import get_layout, wall_tags
 
 
@@ -80,7 +80,7 @@ def test_start_class_brings_the_app_fresh_on_every_tile(client: TestClient) -> N
     assert state.view == first.view
     number = BrainState.of(state).quiz_round
     assert number is not None
-    round_now = get_round(services.db, "demo", number)
+    round_now = Quiz(services.db, "brain").get_round("demo", number)
     assert round_now is not None and round_now.open
     assert held["title"] == "Anatomy <b>B</b>" and held["running"] and held["joined"] == 0
     assert held["names"] == "roster"
@@ -95,7 +95,7 @@ def test_a_new_class_in_quiz_mode_opens_a_new_round_with_new_codes(client: TestC
 
     assert BrainState.of(state_of(client)).quiz_round == (first_round or 0) + 1
     assert a_pin(client) != first_pin
-    old = get_round(services_of(client).db, "demo", first_round or 0)
+    old = Quiz(services_of(client).db, "brain").get_round("demo", first_round or 0)
     assert old is not None and not old.open
 
 
@@ -106,7 +106,7 @@ def test_a_class_in_tutor_mode_runs_no_round(client: TestClient) -> None:
     start(client, app="brain", mode="tutor")
 
     assert state_of(client).mode == "tutor"
-    shown = get_round(services_of(client).db, "demo", number)
+    shown = Quiz(services_of(client).db, "brain").get_round("demo", number)
     assert shown is not None and not shown.open
 
 
@@ -237,7 +237,7 @@ def test_end_class_closes_the_round_and_offers_its_answers(client: TestClient) -
     ended = end(client)
 
     assert not ended["running"] and ended["joined"] == 1
-    shown = get_round(services_of(client).db, "demo", number or 0)
+    shown = Quiz(services_of(client).db, "brain").get_round("demo", number or 0)
     assert shown is not None and not shown.open
     url = f"/api/walls/demo/brain/answers.csv?round={number}"
     assert ended["exports"] == [{"label": f"Round {number} answers (CSV)", "url": url}]

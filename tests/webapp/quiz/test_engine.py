@@ -1,0 +1,222 @@
+"""The shared quiz engine as stored: answers, finishing, rounds, statistics, CSV export."""
+
+from __future__ import annotations
+
+import csv
+import io
+from dataclasses import dataclass
+
+import pytest
+
+from webapp.database.connection import Database
+from webapp.quiz.engine import Quiz, QuizError, new_order
+
+WALL = "demo"
+R = 1  # the round the tests answer in (opened by the fixture)
+
+
+APP = "brain"
+
+
+@dataclass(frozen=True)
+class Item:
+    """What a quiz asks about (the brain's regions, an image's hotspots)."""
+
+    id: str
+
+
+def quiz(db: Database) -> Quiz:
+    return Quiz(db, APP)
+
+
+def region(item_id: str) -> Item:
+    return Item(item_id)
+
+
+REGIONS = [region("alpha"), region("beta")]
+ORDERS = {"k5": ["alpha", "beta"], "full": []}
+
+
+@pytest.fixture(autouse=True)
+def first_round(db: Database) -> None:
+    assert quiz(db).open_round(WALL, "test", ORDERS).number == R
+
+
+def test_an_answer_is_stored_and_can_be_changed_until_finishing(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "  Alpha   lobe ", False)
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+
+    now = quiz(db).progress(WALL, R, "v1", "k5")
+
+    assert now.answers["alpha"].text == "alpha"
+    assert now.answers["alpha"].correct
+    assert not now.finished
+    assert not now.complete(REGIONS)
+
+
+def test_finishing_needs_every_region_and_makes_answers_final(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+    with pytest.raises(QuizError, match="1 question still needs an answer"):
+        quiz(db).finish(WALL, R, "v1", "k5", REGIONS)
+
+    quiz(db).record_answer(WALL, R, "v1", "k5", "beta", "gamma", False)
+    done = quiz(db).finish(WALL, R, "v1", "k5", REGIONS)
+    assert done.finished
+    assert quiz(db).finish(WALL, R, "v1", "k5", REGIONS).finished  # finishing twice is harmless
+
+    with pytest.raises(QuizError, match="final"):
+        quiz(db).record_answer(WALL, R, "v1", "k5", "beta", "beta", True)
+    assert quiz(db).progress(WALL, R, "v1", "k5").answers["beta"].text == "gamma"
+
+
+@pytest.mark.parametrize("text", ["", "   ", "x" * 201])
+def test_empty_or_overlong_answers_are_refused_and_nothing_is_stored(
+    db: Database, text: str
+) -> None:
+    with pytest.raises(QuizError):
+        quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", text, False)
+    assert quiz(db).progress(WALL, R, "v1", "k5").answers == {}
+
+
+def test_answers_are_stored_as_plain_text(db: Database) -> None:
+    """A NUL byte made PostgreSQL fail the request (a 500 for any student); control and
+    format characters never reach the database, on either."""
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "tha\x00la\u200bmus\u202e", False)
+
+    assert quiz(db).progress(WALL, R, "v1", "k5").answers["alpha"].text == "thalamus"
+
+
+def test_sets_visitors_and_walls_are_separate(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+
+    assert quiz(db).progress(WALL, R, "v1", "full").answers == {}
+    assert quiz(db).progress(WALL, R, "v2", "k5").answers == {}
+    assert quiz(db).progress("other", R, "v1", "k5").answers == {}
+
+
+def test_a_new_round_closes_the_last_and_keeps_its_answers(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+    quiz(db).record_answer(WALL, R, "v1", "k5", "beta", "beta", True)
+    quiz(db).finish(WALL, R, "v1", "k5", REGIONS)
+
+    second = quiz(db).start_round(WALL, "login:ann", {"k5": ["beta", "alpha"]})
+
+    assert second.number == 2 and second.open and second.reveal == "close"
+    first = quiz(db).get_round(WALL, R)
+    assert first is not None and not first.open
+    assert second.numbered("k5", REGIONS) == {1: REGIONS[1], 2: REGIONS[0]}
+    assert quiz(db).progress(WALL, 2, "v1", "k5") == quiz(db).progress(WALL, 2, "nobody", "k5")
+    quiz(db).record_answer(WALL, 2, "v1", "k5", "alpha", "again", False)
+    first_rows = list(csv.DictReader(io.StringIO(quiz(db).export_csv(WALL, 1))))
+    assert [row["answer"] for row in first_rows] == ["alpha", "beta"]
+    second_rows = list(csv.DictReader(io.StringIO(quiz(db).export_csv(WALL, 2))))
+    assert [(row["round"], row["answer"]) for row in second_rows] == [("2", "again")]
+    assert quiz(db).open_round(WALL, "app", ORDERS).number == 2  # the open one is kept
+
+
+def test_a_closed_round_takes_no_answer_and_no_finishing(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+    quiz(db).record_answer(WALL, R, "v2", "k5", "alpha", "alpha", True)
+    quiz(db).record_answer(WALL, R, "v2", "k5", "beta", "x", False)
+
+    closed = quiz(db).close_round(WALL, R, "login:ann")
+
+    assert not closed.open and closed.names_shown(finished=False)
+    with pytest.raises(QuizError, match="closed"):
+        quiz(db).record_answer(WALL, R, "v1", "k5", "beta", "beta", True)
+    with pytest.raises(QuizError, match="closed"):
+        quiz(db).finish(WALL, R, "v2", "k5", REGIONS)
+    with pytest.raises(QuizError, match="closed"):
+        quiz(db).set_reveal(WALL, R, "finish")
+    assert "beta" not in quiz(db).progress(WALL, R, "v1", "k5").answers
+
+
+def test_names_show_at_closing_or_at_finishing_where_the_round_says_so(db: Database) -> None:
+    quiz_round = quiz(db).get_round(WALL, R)
+    assert quiz_round is not None
+    assert not quiz_round.names_shown(finished=False)
+    assert not quiz_round.names_shown(finished=True)  # default: only when closed
+
+    at_finishing = quiz(db).set_reveal(WALL, R, "finish")
+
+    assert not at_finishing.names_shown(finished=False)
+    assert at_finishing.names_shown(finished=True)
+
+
+def test_each_order_is_a_fresh_permutation_of_the_set() -> None:
+    regions = [region(f"r{i}") for i in range(23)]
+    orders = {tuple(new_order(regions)) for _ in range(20)}
+    assert all(sorted(order) == sorted(r.id for r in regions) for order in orders)
+    assert len(orders) == 20  # 20 draws of 23! orders: a repeat has chance ~1e-20
+
+
+def test_pin_numbers_survive_content_changes_mid_round(db: Database) -> None:
+    quiz_round = quiz(db).start_round(WALL, "t", {"k5": ["beta", "gone", "alpha"]})
+    gamma = region("gamma")
+
+    pins = quiz_round.numbered("k5", [*REGIONS, gamma])
+
+    assert pins == {1: REGIONS[1], 3: REGIONS[0], 4: gamma}
+
+
+def test_statistics_count_share_correct_and_common_wrong_answers(db: Database) -> None:
+    for visitor, text, correct in [
+        ("v1", "alpha", True),
+        ("v2", "Gamma", False),
+        ("v3", "gamma", False),
+        ("v4", "delta", False),
+    ]:
+        quiz(db).record_answer(WALL, R, visitor, "k5", "alpha", text, correct)
+    quiz(db).record_answer(WALL, R, "v1", "k5", "beta", "beta", True)
+    quiz(db).finish(WALL, R, "v1", "k5", REGIONS)
+
+    stats = quiz(db).statistics(WALL, R, "k5", REGIONS)
+
+    assert (stats.participants, stats.finished) == (4, 1)
+    alpha, beta = stats.items
+    assert (alpha.answered, alpha.correct, alpha.share_correct) == (4, 1, 0.25)
+    assert alpha.common_wrong == [("gamma", 2), ("delta", 1)]
+    assert (beta.answered, beta.share_correct, beta.common_wrong) == (1, 1.0, [])
+    assert quiz(db).statistics(WALL, R, "full", REGIONS).participants == 0
+
+
+def test_the_export_defuses_answers_that_look_like_formulas(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "=HYPERLINK(1)", False)
+
+    rows = list(csv.reader(io.StringIO(quiz(db).export_csv(WALL, R))))
+
+    assert rows[0] == [
+        "round",
+        "visitor",
+        "name",
+        "tag_set",
+        "region",
+        "answer",
+        "correct",
+        "answered_at",
+        "class",
+    ]
+    assert rows[1][5] == "'=HYPERLINK(1)"
+    assert rows[1][6] == "no"
+
+
+def test_the_export_tells_times_in_the_walls_zone(db: Database) -> None:
+    quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "Alpha", True)
+    [row] = csv.DictReader(io.StringIO(quiz(db).export_csv(WALL, R, "Asia/Kolkata")))
+    assert row["answered_at"].endswith("+05:30")
+    [row] = csv.DictReader(io.StringIO(quiz(db).export_csv(WALL, R)))
+    assert row["answered_at"].endswith("+00:00")
+
+
+def test_each_app_keeps_its_own_rounds_and_answers(db: Database) -> None:
+    image = Quiz(db, "image")
+    opened = image.open_round(WALL, "test", {"hotspots": ["h1"]})
+    assert opened.number == 1  # numbered per app: the brain's round 1 is another
+    image.record_answer(WALL, 1, "v1", "hotspots", "h1", "Mona Lisa", True)
+
+    assert quiz(db).progress(WALL, R, "v1", "hotspots").answers == {}
+    assert image.progress(WALL, 1, "v1", "hotspots").answers["h1"].text == "Mona Lisa"
+    image.close_round(WALL, 1, "ann")
+    brain_round = quiz(db).get_round(WALL, R)
+    assert brain_round is not None and brain_round.open
+    assert "Mona Lisa" not in quiz(db).export_csv(WALL, R)

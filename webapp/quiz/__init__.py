@@ -1,0 +1,1 @@
+"""One quiz engine for every app that asks questions about what the wall shows."""
