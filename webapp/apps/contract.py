@@ -83,6 +83,13 @@ class WallApp(Protocol):
         start, and again whenever a placing key, the core's or an app's, changes)."""
         ...
 
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        """The tags the app stands on the designated screens (registration, menu,
+        public) while it is on ``wall``, as many as it ever puts there: known without a
+        running server, so ``tagwall config check`` and the dashboard can tell before
+        class whether they fit (:mod:`webapp.apps.fitting`)."""
+        ...
+
     async def on_scan(self, scan: Scan) -> Response:
         """The phone page for a scan of one of the app's tags."""
         ...
