@@ -160,6 +160,17 @@ class Atlas:
         self._guides.put(key, found)
         return found
 
+    def unshown(
+        self, context: AppContext, wall: Wall, quiz_round: Round, tag_set: TagSetName
+    ) -> list[Region]:
+        """The regions of ``tag_set`` whose pin no preset view puts on ``wall`` (its
+        code finds no place in any): no student can scan them this round, so the
+        instructor's dashboard names them before the round runs (issue 31)."""
+        views = self._pin_views(context, wall, quiz_round, tag_set)
+        return [
+            region for n, region in sorted(self.pins(quiz_round, tag_set).items()) if n not in views
+        ]
+
     def _pin_views(
         self, context: AppContext, wall: Wall, quiz_round: Round, tag_set: TagSetName
     ) -> dict[int, list[str]]:
