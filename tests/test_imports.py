@@ -108,6 +108,7 @@ FLOORS = {
     "webapp.database": 2,
     "webapp.engine": 3,
     "webapp.people": 3,
+    "webapp.classes": 3,
     "webapp.tags": 4,
     "webapp.volume": 4,
     "webapp.web": 5,

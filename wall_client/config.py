@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Any, ClassVar, Literal, get_args
+from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from pydantic import (
     AfterValidator,
@@ -109,6 +110,17 @@ def _only(pattern: re.Pattern[str], describe: str) -> Callable[[str], str]:
     return check
 
 
+def _time_zone(value: str) -> str:
+    """An IANA time zone name the system knows (``Europe/Berlin``, ``UTC``)."""
+    try:
+        ZoneInfo(value)
+    except (ValueError, ZoneInfoNotFoundError):
+        raise _refuse(
+            f"{value!r} is not a time zone: give an IANA name like 'Europe/Berlin' or 'UTC'"
+        ) from None
+    return value
+
+
 def _pair(kind: Literal["integers", "numbers"]) -> Callable[[Any], Any]:
     """The shape of ``[x, y]`` values; each number is then checked on its own."""
 
@@ -150,6 +162,7 @@ Text = Annotated[str, Field(strict=True, min_length=1)]
 WallId = Annotated[Text, AfterValidator(_only(_WALL_ID, "lowercase letters, digits and '-'"))]
 DisplayId = Annotated[Text, AfterValidator(_only(_DISPLAY_ID, "letters, digits, '_' and '-'"))]
 NodeName = Annotated[Text, AfterValidator(_only(_NODE_NAME, "letters, digits, '_', '.' and '-'"))]
+TimeZoneName = Annotated[Text, Field(max_length=64), AfterValidator(_time_zone)]
 Number = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 Positive = Annotated[Number, Field(gt=0)]
 # Millimetres on the wall stay within a kilometre and sizes above a millimetre, so the
@@ -488,6 +501,7 @@ class WallConfig(_Table):
     bezel_mode: BezelMode = "overlay"
     seat_distance_m: Positive = DEFAULT_SEAT_DISTANCE_M
     walk_up_distance_m: Positive = DEFAULT_WALK_UP_DISTANCE_M
+    time_zone: TimeZoneName = "UTC"
     screens: ScreensConfig = Field(default_factory=ScreensConfig)
     wall: WallSize = Field(default_factory=WallSize)
     grid: GridConfig | None = None
@@ -560,6 +574,7 @@ class WallConfig(_Table):
             screens=self.roles(),
             seat_distance_m=self.seat_distance_m,
             walk_up_distance_m=self.walk_up_distance_m,
+            time_zone=self.time_zone,
             stage_ids=self.screens.stage or (),
             source=source,
         )

@@ -31,8 +31,10 @@ import bisect
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Literal
+from zoneinfo import ZoneInfo
 
 BezelMode = Literal["overlay", "offset"]
 CodePurpose = Literal["walk-up", "seat"]
@@ -202,6 +204,7 @@ class Wall:
     seat_distance_m: float  # where people scan seat codes (registration, menus) from
     walk_up_distance_m: float = DEFAULT_WALK_UP_DISTANCE_M  # codes marking the scene
     stage_ids: tuple[str, ...] = ()  # displays the scene is framed on (empty: computed)
+    time_zone: str = "UTC"  # an IANA name: the times people read (exports, the dashboard)
     source: Path | None = None
     _by_id: dict[str, Display] = field(init=False, repr=False, compare=False)
     _viewports: dict[str, Viewport] = field(init=False, repr=False, compare=False)
@@ -243,6 +246,10 @@ class Wall:
             raise KeyError(
                 f"wall {self.id!r} has no display {display_id!r} (displays: {known})"
             ) from None
+
+    def local_time(self, when: datetime) -> datetime:
+        """``when`` (an aware time) as people at the wall read it: in its time zone."""
+        return when.astimezone(ZoneInfo(self.time_zone))
 
     def viewport(self, display_id: str) -> Viewport:
         """The viewport of one display."""

@@ -8,7 +8,11 @@ export async function api(path, options = {}) {
     credentials: "same-origin",
     headers: {"X-CSRF-Token": csrf, "Content-Type": "application/json"},
   });
-  if (!response.ok) throw new Error(`${path}: ${response.status}`);
+  if (!response.ok) {
+    // The server says why in its problem's detail; say that, not just the status.
+    const detail = await response.json().then((body) => body.detail, () => null);
+    throw new Error(typeof detail === "string" ? detail : `${path}: ${response.status}`);
+  }
   return response.json();
 }
 
@@ -17,7 +21,7 @@ export function changeState(patch) {
   return api(`/api/walls/${wallId}/state`, {method: "POST", body: JSON.stringify(patch)});
 }
 
-/** Panels follow the wall through this event: detail = {status, waiting}. */
+/** Panels follow the wall through this event: detail = {status, waiting, class_session}. */
 const STATUS_EVENT = "wall-status";
 let lastStatus = null;
 
@@ -35,4 +39,10 @@ export function publishStatus(detail) {
 export function onStatus(listener) {
   document.addEventListener(STATUS_EVENT, (event) => listener(event.detail));
   if (lastStatus) listener(lastStatus);
+}
+
+/** A time as people at the wall read it: in the wall's time zone (its config's). */
+export function localTime(when, options = {}) {
+  const zone = JSON.parse(document.body.dataset.wallInfo || "{}").time_zone;
+  return new Date(when).toLocaleTimeString([], {timeZone: zone || undefined, ...options});
 }

@@ -46,6 +46,15 @@ def test_the_old_distance_key_says_what_it_became() -> None:
     assert errors_of({**grid_config(), "walk_up_distance_m": 0})[0].endswith("must be positive")
 
 
+def test_a_wall_keeps_its_time_zone_and_refuses_one_that_does_not_exist() -> None:
+    assert parse_wall(grid_config(), "walls/x.toml").time_zone == "UTC"
+    berlin = parse_wall({**grid_config(), "time_zone": "Europe/Berlin"}, "walls/x.toml")
+    assert berlin.time_zone == "Europe/Berlin"
+    for wrong in ("Mars/Olympus", "../../etc/passwd", "", 7):
+        [error] = errors_of({**grid_config(), "time_zone": wrong})
+        assert error.startswith("walls/x.toml: time_zone: "), error
+
+
 def test_overlapping_displays() -> None:
     errors = errors_of(explicit_config(panel("a", 0, 0), panel("b", 100, 50)))
     assert any(
@@ -395,6 +404,7 @@ def test_accepted_keys_really_are_accepted() -> None:
         bezel_mode="offset",
         seat_distance_m=1,
         walk_up_distance_m=0.5,
+        time_zone="Europe/Berlin",
         wall={"width_mm": 4000, "height_mm": 2000},
         screens={**dict.fromkeys(ROLES, "r1c1"), "stage": ["r2c1"]},
     )

@@ -491,3 +491,14 @@ def test_irregular_wall_has_a_portrait_panel() -> None:
     assert wall.display(wall.screens["public"][0]).rotation == 0
     pitches = {round(d.mm_per_px, 3) for d in wall.displays}
     assert pitches == {0.63, 0.49}
+
+
+def test_a_wall_tells_a_moment_in_its_time_zone() -> None:
+    from datetime import UTC, datetime
+
+    from tests.wall_client.walls import grid_config
+    from wall_client.config import parse_wall
+
+    wall = parse_wall({**grid_config(), "time_zone": "America/Los_Angeles"}, "x.toml")
+    noon = datetime(2026, 11, 27, 12, 0, tzinfo=UTC)
+    assert wall.local_time(noon).isoformat() == "2026-11-27T04:00:00-08:00"

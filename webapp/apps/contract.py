@@ -22,6 +22,7 @@ import click
 from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
+from webapp.classes.roll import ClassSession
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS, AppState, WallState
 from webapp.people.person import Person, person_of
@@ -49,6 +50,14 @@ class Scan:
         return await person_of(self.request, context.db, context.settings, self.address)
 
 
+@dataclass(frozen=True)
+class Export:
+    """A download of what a class produced (the answers of a quiz round, as CSV)."""
+
+    label: str
+    url: str
+
+
 SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
 """The scene's layers drawn over every app's: the balloons' pointers, the placed codes
 with their pins, and the balloons' boxes."""
@@ -67,6 +76,9 @@ class WallApp(Protocol):
     (``census/tract.html``), so apps never shadow the core's or each other's."""
     static: Path | None
     """The folder of the app's browser modules, served at :func:`static_url`."""
+    class_modes: tuple[str, ...]
+    """The modes a class can start the app in, the first the default (the brain atlas:
+    ``quiz``, ``tutor``; none for an app without modes)."""
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """The state as the app needs it when it comes on ``wall`` (say, the data set
@@ -88,6 +100,23 @@ class WallApp(Protocol):
         public) while it is on ``wall``, as many as it ever puts there: known without a
         running server, so ``tagwall config check`` and the dashboard can tell before
         class whether they fit (:mod:`webapp.apps.fitting`)."""
+        ...
+
+    def begin_class(
+        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
+    ) -> WallState:
+        """The state a class starts from, with the app on the wall: its first view and,
+        in ``mode`` (one of :attr:`class_modes`), what a class needs fresh (a new quiz
+        round). Called in a worker thread."""
+        ...
+
+    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
+        """What ends with a class (its quiz round closes, so students see the names);
+        called in a worker thread."""
+        ...
+
+    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
+        """Downloads of what the class ``held`` produced (none: an empty list)."""
         ...
 
     async def on_scan(self, scan: Scan) -> Response:

@@ -169,6 +169,49 @@ class VisitorRecord(Base):
     )
 
 
+class ClassRecord(Base):
+    """A class held at a wall: from Start class to End class, how its students are
+    named, who started and ended it. At most one class of a wall runs at a time."""
+
+    __tablename__ = "classes"
+    __table_args__ = (
+        Index(
+            "ix_classes_one_running",
+            "wall_id",
+            unique=True,
+            postgresql_where=text("ended_at IS NULL"),
+            sqlite_where=text("ended_at IS NULL"),
+        ),
+    )
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    wall_id: Mapped[str] = mapped_column(String(64), index=True, nullable=False)
+    title: Mapped[str] = mapped_column(String(80), nullable=False)
+    names: Mapped[str] = mapped_column(String(16), nullable=False, default="anonymous")
+    started_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+    started_by: Mapped[str] = mapped_column(String(120), nullable=False, default="")
+    ended_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+    ended_by: Mapped[str | None] = mapped_column(String(120), nullable=True)
+
+
+class ClassMemberRecord(Base):
+    """A student who joined a class, with the name the class asked for ("" when it
+    asked none)."""
+
+    __tablename__ = "class_members"
+
+    class_id: Mapped[int] = mapped_column(
+        Integer, ForeignKey("classes.id", ondelete="CASCADE"), primary_key=True
+    )
+    visitor_id: Mapped[str] = mapped_column(String(64), primary_key=True)
+    name: Mapped[str] = mapped_column(String(60), nullable=False, default="")
+    joined_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
 class AddressRuleRecord(Base):
     """Defaults (and, when enabled, a role) for phones whose address is in ``network``."""
 

@@ -32,6 +32,7 @@ from webapp.engine.wall_state import (
     Change,
     View,
     WallState,
+    differing_fields,
     differing_keys,
     read_state,
 )
@@ -127,7 +128,7 @@ class WallDoor:
             if app is not None:
                 tag_set = app.default_tag_set
                 ready = app.settle(self.context, wall, ready)
-            fields = _differing(ready, target)
+            fields = differing_fields(ready, target)
             target = ready
         declaring = [a for a in (leaving, app) if a is not None]
         return {**fields, **self._declare_and_place(wall, declaring, target, tag_set)}
@@ -141,7 +142,7 @@ class WallDoor:
             state = state.model_copy(update={"app": self.first_app})
         if (shown := self.apps.get(state.app)) is not None:
             state = shown.settle(self.context, wall, state)
-        fields = _differing(state, current)
+        fields = differing_fields(state, current)
         tag_set = state.tag_set
         if (arriving or not state.tag_layout) and shown is not None:
             tag_set = shown.default_tag_set
@@ -158,12 +159,3 @@ class WallDoor:
         layout_id = layout_for(db, wall, tag_set, self.base_url())
         self.context.codes.forget()
         return {"tag_set": tag_set, "tag_layout": layout_id}
-
-
-def _differing(state: WallState, other: WallState) -> dict[str, Any]:
-    """The fields of ``state`` that differ from ``other``'s."""
-    return {
-        name: getattr(state, name)
-        for name in WallState.model_fields
-        if getattr(state, name) != getattr(other, name)
-    }

@@ -127,6 +127,7 @@ class DashboardStatus(Message):
     type: Literal["status"] = "status"
     status: dict[str, Any]  # version, state and tiles, as GET /api/walls/{wall}/status
     waiting: list[dict[str, Any]]  # publications waiting for approval, oldest first
+    class_session: dict[str, Any] | None = None  # the class running, as GET .../class
 
 
 class ScanSeen(Message):

@@ -246,6 +246,15 @@ def differing_keys(old: WallState, new: WallState) -> set[str]:
     return keys
 
 
+def differing_fields(state: WallState, other: WallState) -> dict[str, Any]:
+    """The fields of ``state`` that differ from ``other``'s, as an update of ``other``."""
+    return {
+        name: getattr(state, name)
+        for name in WallState.model_fields
+        if getattr(state, name) != getattr(other, name)
+    }
+
+
 def changed_keys(changes: dict[str, Any]) -> set[str]:
     """The keys of a change: core fields by name, app slot keys as ``app.key``."""
     keys = {k for k in changes if k != "apps"}

@@ -34,6 +34,7 @@ from webapp.engine.hub import WallHub
 from webapp.people.tokens import REFRESH_S as TOKEN_REFRESH_S
 from webapp.people.tokens import load_tokens
 from webapp.server.routes import (
+    classes,
     dashboard,
     health,
     pages,
@@ -125,6 +126,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         health.router,
         pages.router,
         people.router,
+        classes.router,
         pairing.router,
         dashboard.router,
         public.router,

@@ -8,6 +8,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from wall_client.layout import Wall
+from webapp.classes.roll import NameMode
 from webapp.database.models import PublicationRecord
 from webapp.engine.hub import TileStatus
 from webapp.engine.wall_state import PublicItem, PublicPolicy, View, VolumeLayer
@@ -35,6 +36,7 @@ class WallInfo(BaseModel):
     width: float
     height: float
     bezel_mode: str
+    time_zone: str  # the times the dashboard shows are the wall's
     displays: list[DisplayInfo]
 
     @classmethod
@@ -66,6 +68,7 @@ class WallInfo(BaseModel):
             width=wall.width,
             height=wall.height,
             bezel_mode=wall.bezel_mode,
+            time_zone=wall.time_zone,
             displays=displays,
         )
 
@@ -206,3 +209,32 @@ class VolumeDetail(BaseModel):
     levels: int
     fallback_level: int
     tiles: list[TileDetail]
+
+
+class ClassStart(BaseModel):
+    """Start class: which app in which of its modes, how students are named."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    title: str = Field(default="", max_length=200)  # made plain and short
+    app: str | None = Field(default=None, max_length=64)  # None: the app on the wall
+    mode: str | None = Field(default=None, max_length=64)  # None: the app's first mode
+    names: NameMode = "anonymous"
+
+
+class ExportLink(BaseModel):
+    label: str
+    url: str
+
+
+class ClassInfo(BaseModel):
+    """A class at a wall as the dashboard shows it (the running one, else the last)."""
+
+    id: int
+    title: str
+    names: NameMode
+    running: bool
+    started_at: datetime
+    ended_at: datetime | None
+    joined: int  # students on the roll
+    exports: list[ExportLink]  # what the class produced, once it ended

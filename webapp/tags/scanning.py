@@ -32,7 +32,7 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.core.tasks import cancel_and_wait
 from webapp.core.threads import run_blocking
-from webapp.database.connection import Database
+from webapp.database.connection import Database, as_utc
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
 from webapp.engine.bus.base import BusUnavailable, EventBus, Subscription, follow
 from webapp.engine.protocol import ScanSeen
@@ -246,6 +246,36 @@ def scans_of(db: Database, code: str) -> list[ScanRecord]:
         )
 
 
+def scan_notice(tag: TagRecord, visitor_id: str, at_ms: int) -> ScanSeen:
+    """What dashboards are told of a scan: the code, and the visitor by a short
+    pseudonym, stable per visitor."""
+    return ScanSeen(
+        wall=tag.wall_id,
+        code=tag.code,
+        label=tag.label,
+        app=tag.app,
+        visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
+        at=at_ms,
+    )
+
+
+def recent_scans(db: Database, wall_id: str, limit: int) -> list[ScanSeen]:
+    """The wall's last ``limit`` recorded scans, oldest first, as dashboards were told
+    of them: a dashboard opened (or reloaded) starts its feed from these."""
+    with db.session() as session:
+        rows = session.execute(
+            select(ScanRecord.visitor_id, ScanRecord.scanned_at, TagRecord)
+            .join(TagRecord, TagRecord.code == ScanRecord.code)
+            .where(ScanRecord.wall_id == wall_id)
+            .order_by(ScanRecord.id.desc())
+            .limit(limit)
+        ).all()
+        return [
+            scan_notice(tag, visitor_id, int(as_utc(at).timestamp() * 1000))
+            for visitor_id, at, tag in reversed(rows)
+        ]
+
+
 SCANS = "scans"
 """The bus channel of a wall's scans, for dashboards (see :mod:`webapp.engine.bus`)."""
 
@@ -264,14 +294,7 @@ class ScanFeed:
     async def publish(self, tag: TagRecord, visitor_id: str) -> None:
         """Tell the wall's dashboards; a bus that does not answer loses the notice only
         (the scan is recorded)."""
-        notice = ScanSeen(
-            wall=tag.wall_id,
-            code=tag.code,
-            label=tag.label,
-            app=tag.app,
-            visitor=hashlib.sha256(visitor_id.encode()).hexdigest()[:6],
-            at=time.time_ns() // 1_000_000,
-        )
+        notice = scan_notice(tag, visitor_id, time.time_ns() // 1_000_000)
         try:
             await self.bus.publish(tag.wall_id, notice.model_dump_json(), SCANS)
         except BusUnavailable as error:

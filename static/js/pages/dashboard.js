@@ -1,6 +1,6 @@
 // The instructor dashboard: live status and scans over its own socket, actions through
 // the JSON API. App panels follow the status this page publishes (onStatus).
-import {api, changeState, onStatus, publishStatus, wallId} from "../api.js";
+import {api, changeState, localTime, onStatus, publishStatus, wallId} from "../api.js";
 import {socketUrl} from "../wallsocket.js";
 
 const $ = (id) => document.getElementById(id);
@@ -40,7 +40,7 @@ function follow(id, value) {
   $(id).value = value;
 }
 
-function showStatus(status, waiting) {
+function showStatus({status, waiting, class_session}) {
   const state = status.state;
   $("version").textContent = status.version;
   $("app").textContent = state.app;
@@ -56,7 +56,7 @@ function showStatus(status, waiting) {
   $("public-locked").checked = state.public_policy.locked;
   showWaiting(waiting);
   showTiles(status);
-  publishStatus({status, waiting});
+  publishStatus({status, waiting, class_session});
 }
 
 function showWaiting(waiting) {
@@ -100,7 +100,7 @@ function showTiles(status) {
   const first = Math.min(...current.map((t) => t.applied_at));
   $("tiles").replaceChildren(...status.tiles.map((tile) => {
     const tr = document.createElement("tr");
-    const seen = tile.last_seen ? new Date(tile.last_seen).toLocaleTimeString() : "never";
+    const seen = tile.last_seen ? localTime(tile.last_seen) : "never";
     tr.append(
       cell(tile.tile_id),
       cell(tile.connected ? "yes" : "no", tile.connected ? "up" : "down"),
@@ -115,7 +115,7 @@ function showTiles(status) {
 
 function showScan(scan) {
   const li = document.createElement("li");
-  li.textContent = `${new Date(scan.at).toLocaleTimeString()} · ${scan.label || scan.code}`
+  li.textContent = `${localTime(scan.at)} · ${scan.label || scan.code}`
     + ` (${scan.app}) · visitor ${scan.visitor}`;
   $("scans").prepend(li);
   while ($("scans").children.length > MAX_FEED) $("scans").lastChild.remove();
@@ -126,7 +126,7 @@ function connect(attempt = 0) {
   ws.onopen = () => { attempt = 0; $("live").textContent = "live"; $("live").className = "up"; };
   ws.onmessage = (frame) => {
     const message = JSON.parse(frame.data);
-    if (message.type === "status") showStatus(message.status, message.waiting);
+    if (message.type === "status") showStatus(message);
     else if (message.type === "scan") showScan(message);
   };
   ws.onclose = (close) => {
@@ -207,4 +207,6 @@ onStatus((detail) => {
   }
 });
 
+// The feed starts from the wall's last scans, so a reload loses none of it.
+JSON.parse($("scans").dataset.recent).forEach(showScan);
 connect();

@@ -14,14 +14,22 @@ from webapp.apps.brain_atlas.content import (
     ATLAS_DIR,
 )
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
-from webapp.apps.brain_atlas.quiz import open_round
+from webapp.apps.brain_atlas.quiz import (
+    close_round,
+    get_round,
+    open_round,
+    rounds_during,
+    start_round,
+)
 from webapp.apps.brain_atlas.rules import (
     APP,
     MODES,
     TAG_SETS,
+    mode_of_class,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.contract import Scan
+from webapp.apps.contract import Export, Scan
+from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.volume.build import build_store, open_source
@@ -40,6 +48,7 @@ class BrainApp(Atlas):
     layers: tuple[str, ...] = ("/static/js/volume.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
+    class_modes: tuple[str, ...] = MODES
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall the brain shows the MNI template (its store built on first use)
@@ -69,6 +78,45 @@ class BrainApp(Atlas):
     def leave(self, state: WallState) -> WallState:
         """The brain's volume goes with it (its quiz round stays for its return)."""
         return state.model_copy(update={"volume": None})
+
+    def begin_class(
+        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
+    ) -> WallState:
+        """A class starts at the first preset view; in quiz mode on a fresh round (new
+        pin numbers and codes: last class's students cannot bring their answers), in
+        tutor mode with no round running (tutor pages name every pin)."""
+        first = self.views[0]
+        began = state.model_copy(
+            update={"mode": mode_of_class(mode), "view": first.view, "volume": first.layer(VOLUME)}
+        )
+        by = f"app:{APP}"
+        if began.mode == "quiz":
+            started = start_round(context.db, wall.id, by, self.fresh_orders())
+            return BrainState.of(began).later_round(started.number).put(began)
+        self._close_running(context, wall, began, by)
+        return began
+
+    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
+        """The round running closes as the class ends: its students see the names and
+        their results, and no answer counts any more."""
+        self._close_running(context, wall, state, f"app:{APP}")
+        return state
+
+    def _close_running(self, context: AppContext, wall: Wall, state: WallState, by: str) -> None:
+        number = BrainState.of(state).quiz_round
+        shown = get_round(context.db, wall.id, number) if number is not None else None
+        if shown is not None and shown.open:
+            close_round(context.db, wall.id, shown.number, by)
+
+    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
+        """The answers of every quiz round the class ran, one CSV each."""
+        return [
+            Export(
+                f"Round {number} answers (CSV)",
+                f"/api/walls/{wall.id}/brain/answers.csv?round={number}",
+            )
+            for number in rounds_during(context.db, wall.id, held)
+        ]
 
     async def on_scan(self, scan: Scan) -> Response:
         if scan.tag.action == "group":

@@ -25,6 +25,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal, get_args
+from zoneinfo import ZoneInfo
 
 from sqlalchemy import Connection, Row, bindparam, func, insert, select, update
 from sqlalchemy.exc import IntegrityError
@@ -32,6 +33,7 @@ from sqlalchemy.orm import Session
 
 from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.apps.brain_atlas.matching import MAX_ANSWER_LENGTH
+from webapp.classes.roll import ClassSession, class_at, roll_names
 from webapp.database.connection import Database, as_utc
 from webapp.database.models import (
     BrainAnswerRecord,
@@ -279,6 +281,17 @@ def close_round(db: Database, wall_id: str, number: int, closed_by: str) -> Roun
         return _round(record)
 
 
+def rounds_during(db: Database, wall_id: str, held: ClassSession) -> list[int]:
+    """The numbers of the wall's rounds started while the class ``held`` ran."""
+    with db.reading() as connection:
+        rows = connection.execute(
+            select(BrainQuizRoundRecord.number, BrainQuizRoundRecord.started_at)
+            .where(BrainQuizRoundRecord.wall_id == wall_id)
+            .order_by(BrainQuizRoundRecord.number)
+        ).all()
+    return [row.number for row in rows if held.holds(as_utc(row.started_at))]
+
+
 def set_reveal(db: Database, wall_id: str, number: int, reveal: Reveal) -> Round:
     """Change when the students of an open round see the names."""
     with db.session() as session:
@@ -468,15 +481,29 @@ def statistics(
     )
 
 
-CSV_COLUMNS = ("round", "visitor", "name", "tag_set", "region", "answer", "correct", "answered_at")
+CSV_COLUMNS = (
+    "round",
+    "visitor",
+    "name",
+    "tag_set",
+    "region",
+    "answer",
+    "correct",
+    "answered_at",
+    "class",
+)
 
 
-def export_csv(db: Database, wall_id: str, number: int) -> str:
-    """Every answer of a round as CSV, one row per answer.
+def export_csv(db: Database, wall_id: str, number: int, time_zone: str = "UTC") -> str:
+    """Every answer of a round as CSV, one row per answer, times in ``time_zone``.
 
-    Visitors appear by their pseudonymous id and the name they chose, if any; cells
-    are written so spreadsheets do not run an answer that starts like a formula.
+    Visitors appear by their pseudonymous id and their name: the one the round's class
+    asked for, else the one they chose, if any. Cells are written so spreadsheets do
+    not run an answer that starts like a formula.
     """
+    quiz_round = get_round(db, wall_id, number)
+    held = class_at(db, wall_id, quiz_round.started_at) if quiz_round is not None else None
+    on_roll = roll_names(db, held.id) if held is not None else {}
     with db.session() as session:
         rows = session.execute(
             select(BrainAnswerRecord, VisitorRecord.display_name)
@@ -484,20 +511,22 @@ def export_csv(db: Database, wall_id: str, number: int) -> str:
             .where(BrainAnswerRecord.wall_id == wall_id, BrainAnswerRecord.round == number)
             .order_by(BrainAnswerRecord.visitor_id, BrainAnswerRecord.tag_set, BrainAnswerRecord.id)
         ).all()
+    zone = ZoneInfo(time_zone)
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(CSV_COLUMNS)
-    for row, name in rows:
+    for row, chosen_name in rows:
         writer.writerow(
             [
                 row.round,
                 row.visitor_id,
-                _spreadsheet_safe(name or ""),
+                _spreadsheet_safe(on_roll.get(row.visitor_id) or chosen_name or ""),
                 row.tag_set,
                 row.region_id,
                 _spreadsheet_safe(row.answer),
                 "yes" if row.correct else "no",
-                _iso(row.answered_at),
+                as_utc(row.answered_at).astimezone(zone).isoformat(timespec="seconds"),
+                _spreadsheet_safe(held.title if held is not None else ""),
             ]
         )
     return out.getvalue()
@@ -505,7 +534,3 @@ def export_csv(db: Database, wall_id: str, number: int) -> str:
 
 def _spreadsheet_safe(text: str) -> str:
     return "'" + text if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
-
-
-def _iso(when: datetime) -> str:
-    return when.isoformat(timespec="seconds")

@@ -22,6 +22,7 @@ from webapp.apps.brain_atlas.quiz import (
     Round,
     close_round,
     export_csv,
+    get_round,
     set_reveal,
     start_round,
     statistics,
@@ -34,10 +35,12 @@ from webapp.apps.brain_atlas.rules import (
     set_on_wall,
 )
 from webapp.apps.brain_atlas.state import BrainState
+from webapp.classes.roll import class_at
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
 from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, WallDep
+from webapp.web.downloads import attachment
 from webapp.web.problems import errors
 from webapp.web.templating import render
 
@@ -361,13 +364,20 @@ async def answers_csv(
     staff: StaffDep,
     round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
-    """Every answer of a round (default: the one on the wall), for a spreadsheet."""
+    """Every answer of a round (default: the one on the wall), for a spreadsheet, in a
+    file named by the wall, the round's class, the round and its day."""
     if round_number is None:
         _, quiz_round = await pages.round_now(brain_atlas(context), context, wall)
-        round_number = quiz_round.number if quiz_round is not None else 1
-    body = await run_blocking(export_csv, context.db, wall.id, round_number)
+    else:
+        quiz_round = await run_blocking(get_round, context.db, wall.id, round_number)
+    if quiz_round is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
+    body = await run_blocking(export_csv, context.db, wall.id, quiz_round.number, wall.time_zone)
+    held = await run_blocking(class_at, context.db, wall.id, quiz_round.started_at)
+    day = wall.local_time(quiz_round.started_at).date().isoformat()
+    parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]
     return Response(
         body,
         media_type="text/csv; charset=utf-8",
-        headers={"Content-Disposition": f'attachment; filename="brain-quiz-{wall.id}.csv"'},
+        headers={"Content-Disposition": attachment(parts, ".csv")},
     )

@@ -36,6 +36,11 @@ def mode_of(state: WallState) -> Mode:
     return "tutor" if state.mode == "tutor" else "quiz"
 
 
+def mode_of_class(chosen: str | None) -> Mode:
+    """The mode a class starts in: the one chosen, quiz by default."""
+    return "tutor" if chosen == "tutor" else "quiz"
+
+
 def reveals_answers(person: Person) -> bool:
     """The one rule for early answers: instructors (and admins) see them at once;
     students only when their round says so (``Round.names_shown``)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import time
 from collections.abc import Awaitable, Callable
 from typing import Annotated
@@ -14,6 +15,7 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
 from webapp.apps.fitting import wall_fit
+from webapp.classes.roll import NAME_PROMPTS, running_class
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.bus.base import BusUnavailable, SubscriberTooSlow, Subscription
@@ -27,15 +29,18 @@ from webapp.people.person import GROUP_LABELS, load_person
 from webapp.people.visitors import visitor_of
 from webapp.publishing.screen import waiting
 from webapp.server.deps import ServicesDep, open_wall_socket
+from webapp.server.routes.classes import class_info
 from webapp.server.routes.walls import status_of
 from webapp.server.schemas import PublicationInfo, WallInfo
 from webapp.server.services import Services
+from webapp.tags.scanning import recent_scans
 from webapp.web.deps import AdminPageDep, CsrfDep, StaffPageDep
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)
 
 STATUS_INTERVAL_S = 1.0
+FEED_LENGTH = 50  # scans the dashboard's feed shows, the last ones at a reload
 AUTHORITY_CHECK_S = 1.0  # how often an open dashboard socket checks who it serves
 
 
@@ -63,6 +68,7 @@ def dashboard_page(
     # What does not fit this wall at its design distances (as `tagwall config check`
     # says): codes left out are otherwise noticed only when someone looks for them.
     fit = sorted(wall_fit(current, services.apps, services.base_url), key=lambda p: not p.required)
+    scans = recent_scans(services.db, current.id, FEED_LENGTH)
     return render(
         request,
         "dashboard.html",
@@ -72,6 +78,8 @@ def dashboard_page(
         panels=panels,
         shown_app=state.app,
         fit=[problem.message() for problem in fit],
+        name_modes=NAME_PROMPTS,
+        scans_json=json.dumps([scan.model_dump() for scan in scans]),
         wall_json=WallInfo.of(current).model_dump_json(),
         tile_urls={d.id: services.tile_url(current.id, d.id) for d in current.displays},
     )
@@ -157,9 +165,12 @@ async def _send_updates(
         except TimeoutError:
             status_now = await status_of(services, wall)
             queue = await run_blocking(waiting, services.db, wall_id)
+            held = await run_blocking(running_class, services.db, wall_id)
+            running = None if held is None else await class_info(services, wall, held)
             message = DashboardStatus(
                 status=status_now.model_dump(mode="json"),
                 waiting=[PublicationInfo.of(r).model_dump(mode="json") for r in queue],
+                class_session=None if running is None else running.model_dump(mode="json"),
             )
             await websocket.send_text(message.model_dump_json())
             next_status = time.monotonic() + STATUS_INTERVAL_S

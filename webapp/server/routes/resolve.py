@@ -15,6 +15,7 @@ from webapp.core.threads import run_blocking
 from webapp.people.ratelimit import retry_after_s
 from webapp.people.visitors import Visitor, visitor_of
 from webapp.server.deps import ServicesDep
+from webapp.server.routes.classes import roll_call
 from webapp.tags.registry import find, payload_of
 from webapp.web.deps import ClientAddressDep
 from webapp.web.templating import render
@@ -82,6 +83,8 @@ async def _resolve(
         return problem_page(
             request, 410, "This code is no longer in use", resolution.problem, tag.wall_id
         )
+    if (asked := await roll_call(request, services, tag, visitor, address)) is not None:
+        return asked  # the class wants the student's name first; they come back here
     services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
     await services.scan_feed.publish(tag, visitor.id)
     return await app.on_scan(Scan(request, services, wall, tag, visitor, address))

@@ -193,6 +193,15 @@ def test_the_export_defuses_answers_that_look_like_formulas(db: Database) -> Non
         "answer",
         "correct",
         "answered_at",
+        "class",
     ]
     assert rows[1][5] == "'=HYPERLINK(1)"
     assert rows[1][6] == "no"
+
+
+def test_the_export_tells_times_in_the_walls_zone(db: Database) -> None:
+    record_answer(db, WALL, R, "v1", "k5", "alpha", "Alpha", True)
+    [row] = csv.DictReader(io.StringIO(export_csv(db, WALL, R, "Asia/Kolkata")))
+    assert row["answered_at"].endswith("+05:30")
+    [row] = csv.DictReader(io.StringIO(export_csv(db, WALL, R)))
+    assert row["answered_at"].endswith("+00:00")

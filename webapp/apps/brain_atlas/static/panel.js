@@ -1,7 +1,7 @@
 // The brain atlas's dashboard panel: mode, pin set, view presets, who may switch the
 // wall's pins, the quiz round (open or closed, when names are shown) and the class's
 // results (refreshed with the wall's status, at most every two seconds).
-import {api, onStatus, wallId} from "tagwall/api.js";
+import {api, localTime, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 
 const $ = (id) => document.getElementById(id);
@@ -21,7 +21,7 @@ function cell(text, label) {
 }
 
 function clock(iso) {
-  return iso ? new Date(iso).toLocaleTimeString() : "–";
+  return iso ? localTime(iso) : "–";
 }
 
 function showRound(status) {

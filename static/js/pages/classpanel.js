@@ -1,0 +1,88 @@
+// The dashboard's class: Start class and End class, the live count of the students who
+// joined (with the wall's status, every second), and what an ended class produced.
+import {api, localTime, onStatus, wallId} from "../api.js";
+
+const $ = (id) => document.getElementById(id);
+const NAMING = {
+  anonymous: "no names asked",
+  nickname: "students give a nickname",
+  roster: "students give their roster id",
+};
+const CLOCK = {hour: "2-digit", minute: "2-digit"};
+
+function say(error) {
+  $("class-error").textContent = error ? error.message : "";
+  $("class-error").hidden = !error;
+}
+
+function link(exported) {
+  const li = document.createElement("li");
+  const a = document.createElement("a");
+  a.href = exported.url;
+  a.textContent = exported.label;
+  li.append(a);
+  return li;
+}
+
+function showModes() {
+  const chosen = $("class-app").selectedOptions[0];
+  const modes = chosen ? chosen.dataset.modes.split(",").filter(Boolean) : [];
+  $("class-mode").replaceChildren(...modes.map((mode) => new Option(mode, mode)));
+  $("class-mode").disabled = modes.length === 0;
+}
+
+function showRunning(running) {
+  $("class-running").hidden = !running;
+  $("class-start").hidden = Boolean(running);
+  if (!running) return;
+  $("class-ended").hidden = true;
+  $("class-title").textContent = running.title;
+  $("class-started").textContent = localTime(running.started_at, CLOCK);
+  $("class-naming").textContent = NAMING[running.names];
+  $("class-joined").textContent = running.joined;
+  $("class-joined-label").textContent = running.joined === 1 ? "student joined" : "students joined";
+}
+
+function showEnded(ended) {
+  $("class-ended").hidden = false;
+  $("class-ended-at").textContent = localTime(ended.ended_at, CLOCK);
+  $("class-ended-title").textContent = ended.title;
+  $("class-ended-joined").textContent =
+    ended.joined === 1 ? "1 student" : `${ended.joined} students`;
+  $("class-exports").replaceChildren(...ended.exports.map(link));
+}
+
+function show(info) {
+  if (info && !info.running) showEnded(info);
+  showRunning(info && info.running ? info : null);
+}
+
+$("class-app").addEventListener("change", showModes);
+$("class-start").addEventListener("submit", (event) => {
+  event.preventDefault();
+  const choice = {
+    title: $("class-title-choice").value,
+    app: $("class-app").value,
+    mode: $("class-mode").disabled ? null : $("class-mode").value,
+    names: $("class-names").value,
+  };
+  api(`/api/walls/${wallId}/class`, {method: "POST", body: JSON.stringify(choice)})
+    .then((info) => { say(null); show(info); }, say);
+});
+$("class-end").addEventListener("click", () => {
+  api(`/api/walls/${wallId}/class/end`, {method: "POST"})
+    .then((info) => { say(null); show(info); }, say);
+});
+
+// A status without a class after one ran (ended from another dashboard): fetch how it
+// ended, with its downloads.
+let running = false;
+onStatus((detail) => {
+  const now = detail.class_session || null;
+  if (now) showRunning(now);
+  else if (running) api(`/api/walls/${wallId}/class`).then(show, say);
+  running = Boolean(now);
+});
+
+showModes();
+api(`/api/walls/${wallId}/class`).then(show, say);

@@ -1,0 +1,22 @@
+"""The names downloads get."""
+
+from __future__ import annotations
+
+from webapp.web.downloads import attachment, file_slug
+
+
+def test_a_file_name_keeps_only_letters_digits_and_dashes() -> None:
+    assert file_slug("Anatomie für Ärzte, Gruppe B") == "anatomie-fur-arzte-gruppe-b"
+    assert file_slug('../"; rm -rf /') == "rm-rf"
+    assert file_slug("日本語") == ""
+
+
+def test_an_attachment_names_its_parts_and_never_breaks_the_header() -> None:
+    assert attachment(["demo", "", "Anatomy B", "round-3", "2026-11-27"], ".csv") == (
+        'attachment; filename="demo-anatomy-b-round-3-2026-11-27.csv"'
+    )
+    assert attachment(['"\r\nSet-Cookie: x=1'], ".csv") == (
+        'attachment; filename="set-cookie-x-1.csv"'
+    )
+    assert attachment(["日本語"], ".csv") == 'attachment; filename="download.csv"'
+    assert len(attachment(["x" * 500], ".csv")) < 160

@@ -1,0 +1,1 @@
+"""Classes held at a wall: Start class to End class, and the roll of who joined."""

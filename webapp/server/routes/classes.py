@@ -1,0 +1,227 @@
+"""A class at a wall: Start class and End class from the dashboard, and the roll call
+that puts a student on the class's roll (asking the name the class wants)."""
+
+from __future__ import annotations
+
+import contextlib
+from typing import Annotated
+from urllib.parse import quote
+
+from fastapi import APIRouter, Form, HTTPException, Query, Request, status
+from fastapi.responses import HTMLResponse, RedirectResponse, Response
+
+from wall_client.layout import Wall
+from webapp.apps.contract import REGISTRATION, WallApp
+from webapp.classes.roll import (
+    MAX_NAME,
+    NAME_PROMPTS,
+    ClassError,
+    ClassSession,
+    end_class,
+    get_class,
+    join,
+    joined_count,
+    latest_class,
+    standing,
+    start_class,
+)
+from webapp.core.threads import run_blocking
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import View, WallState, differing_fields, read_state
+from webapp.people.person import person_of
+from webapp.people.visitors import Visitor
+from webapp.server.deps import ServicesDep
+from webapp.server.schemas import ClassInfo, ClassStart, ExportLink
+from webapp.server.services import Services
+from webapp.web.context import Update
+from webapp.web.deps import CsrfDep, PersonDep, StaffDep, WallDep
+from webapp.web.problems import errors
+from webapp.web.templating import render
+
+router = APIRouter(tags=["classes"])
+
+
+# --- the dashboard's class ---------------------------------------------------------------
+
+
+async def class_info(services: Services, wall: Wall, held: ClassSession) -> ClassInfo:
+    """``held`` as the dashboard shows it: how many joined, and once it ended, what its
+    app produced to download."""
+    joined = await run_blocking(joined_count, services.db, held.id)
+    exports = []
+    if not held.running:
+        _, state = await run_blocking(read_state, services.db, wall.id)
+        if (app := services.wall_apps.get(state.app)) is not None:
+            found = await run_blocking(app.class_exports, services, wall, held)
+            exports = [ExportLink(label=e.label, url=e.url) for e in found]
+    return ClassInfo(
+        id=held.id,
+        title=held.title,
+        names=held.names,
+        running=held.running,
+        started_at=held.started_at,
+        ended_at=held.ended_at,
+        joined=joined,
+        exports=exports,
+    )
+
+
+@router.get("/api/walls/{wall_id}/class")
+async def class_now(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInfo | None:
+    """The class running at the wall, else the last one (null: none ever ran)."""
+    held = await run_blocking(latest_class, services.db, wall.id)
+    return None if held is None else await class_info(services, wall, held)
+
+
+@router.post("/api/walls/{wall_id}/class", responses=errors(409))
+async def begin(
+    choice: ClassStart, wall: WallDep, services: ServicesDep, staff: StaffDep
+) -> ClassInfo:
+    """Start class: the running class ends; the chosen app comes on the wall at its
+    first view, in the chosen mode (a fresh quiz round), with its own tag set, no
+    balloons and an empty public screen, on every tile at once."""
+    _, state = await run_blocking(read_state, services.db, wall.id)
+    app = _class_app(services, choice.app or state.app, choice.mode)
+    if state.app != app.name:  # before the class starts: what the app settles is not its
+        await services.change_wall(wall, lambda s: s.model_copy(update={"app": app.name}))
+    try:
+        held = await run_blocking(
+            start_class, services.db, wall.id, choice.title, choice.names, staff
+        )
+    except ClassError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
+
+    async def plan(current: WallState) -> Update:
+        fresh = current.model_copy(
+            update={"view": View(), "balloons": [], "public": None, "tag_set": app.default_tag_set}
+        )
+        began = await run_blocking(app.begin_class, services, wall, fresh, choice.mode)
+        fields = differing_fields(began, current)
+        return lambda s: s.model_copy(update=fields)
+
+    await services.plan_change(wall, plan)
+    return await class_info(services, wall, held)
+
+
+@router.post("/api/walls/{wall_id}/class/end", responses=errors(409))
+async def end(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInfo:
+    """End class: the app closes what ran (the quiz round: students see the names), and
+    the answer comes with what the class produced to download."""
+    held = await run_blocking(end_class, services.db, wall.id, staff)
+    if held is None:
+        raise HTTPException(status.HTTP_409_CONFLICT, f"No class is running at {wall.name}.")
+
+    async def plan(current: WallState) -> Update:
+        if (app := services.wall_apps.get(current.app)) is None:
+            return lambda s: s
+        ended = await run_blocking(app.end_class, services, wall, current)
+        fields = differing_fields(ended, current)
+        return lambda s: s.model_copy(update=fields)
+
+    await services.plan_change(wall, plan)
+    return await class_info(services, wall, held)
+
+
+def _class_app(services: Services, name: str, mode: str | None) -> WallApp:
+    app = services.wall_apps.get(name)
+    if app is None:
+        known = ", ".join(sorted(services.wall_apps))
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"There is no app {name!r} (installed: {known})."
+        )
+    if mode is not None and mode not in app.class_modes:
+        modes = ", ".join(app.class_modes) or "none"
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT,
+            f"The {name} app has no mode {mode!r} (its modes: {modes}).",
+        )
+    return app
+
+
+# --- the roll call ---------------------------------------------------------------------
+
+
+async def roll_call(
+    request: Request, services: Services, tag: TagRecord, visitor: Visitor, address: str
+) -> Response | None:
+    """Before a scan of a wall with a class running: a student not on its roll joins
+    it, at once in an anonymous class, else on a page asking their name (and comes back
+    to the code). None: go on with the scan. Staff are never asked, nor is a phone on
+    its way to become an instructor."""
+    if tag.app == REGISTRATION and tag.params.get("role") == "instructor":
+        return None
+    now = await run_blocking(standing, services.db, tag.wall_id, visitor.id)
+    if now is None or now.joined:
+        return None
+    person = await person_of(request, services.db, services.settings, address)
+    if person.is_staff:
+        return None
+    if now.session.names == "anonymous":
+        with contextlib.suppress(ClassError):  # ended meanwhile: nothing to join
+            await run_blocking(join, services.db, now.session.id, visitor.id)
+        return None
+    back = quote(f"/t/{tag.code}", safe="/")
+    return RedirectResponse(
+        f"/classes/{now.session.id}/join?next={back}", status.HTTP_303_SEE_OTHER
+    )
+
+
+def _back_to(target: str | None) -> str:
+    """Where the join page sends the phone: the code it scanned (a local path of ours)."""
+    if target and target.startswith("/t/") and target[3:].isalnum():
+        return target
+    return "/me"
+
+
+@router.get("/classes/{class_id}/join", include_in_schema=False)
+async def join_page(
+    request: Request,
+    class_id: int,
+    services: ServicesDep,
+    person: PersonDep,
+    next_path: Annotated[str | None, Query(alias="next", max_length=64)] = None,
+) -> HTMLResponse:
+    return await _join_form(request, services, class_id, _back_to(next_path), None)
+
+
+@router.post("/classes/{class_id}/join", include_in_schema=False, dependencies=[CsrfDep])
+async def join_class(
+    request: Request,
+    class_id: int,
+    services: ServicesDep,
+    person: PersonDep,
+    name: Annotated[str, Form(max_length=1_000)] = "",  # made plain and short
+    next_path: Annotated[str, Form(alias="next", max_length=64)] = "/me",
+) -> Response:
+    back = _back_to(next_path)
+    try:
+        await run_blocking(join, services.db, class_id, person.visitor.id, name)
+    except ClassError as error:
+        return await _join_form(request, services, class_id, back, str(error), name)
+    return RedirectResponse(back, status.HTTP_303_SEE_OTHER)
+
+
+async def _join_form(
+    request: Request,
+    services: Services,
+    class_id: int,
+    back: str,
+    error: str | None,
+    typed: str = "",
+) -> HTMLResponse:
+    held = await run_blocking(get_class, services.db, class_id)
+    if held is None or not held.running:
+        return render(
+            request, "join_class.html", status.HTTP_410_GONE, held=None, back=back, error=None
+        )
+    return render(
+        request,
+        "join_class.html",
+        status.HTTP_400_BAD_REQUEST if error else status.HTTP_200_OK,
+        held=held,
+        prompt=NAME_PROMPTS[held.names],
+        back=back,
+        error=error,
+        typed=typed,
+        max_name=MAX_NAME,
+    )
