@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from playwright.sync_api import Browser, expect
 
-from tests.browser.conftest import open_tiles, version_of
+from tests.browser.conftest import open_tiles, serve, version_of
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
 
@@ -114,3 +116,40 @@ def test_a_panel_s_zoom_button_makes_one_change(browser: Browser, server: Server
     assert server.version("demo") == before + 1
     assert server.status("demo")["state"]["view"]["zoom"] == 60
     page.close()
+
+
+CRAMPED_WALL = """
+id = "cramped"
+seat_distance_m = 4.0
+[grid]
+columns = 2
+rows = 2
+resolution = [3840, 2160]
+active_mm = [597.7, 336.2]
+bezel_mm = 12
+"""
+"""Issue 31: a 2 x 2 wall of 27-inch 4K panels, students 3-4 m away."""
+
+
+def test_the_dashboard_says_plainly_which_codes_do_not_fit_the_wall(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    """Issue 31: the registration codes were silently missing from such a wall; the
+    codes box now says why and what would fit, as `tagwall config check` does, and
+    `tagwall serve` said it at start."""
+    config = tmp_path / "cramped.toml"
+    config.write_text(CRAMPED_WALL)
+    server = serve(
+        tmp_path, database_url, TAGWALL_WALL_CONFIGS=str(config), TAGWALL_DEFAULT_WALL="cramped"
+    )
+    try:
+        page = browser.new_page()
+        page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+        expect(page.locator("#codes-fit li").first).to_have_text(
+            "Student and Instructor codes do not fit the registration screen at 4 m:"
+            " seats up to 2.5 m fit, or give the registration screen more displays"
+        )
+        page.close()
+        assert "wall cramped: error: Student and Instructor codes" in server.log.read_text()
+    finally:
+        server.stop()

@@ -95,6 +95,13 @@ class WallApp(Protocol):
         start, and again whenever a placing key, the core's or an app's, changes)."""
         ...
 
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        """The tags the app stands on the designated screens (registration, menu,
+        public) while it is on ``wall``, as many as it ever puts there: known without a
+        running server, so ``tagwall config check`` and the dashboard can tell before
+        class whether they fit (:mod:`webapp.apps.fitting`)."""
+        ...
+
     def begin_class(
         self, context: AppContext, wall: Wall, state: WallState, mode: str | None
     ) -> WallState:

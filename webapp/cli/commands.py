@@ -6,6 +6,7 @@ import logging
 import os
 import sys
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -14,12 +15,14 @@ import httpx
 import uvicorn
 from sqlalchemy.exc import SQLAlchemyError
 
+from tag_service.fit import fits_display, largest_distance
 from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 from wall_client.config import WallConfigError, load_wall
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
-from webapp.apps.contract import wall_apps
+from webapp.apps.contract import WallApp, wall_apps
 from webapp.apps.discovery import AppLoadError, installed_apps
+from webapp.apps.fitting import fit_lines, wall_fit
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -50,6 +53,8 @@ from webapp.volume.catalog import VolumeCatalog
 from webapp.volume.store import VolumeStoreError
 from webapp.web.urls import dashboard_url, overview_url, tile_path, tile_url
 
+logger = logging.getLogger(__name__)
+
 
 class CommandsWithApps(click.Group):
     """The core's commands and those each app contributes (``WallApp.commands``)."""
@@ -76,11 +81,7 @@ class CommandsWithApps(click.Group):
 def check_apps(settings: Settings) -> None:
     """Stop with one line when an installed app cannot be loaded, or the first app a
     wall shows (``TAGWALL_FIRST_APP``) is not installed."""
-    try:
-        apps = installed_apps()
-    except AppLoadError as error:
-        fail(str(error))
-    shown = wall_apps(apps)
+    shown = wall_apps(_apps())
     if settings.first_app not in shown:
         names = ", ".join(sorted(shown))
         fail(f"TAGWALL_FIRST_APP={settings.first_app!r} is not an installed app (apps: {names})")
@@ -112,6 +113,7 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     open_database(settings).dispose()
     check_bus(settings)
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
+    log_fit(walls, _apps(), settings.resolved_public_base_url)
     if settings.workers > 1:
         # Each worker process builds its own app from the environment: hand it the
         # command line's settings that way.
@@ -129,6 +131,15 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
         # uvicorn's own proxy headers would believe X-Forwarded-For from 127.0.0.1.
         proxy_headers=False,
     )
+
+
+def log_fit(walls: dict[str, Wall], apps: dict[str, WallApp], base_url: str) -> None:
+    """Say at start, per wall, which codes find no place on it (what `tagwall config
+    check` says): the server places what it can, and a code left out is otherwise
+    noticed only when someone looks for it."""
+    for wall in walls.values():
+        for line in fit_lines(wall_fit(wall, apps, base_url)):
+            logger.warning("wall %s: %s", wall.id, line)
 
 
 def print_urls(
@@ -278,21 +289,42 @@ def config() -> None:
 @config.command("check")
 @click.argument("files", nargs=-1, required=True, type=click.Path(path_type=Path))
 def config_check(files: tuple[Path, ...]) -> None:
-    """Validate wall config FILES; exit status 2 when any is invalid."""
-    failed = False
+    """Validate wall config FILES and check their codes fit; exit status 2 when any is
+    invalid, 1 when the core's codes (registration) do not fit one."""
+    invalid = crowded = False
+    apps: dict[str, WallApp] | None = None
+    base_url = ""
     for path in files:
         try:
             wall = load_wall(path)
         except WallConfigError as error:
             click.echo(str(error), err=True)
-            failed = True
+            invalid = True
             continue
+        if apps is None:  # only a valid wall needs them, and the URL its codes carry
+            apps, base_url = _apps(), load_settings().resolved_public_base_url
+        problems = wall_fit(wall, apps, base_url)
+        fails = any(problem.required for problem in problems)
+        crowded = crowded or fails
         click.echo(
-            f"{path}: ok: wall {wall.id!r}, {len(wall.displays)} displays, "
-            f"{wall.width:.0f} x {wall.height:.0f} mm, bezel mode {wall.bezel_mode}"
+            f"{path}: {'codes do not fit' if fails else 'ok'}: wall {wall.id!r}, "
+            f"{len(wall.displays)} displays, {wall.width:.0f} x {wall.height:.0f} mm, "
+            f"bezel mode {wall.bezel_mode}"
         )
-    if failed:
+        for line in fit_lines(problems):
+            click.echo(f"{path}: {line}", err=True)
+    if invalid:
         sys.exit(EXIT_USAGE)
+    if crowded:
+        sys.exit(1)
+
+
+def _apps() -> dict[str, WallApp]:
+    """The installed apps, or one line and exit 2 when one cannot be loaded."""
+    try:
+        return installed_apps()
+    except AppLoadError as error:
+        fail(str(error))
 
 
 @main.group()
@@ -325,7 +357,8 @@ def codes() -> None:
 def codes_size(
     wall_id: str | None, distance: float | None, purpose: CodePurpose, qr_version: int
 ) -> None:
-    """Print the code size on each display for a purpose's design distance."""
+    """Print the code size on each display for a purpose's design distance, whether it
+    stands there with its caption, and whether the wall's codes fit."""
 
     settings = load_settings()
     wall = pick_wall(load_configured_walls(settings), wall_id, settings)
@@ -345,11 +378,31 @@ def codes_size(
     )
     for display in wall.displays:
         size = code_size(display, modules, module_mm)
-        fits = "" if size.side_px <= min(display.mounted_resolution) else "  (does not fit)"
+        fits = ""
+        if not fits_display(wall, display.id, (modules,), distance, purpose):
+            up_to = _up_to(wall, display.id, modules, distance, purpose)
+            fits = f"  (does not fit with its caption; {up_to})"
         click.echo(
             f"{display.id:<10}{display.mm_per_px:>8.3f}{size.px_per_module:>11}"
             f"{size.module_mm:>11.2f}{size.side_px:>9}{size.side_mm:>9.1f}{fits}"
         )
+    at_distance = (
+        replace(wall, seat_distance_m=distance)
+        if purpose == "seat"
+        else replace(wall, walk_up_distance_m=distance)
+    )
+    for line in fit_lines(wall_fit(at_distance, _apps(), settings.resolved_public_base_url)):
+        click.echo(line)
+
+
+def _up_to(wall: Wall, display_id: str, modules: int, below_m: float, purpose: CodePurpose) -> str:
+    """How far off a code of ``modules`` does stand on the display, captioned."""
+
+    def fits(distance_m: float) -> bool:
+        return fits_display(wall, display_id, (modules,), distance_m, purpose)
+
+    distance = largest_distance(fits, below_m)
+    return "no distance fits" if distance is None else f"fits up to {distance:g} m"
 
 
 @main.command()

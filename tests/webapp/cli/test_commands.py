@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from tag_service.placement import PlacementRequest, place
+from tag_service.sizing import min_module_mm, symbol_modules
 from tests.conftest import TEST_SECRET, blob_volume
-from webapp.cli.commands import main
+from wall_client.config import load_wall
+from webapp.apps.discovery import installed_apps
+from webapp.cli.commands import log_fit, main
 from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.engine.wall_state import read_state
@@ -159,7 +164,7 @@ def test_codes_size_prints_the_code_on_every_display(env: dict[str, str]) -> Non
 
 def test_codes_size_flags_codes_that_do_not_fit(env: dict[str, str]) -> None:
     code, out, _ = run(env, "codes", "size", "--wall", "hiperwall", "--distance", "30")
-    assert code == 0 and out.count("(does not fit)") == 50
+    assert code == 0 and out.count("(does not fit with its caption; fits up to 3 m)") == 50
 
 
 def test_codes_size_defaults_to_the_walls_design_distance(env: dict[str, str]) -> None:
@@ -418,3 +423,86 @@ def test_serve_refuses_a_first_app_that_is_not_installed(env: dict[str, str]) ->
     code, _, err = run({**env, "TAGWALL_FIRST_APP": "painting"}, "serve")
     assert code == 2
     assert "TAGWALL_FIRST_APP='painting' is not an installed app" in err
+
+
+CRAMPED_WALL = """
+id = "cramped"
+seat_distance_m = 4.0
+[grid]
+columns = 2
+rows = 2
+resolution = [3840, 2160]
+active_mm = [597.7, 336.2]
+bezel_mm = 12
+"""
+"""Issue 31: 2 x 2 27-inch 4K panels, 12 mm bezels, students 3-4 m away."""
+CRAMPED_ERROR = (
+    "error: Student and Instructor codes do not fit the registration screen at 4 m:"
+    " seats up to 2.5 m fit, or give the registration screen more displays"
+)
+
+
+@pytest.fixture
+def cramped(tmp_path: Path) -> Path:
+    path = tmp_path / "cramped.toml"
+    path.write_text(CRAMPED_WALL)
+    return path
+
+
+def test_config_check_fails_a_wall_without_room_for_the_registration_codes(
+    env: dict[str, str], cramped: Path
+) -> None:
+    """Issue 31: such a wall passed, and its registration codes were silently missing."""
+    code, out, err = run(env, "config", "check", str(cramped))
+    assert code == 1
+    assert out.startswith(f"{cramped}: codes do not fit: wall 'cramped', 4 displays")
+    lines = err.splitlines()
+    assert lines[0] == f"{cramped}: {CRAMPED_ERROR}"
+    assert lines[1].startswith(f"{cramped}: warning: the Tract index code does not fit")
+    assert len(lines) == 2
+
+
+def test_config_check_still_names_malformed_files_beside_walls_that_do_not_fit(
+    env: dict[str, str], cramped: Path, tmp_path: Path
+) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('id = "bad"\nseat_distance_m = -1\n')
+    code, _, err = run(env, "config", "check", str(bad), str(cramped))
+    assert code == 2
+    assert f"{bad}: seat_distance_m:" in err and f"{cramped}: {CRAMPED_ERROR}" in err
+
+
+def test_codes_size_says_what_the_placement_can_place_captions_included(
+    env: dict[str, str], cramped: Path
+) -> None:
+    """Issue 31: at 3 m it printed a 328 mm code with no warning, which the server
+    could not place with its caption; now each row says what the placement says."""
+    wall = load_wall(cramped)
+    configured = {**env, "TAGWALL_WALL_CONFIGS": str(cramped), "TAGWALL_DEFAULT_WALL": "cramped"}
+    for distance, fits in (("3", False), ("2.5", True)):
+        code, out, _ = run(configured, "codes", "size", "--distance", distance)
+        request = PlacementRequest(
+            key="Student",
+            sizes=(symbol_modules(25),),
+            module_mm=min_module_mm(float(distance)),
+            screen="registration",
+            caption=True,
+        )
+        assert bool(place(wall, [request]).placed) is fits
+        rows = out.splitlines()[3:7]
+        assert code == 0 and [row.split()[0] for row in rows] == ["r1c1", "r1c2", "r2c1", "r2c2"]
+        flag = "(does not fit with its caption; fits up to 2.5 m)"
+        assert all(row.endswith(flag) is not fits for row in rows)
+    code, out, _ = run(configured, "codes", "size", "--distance", "3")
+    assert out.splitlines()[7] == CRAMPED_ERROR.replace("at 4 m", "at 3 m")
+
+
+def test_serve_logs_what_does_not_fit_each_wall(
+    cramped: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    walls = {"cramped": load_wall(cramped), "demo": load_wall(CONTENT_DIR / "walls" / "demo.toml")}
+    with caplog.at_level(logging.WARNING, logger="webapp.cli.commands"):
+        log_fit(walls, installed_apps(), "http://127.0.0.1:8111")
+    first = caplog.records[0].getMessage()
+    assert first == f"wall cramped: {CRAMPED_ERROR}"
+    assert not [r for r in caplog.records if r.getMessage().startswith("wall demo")]

@@ -161,6 +161,17 @@ class Atlas:
         self._guides.put(key, found)
         return found
 
+    def unshown(
+        self, context: AppContext, wall: Wall, quiz_round: Round, tag_set: TagSetName
+    ) -> list[Region]:
+        """The regions of ``tag_set`` whose pin no preset view puts on ``wall`` (its
+        code finds no place in any): no student can scan them this round, so the
+        instructor's dashboard names them before the round runs (issue 31)."""
+        views = self._pin_views(context, wall, quiz_round, tag_set)
+        return [
+            region for n, region in sorted(self.pins(quiz_round, tag_set).items()) if n not in views
+        ]
+
     def _pin_views(
         self, context: AppContext, wall: Wall, quiz_round: Round, tag_set: TagSetName
     ) -> dict[int, list[str]]:
@@ -199,14 +210,9 @@ class Atlas:
     def preset(self, preset_id: str) -> ViewPreset | None:
         return next((v for v in self.views if v.id == preset_id), None)
 
-    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
-        """While the brain is on the wall: the user-group menu on the menu screen and a
-        pin on every region of each set that the current picture shows, numbered and
-        named for the round on the wall (a new round: new codes)."""
-        if state.app != APP or state.volume is None or state.volume.volume != VOLUME:
-            return []
-        quiz_round = self.round_on_wall(context, wall.id, state)
-        menu = [
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        """The user-group menu, on the menu screen whenever the brain is on the wall."""
+        return [
             TagSpec(
                 name=group_tag(group),
                 label=label,
@@ -218,6 +224,15 @@ class Atlas:
             )
             for slot, (group, label) in enumerate(GROUP_LABELS.items(), start=1)
         ]
+
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
+        """While the brain is on the wall: the user-group menu on the menu screen and a
+        pin on every region of each set that the current picture shows, numbered and
+        named for the round on the wall (a new round: new codes)."""
+        if state.app != APP or state.volume is None or state.volume.volume != VOLUME:
+            return []
+        quiz_round = self.round_on_wall(context, wall.id, state)
+        menu = self.screen_tags(wall)
         clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(context.base_url, wall)
         pins = []
         for tag_set, tag_set_name in TAG_SETS.items() if quiz_round is not None else ():

@@ -239,6 +239,36 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
     )
 
 
+class Unshown(BaseModel):
+    """The pins of a round that no preset view puts on the wall."""
+
+    round: int | None
+    tag_set: TagSetName
+    pins: int  # the set's pins in the round
+    regions: list[str]  # the regions whose pin has a code in no view
+
+
+@router.get("/api/walls/{wall_id}/brain/unshown")
+async def unshown_pins(
+    wall: WallDep, context: ContextDep, staff: StaffDep, tag_set: TagSetName | None = None
+) -> Unshown:
+    """The regions whose pin no view can show, in the round on the wall (``tag_set``:
+    by default the set on the wall). Apart from the status the dashboard polls: it
+    places the round's pins in every view, seconds of work on a new round."""
+    app = brain_atlas(context)
+    state, quiz_round = await pages.round_now(app, context, wall)
+    chosen = tag_set or set_on_wall(state)
+    if quiz_round is None:
+        return Unshown(round=None, tag_set=chosen, pins=0, regions=[])
+    regions = await run_blocking(app.unshown, context, wall, quiz_round, chosen)
+    return Unshown(
+        round=quiz_round.number,
+        tag_set=chosen,
+        pins=len(app.pins(quiz_round, chosen)),
+        regions=[region.name for region in regions],
+    )
+
+
 @router.post("/api/walls/{wall_id}/brain", responses=errors(404, 409))
 async def control(
     choice: BrainControl, wall: WallDep, context: ContextDep, staff: StaffDep

@@ -13,6 +13,7 @@ from fastapi import APIRouter, Response
 from wall_client.layout import Wall
 from webapp.apps.census_map import commands, pages
 from webapp.apps.census_map.charts import charts_for
+from webapp.apps.census_map.dataset import MOST_GROUPS
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import tract_codes
@@ -134,6 +135,18 @@ class CensusApp(CensusMaps):
             for n, cluster in enumerate(codes.clusters)
         ]
         return menu + tracts + clusters
+
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        """The tract index beside the registration codes and as many group toggles
+        as a data set may have on the menu screen (labels are the data set's, the room
+        they take is not)."""
+        return [
+            self._spec(INDEX_TAG, "Tract index", "index", {}, screen="registration", slot=2),
+            *(
+                self._spec(f"group-{n}", f"group {n}", "toggle", {}, screen="menu", slot=n)
+                for n in range(1, MOST_GROUPS + 1)
+            ),
+        ]
 
     def _spec(
         self,

@@ -84,6 +84,10 @@ class Chart(BaseModel):
         return used | ({self.total} if self.total else set())
 
 
+MOST_GROUPS = 10
+"""The most groups a data set has: as many toggles as the menu screen must hold."""
+
+
 class Grouping(BaseModel):
     """How tracts fall into the groups the menu toggles.
 
@@ -94,8 +98,8 @@ class Grouping(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     by: Literal["number", "county"] = "number"
-    count: int = Field(default=10, ge=1, le=10)
-    ranges: list[tuple[int, int]] | None = Field(default=None, max_length=10)
+    count: int = Field(default=MOST_GROUPS, ge=1, le=MOST_GROUPS)
+    ranges: list[tuple[int, int]] | None = Field(default=None, max_length=MOST_GROUPS)
 
 
 class DataSetSettings(BaseModel):

@@ -58,6 +58,9 @@ class PatternApp:
             )
         return tags
 
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        return []  # its codes mark the displays themselves
+
     def _tag(self, name: str, label: str, anchor: tuple[float, float]) -> TagSpec:
         return TagSpec(
             name=name, label=label, app=self.name, action="locate", tag_set=SETUP_SET, anchor=anchor

@@ -45,6 +45,10 @@ class RegistrationApp:
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """The student and instructor codes, permanent on the registration screen."""
+        return self.screen_tags(wall)
+
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        """The student and instructor codes: every wall must have room for them."""
         return [
             TagSpec(
                 name=f"register-{role}",

@@ -14,6 +14,7 @@ from fastapi import APIRouter, Form, HTTPException, Query, Request, WebSocket, s
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
+from webapp.apps.fitting import wall_fit
 from webapp.classes.roll import NAME_PROMPTS, running_class
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
@@ -64,6 +65,9 @@ def dashboard_page(
     # page follows switches), so an app's panel never speaks while another is up.
     panels = [(app.name, panel) for app in apps if (panel := app.dashboard_panel(current))]
     _, state = read_state(services.db, current.id)
+    # What does not fit this wall at its design distances (as `tagwall config check`
+    # says): codes left out are otherwise noticed only when someone looks for them.
+    fit = sorted(wall_fit(current, services.apps, services.base_url), key=lambda p: not p.required)
     scans = recent_scans(services.db, current.id, FEED_LENGTH)
     return render(
         request,
@@ -73,6 +77,7 @@ def dashboard_page(
         apps=apps,
         panels=panels,
         shown_app=state.app,
+        fit=[problem.message() for problem in fit],
         name_modes=NAME_PROMPTS,
         scans_json=json.dumps([scan.model_dump() for scan in scans]),
         wall_json=WallInfo.of(current).model_dump_json(),

@@ -73,6 +73,9 @@ class HelloApp:
         middle = (stage.x + stage.width / 2, stage.y + stage.height / 2)
         return [TagSpec(name="hello:wave", label="Wave", app=APP, action="wave", anchor=middle)]
 
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        return []  # its one code stands on the scene
+
     async def on_scan(self, scan: Scan) -> Response:
         _, state = read_state(scan.context.db, scan.wall.id)
         greeting = HelloState.of(state).greeting

@@ -168,6 +168,29 @@ def test_every_region_of_both_sets_gets_a_pin_in_some_preset(on_wall: TestClient
         assert sorted(every_pin(on_wall, tag_set)) == list(range(1, len(app.regions(tag_set)) + 1))
 
 
+def test_the_dashboard_names_the_regions_whose_pin_no_view_shows(
+    on_wall: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 31: on a wall of smaller displays 6 of 23 pins had no code in any view and
+    the dashboard did not say so. It asks, from the views the phones' hints name: on
+    the demo wall every pin has one; with a view that places no code for pin 2, its
+    region is named (to staff only: names are the answers)."""
+    url = "/api/walls/demo/brain/unshown"
+    assert on_wall.get(url).status_code == 401
+    ours = operator_headers(on_wall)
+    unshown = on_wall.get(url, headers=ours).json()
+    assert unshown == {"round": 1, "tag_set": "full", "pins": 23, "regions": []}
+    app = brain(on_wall)
+    found = app._pin_views
+
+    def without_pin_two(*args: Any) -> dict[int, list[str]]:
+        return {n: views for n, views in found(*args).items() if n != 2}
+
+    monkeypatch.setattr(app, "_pin_views", without_pin_two)
+    unshown = on_wall.get(url, headers=ours).json()
+    assert unshown["regions"] == [region_of(on_wall, "full", 2).name]
+
+
 def test_pins_are_numbered_and_never_named_anywhere_a_student_can_read(
     on_wall: TestClient,
 ) -> None:

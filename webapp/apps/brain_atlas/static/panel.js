@@ -53,6 +53,26 @@ function showRound(status) {
   }));
 }
 
+// Which pins no view can show is asked once per round and pin set while the brain is
+// on the wall: it places the round's pins in every view, too much for every status.
+let unshownFor = null;
+
+async function showUnshown(status) {
+  const key = status.on_wall && status.round ? `${status.round.number}:${status.tag_set}` : null;
+  if (key === unshownFor) return;
+  unshownFor = key;
+  const line = $("brain-unshown");
+  if (!key) {
+    line.hidden = true;
+    return;
+  }
+  const found = await api(`/api/walls/${wallId}/brain/unshown?tag_set=${status.tag_set}`);
+  if (unshownFor !== key) return;  // the round or the set changed meanwhile
+  line.hidden = found.regions.length === 0;
+  line.textContent = `${found.regions.length} of ${found.pins} pins have a code in no view,`
+    + ` so no student can scan them this round: ${found.regions.join(", ")}`;
+}
+
 function show(status) {
   $("brain-now").textContent = status.on_wall
     ? `· now: ${status.mode}, ${status.tag_set === "k5" ? "K-5" : "full"} pins`
@@ -66,6 +86,7 @@ function show(status) {
   }));
   $("brain-audience").checked = status.audience_switches;
   showRound(status);
+  showUnshown(status);
 }
 
 async function refresh(force = false) {
