@@ -248,7 +248,7 @@ class Unshown(BaseModel):
     regions: list[str]  # the regions whose pin has a code in no view
 
 
-@router.get("/api/walls/{wall_id}/brain/unshown")
+@router.get("/api/walls/{wall_id}/brain/unshown", responses=errors(409))
 async def unshown_pins(
     wall: WallDep, context: ContextDep, staff: StaffDep, tag_set: TagSetName | None = None
 ) -> Unshown:
@@ -257,6 +257,8 @@ async def unshown_pins(
     places the round's pins in every view, seconds of work on a new round."""
     app = brain_atlas(context)
     state, quiz_round = await pages.round_now(app, context, wall)
+    if state.app != APP:  # its pins are placed on the brain as the wall shows it
+        raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
     chosen = tag_set or set_on_wall(state)
     if quiz_round is None:
         return Unshown(round=None, tag_set=chosen, pins=0, regions=[])

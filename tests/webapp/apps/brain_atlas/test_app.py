@@ -189,6 +189,9 @@ def test_the_dashboard_names_the_regions_whose_pin_no_view_shows(
     monkeypatch.setattr(app, "_pin_views", without_pin_two)
     unshown = on_wall.get(url, headers=ours).json()
     assert unshown["regions"] == [region_of(on_wall, "full", 2).name]
+    on_wall.post("/api/walls/demo/state", json={"app": "pattern"}, headers=ours)
+    away = on_wall.get(url, headers=ours)  # its pins stand on the brain the wall shows
+    assert away.status_code == 409 and "not on" in away.json()["detail"]
 
 
 def test_pins_are_numbered_and_never_named_anywhere_a_student_can_read(

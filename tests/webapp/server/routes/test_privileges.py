@@ -364,6 +364,30 @@ def matrix(client: TestClient) -> list[Row]:
             "/api/walls/irregular/brain/answers.csv",
             STAFF_API,
         ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/brain/unshown",
+            "/api/walls/irregular/brain/unshown",
+            STAFF_API,
+        ),
+        Row("GET", "/api/walls/{wall_id}/class", "/api/walls/irregular/class", STAFF_API),
+        Row("POST", "/api/walls/{wall_id}/class", "/api/walls/irregular/class", STAFF_API, json={}),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/class/end",
+            "/api/walls/irregular/class/end",
+            (401, 401, OK, 409),  # the admin comes after the instructor ended the class
+            json={},
+        ),
+        # No class runs at demo: anyone is told it ended (the roll call needs none).
+        Row("GET", "/classes/{class_id}/join", "/classes/1/join", (410, 410, 410, 410)),
+        Row(
+            "POST",
+            "/classes/{class_id}/join",
+            "/classes/1/join",
+            (410, 410, 410, 410),
+            form={"name": "{role}"},
+        ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]
 
