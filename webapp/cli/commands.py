@@ -111,6 +111,8 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     check_apps(settings)
     open_database(settings).dispose()
     check_bus(settings)
+    for line in settings.content_fallbacks():
+        click.echo(line)
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
     if settings.workers > 1:
         # Each worker process builds its own app from the environment: hand it the
