@@ -743,7 +743,7 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("logging", ("(logging/", "(webapp/core/logs.py")),
     (
         "brain: QR symbols encoded to size the pins' clearance "
-        "(registry.anchored_code_side_mm from BrainApp.declare_tags)",
+        "(registry.anchored_code_side_mm from Atlas.declare_tags)",
         ("anchored_code_side_mm",),
     ),
     (
@@ -753,11 +753,11 @@ WORK: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("volume catalog (lists the volume directory)", ("(webapp/volume/catalog.py",)),
     (
         "brain: pins and round per view (declare_tags, pin_points, get_round)",
-        ("BrainApp.declare_tags", "BrainApp.pin_points", "(webapp/apps/brain_atlas/pins.py"),
+        ("Atlas.declare_tags", "Atlas.pin_points", "(webapp/apps/brain_atlas/pins.py"),
     ),
     (
         "brain: round guide, made once per layout (codes, views, pins on the wall)",
-        ("BrainApp.guide", "BrainApp._pin_views"),
+        ("Atlas.guide", "Atlas._pin_views"),
     ),
     ("brain: answer stored (Quiz.record_answer)", ("record_answer (",)),
     ("brain: quiz queries (progress, rounds)", ("(webapp/quiz/engine.py",)),

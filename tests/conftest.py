@@ -164,8 +164,10 @@ def _mni152_once(source: Source, out: Path, **options: Any) -> VolumeMeta:
     """``build_store`` as the brain atlas calls it on a wall's first show: the MNI
     template's store (seconds of CPU) is built for real once per test process and then
     hard-linked into each test's volume folder (stores are only ever read, and rebuilt
-    by replacing the folder), as a copy would be. Any other build is built."""
-    if source.path != ATLAS_DIR / TEMPLATE_FILE or options != {"name": VOLUME}:
+    by replacing the folder), as a copy would be (from a content folder too, when its
+    template links to the shipped one). Any other build is built."""
+    shipped = (ATLAS_DIR / TEMPLATE_FILE).resolve()
+    if source.path.resolve() != shipped or options != {"name": VOLUME}:
         return build_store(source, out, **options)
     with _MNI152_GUARD:
         if not _MNI152:

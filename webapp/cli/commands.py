@@ -112,6 +112,8 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     check_apps(settings)
     open_database(settings).dispose()
     check_bus(settings)
+    for line in settings.content_fallbacks():
+        click.echo(line)
     print_urls(settings, walls, current_tokens(settings), reveal=sys.stdout.isatty())
     log_fit(walls, _apps(), settings.resolved_public_base_url)
     if settings.workers > 1:

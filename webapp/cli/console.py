@@ -58,12 +58,12 @@ def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
 def load_configured_walls(settings: Settings) -> dict[str, Wall]:
     """The configured walls; exit 2 when a config is invalid or there is none at all."""
     try:
-        walls = load_walls(settings.wall_configs)
+        walls = load_walls(settings.resolved_wall_configs)
     except WallConfigError as error:
         click.echo(str(error), err=True)
         sys.exit(EXIT_USAGE)
     if not walls:
-        where = ", ".join(str(path) for path in settings.wall_configs) or "(nothing)"
+        where = ", ".join(str(path) for path in settings.resolved_wall_configs) or "(nothing)"
         fail(
             f"no wall configs found in {where}; point TAGWALL_WALL_CONFIGS at wall .toml "
             "files or folders (see docs/wall-config.md)"

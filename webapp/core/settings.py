@@ -28,6 +28,8 @@ LOOPBACK_NAMES = ("localhost", "::1")
 
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 CONTENT_DIR = PROJECT_ROOT / "content"
+"""The content shipped in the checkout: the default of ``TAGWALL_CONTENT_DIR`` and what
+a content folder falls back on. What runs reads :meth:`Settings.content_folder`."""
 
 # Secrets that appear in docs and examples; running with one of them outside dev
 # would let anyone forge tile tokens and sessions.
@@ -52,9 +54,10 @@ class Settings(BaseSettings):
     database_url: str = ""
     public_base_url: str = ""
     secret_key: str = ""
-    wall_configs: Annotated[list[Path], NoDecode] = Field(
-        default_factory=lambda: [CONTENT_DIR / "walls"]
-    )
+    # Teaching content an installation may change: each app reads its own subfolder.
+    content_dir: Path = CONTENT_DIR
+    # Empty: the content folder's walls (resolved_wall_configs).
+    wall_configs: Annotated[list[Path], NoDecode] = Field(default_factory=list)
     default_wall: str = "demo"
     # The app a wall shows before anyone chose one (an installed app's name).
     first_app: str = Field(default="pattern", min_length=1, max_length=64)
@@ -115,6 +118,18 @@ class Settings(BaseSettings):
             return [part for part in value.split(os.pathsep) if part]
         return value
 
+    @field_validator("content_dir", mode="after")
+    @classmethod
+    def _an_existing_folder(cls, value: Path) -> Path:
+        """A content folder that is not there would leave every app without its
+        content: say so at start, rather than at a phone's first scan."""
+        if not value.is_dir():
+            raise ValueError(
+                f"{value} is not a folder; copy the shipped {CONTENT_DIR} there, or leave "
+                "the setting out to use it"
+            )
+        return value
+
     @field_validator("trusted_proxies", mode="before")
     @classmethod
     def _split_networks(cls, value: object) -> object:
@@ -172,6 +187,30 @@ class Settings(BaseSettings):
     def resolved_volume_dir(self) -> Path:
         """Where built volume stores live: configured, else ``var_dir/volumes``."""
         return self.volume_dir or self.var_dir / "volumes"
+
+    def content_folder(self, name: str) -> Path:
+        """The subfolder ``name`` of the content folder (an app's, or ``walls``), else
+        the shipped one of that name: an installation brings only the content it
+        changes. Each app names its own subfolder, so the core names no app."""
+        own = self.content_dir / name
+        shipped = CONTENT_DIR / name
+        return shipped if not own.is_dir() and shipped.is_dir() else own
+
+    def content_fallbacks(self) -> list[str]:
+        """One line per shipped subfolder the content folder lacks (and so falls back
+        on), for ``serve`` to say at start."""
+        if self.content_dir.resolve() == CONTENT_DIR.resolve():
+            return []
+        return [
+            f"content: {self.content_dir} has no {shipped.name}/; using the shipped {shipped}"
+            for shipped in sorted(CONTENT_DIR.iterdir())
+            if shipped.is_dir() and not (self.content_dir / shipped.name).is_dir()
+        ]
+
+    @property
+    def resolved_wall_configs(self) -> list[Path]:
+        """The wall configs: configured, else the content folder's ``walls``."""
+        return self.wall_configs or [self.content_folder("walls")]
 
     @property
     def listens_everywhere(self) -> bool:

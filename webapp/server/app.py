@@ -82,7 +82,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         settings=settings,
         db=db,
         hub=hub,
-        walls=load_walls(settings.wall_configs),
+        walls=load_walls(settings.resolved_wall_configs),
         apps=apps,
         redis=redis,
     )

@@ -5,7 +5,7 @@ from typing import Any
 import pytest
 from pydantic import ValidationError
 
-from webapp.core.settings import Settings, lan_address
+from webapp.core.settings import CONTENT_DIR, Settings, lan_address
 
 
 def test_defaults_are_embedded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -25,6 +25,34 @@ def test_environment_prefix(monkeypatch: pytest.MonkeyPatch) -> None:
     assert settings.wall_configs == [Path("a.toml"), Path("walls")]
     assert settings.server_url.endswith(":9123")
     assert "0.0.0.0" not in settings.server_url
+
+
+def test_each_subfolder_of_the_content_folder_falls_back_on_the_shipped_one(
+    tmp_path: Path,
+) -> None:
+    """Issue 30: an installation brings only the content it changes; ``serve`` says
+    what it takes from the checkout instead."""
+    (tmp_path / "brain_atlas").mkdir()
+    settings = Settings(content_dir=tmp_path)
+    assert settings.content_folder("brain_atlas") == tmp_path / "brain_atlas"
+    assert settings.content_folder("census") == CONTENT_DIR / "census"
+    assert settings.content_folder("hello") == tmp_path / "hello"  # nothing to fall back on
+    assert settings.resolved_wall_configs == [CONTENT_DIR / "walls"]
+    assert settings.content_fallbacks() == [
+        f"content: {tmp_path} has no {name}/; using the shipped {CONTENT_DIR / name}"
+        for name in ("census", "walls")
+    ]
+    (tmp_path / "walls").mkdir()
+    assert Settings(content_dir=tmp_path).resolved_wall_configs == [tmp_path / "walls"]
+    configured = Settings(content_dir=tmp_path, wall_configs=[Path("a.toml")])
+    assert configured.resolved_wall_configs == [Path("a.toml")]
+    shipped = Settings()
+    assert shipped.content_dir == CONTENT_DIR and shipped.content_fallbacks() == []
+
+
+def test_a_content_folder_that_is_not_there_is_refused(tmp_path: Path) -> None:
+    with pytest.raises(ValidationError, match="is not a folder"):
+        Settings(content_dir=tmp_path / "nowhere")
 
 
 def test_secret_is_generated_once_and_private(tmp_path: Path) -> None:

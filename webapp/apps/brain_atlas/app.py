@@ -9,10 +9,7 @@ from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas import commands, pages, routes
-from webapp.apps.brain_atlas.atlas import Atlas
-from webapp.apps.brain_atlas.content import (
-    ATLAS_DIR,
-)
+from webapp.apps.brain_atlas.atlas import Atlases
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
 from webapp.apps.brain_atlas.rules import (
     APP,
@@ -26,15 +23,16 @@ from webapp.apps.contract import Export, Scan
 from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
+from webapp.tags.registry import TagSpec
 from webapp.volume.build import build_store, open_source
 from webapp.web.context import AppContext
 
 FOLDER = Path(__file__).parent
 
 
-class BrainApp(Atlas):
-    """The brain atlas's :class:`~webapp.apps.contract.WallApp`: the atlas with what the
-    core calls."""
+class BrainApp(Atlases):
+    """The brain atlas's :class:`~webapp.apps.contract.WallApp`: the atlas of the content
+    folder in use with what the core calls."""
 
     state = BrainState
     name: str = APP
@@ -50,9 +48,10 @@ class BrainApp(Atlas):
         it comes on a wall it opens the wall's first round; after that the round on the
         wall stays as the instructor left it, open or closed, whatever restarts: a
         round opens only when an instructor opens one."""
+        atlas = self.atlas(context.settings)
         if VOLUME not in context.volumes:
             build_store(
-                open_source(ATLAS_DIR / TEMPLATE_FILE),
+                open_source(atlas.folder / TEMPLATE_FILE),
                 context.settings.resolved_volume_dir / VOLUME,
                 name=VOLUME,
             )
@@ -60,14 +59,17 @@ class BrainApp(Atlas):
         if state.mode not in MODES:
             update["mode"] = "quiz"
         if state.volume is None or state.volume.volume != VOLUME:
-            first = self.views[0]
+            first = atlas.views[0]
             update["view"] = first.view
             update["volume"] = first.layer(VOLUME)
         settled = state.model_copy(update=update) if update else state
         if BrainState.of(state).quiz_round is None:
-            opened = quiz_of(context).open_round(wall.id, f"app:{APP}", self.fresh_orders())
+            opened = quiz_of(context).open_round(wall.id, f"app:{APP}", atlas.fresh_orders())
             settled = BrainState(quiz_round=opened.number).put(settled)
         return settled
+
+    def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
+        return self.atlas(context.settings).declare_tags(context, wall, state)
 
     def leave(self, state: WallState) -> WallState:
         """The brain's volume goes with it (its quiz round stays for its return)."""
@@ -79,13 +81,14 @@ class BrainApp(Atlas):
         """A class starts at the first preset view; in quiz mode on a fresh round (new
         pin numbers and codes: last class's students cannot bring their answers), in
         tutor mode with no round running (tutor pages name every pin)."""
-        first = self.views[0]
+        atlas = self.atlas(context.settings)
+        first = atlas.views[0]
         began = state.model_copy(
             update={"mode": mode_of_class(mode), "view": first.view, "volume": first.layer(VOLUME)}
         )
         by = f"app:{APP}"
         if began.mode == "quiz":
-            started = quiz_of(context).start_round(wall.id, by, self.fresh_orders())
+            started = quiz_of(context).start_round(wall.id, by, atlas.fresh_orders())
             return BrainState.of(began).later_round(started.number).put(began)
         self._close_running(context, wall, began, by)
         return began
@@ -114,10 +117,11 @@ class BrainApp(Atlas):
         ]
 
     async def on_scan(self, scan: Scan) -> Response:
+        atlas = self.atlas(scan.context.settings)
         if scan.tag.action == "group":
-            return await pages.choose_group(self, scan)
+            return await pages.choose_group(atlas, scan)
         person = await scan.person()
-        return await pages.pin_page(self, scan.request, scan.context, scan.wall, scan.tag, person)
+        return await pages.pin_page(atlas, scan.request, scan.context, scan.wall, scan.tag, person)
 
     async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
         """A pin's code still opens its question while its round runs (the view
@@ -125,23 +129,25 @@ class BrainApp(Atlas):
         earlier round says that a new round has started."""
         if scan.tag.action != "pin":
             return None
+        atlas = self.atlas(scan.context.settings)
         person = await scan.person()
-        return await pages.pin_page(self, scan.request, scan.context, scan.wall, scan.tag, person)
+        return await pages.pin_page(atlas, scan.request, scan.context, scan.wall, scan.tag, person)
 
     async def publication(self, scan: Scan) -> Publication | None:
         """In tutor mode, the region's fuller page (the phone shows its summary); in
         quiz mode nothing, so the public screen never names a pin."""
         if scan.tag.action != "pin":
             return None
-        region = await pages.tutor_subject(self, scan.context, scan.wall, scan.tag)
+        atlas = self.atlas(scan.context.settings)
+        region = await pages.tutor_subject(atlas, scan.context, scan.wall, scan.tag)
         if region is None:
             return None
         person = await scan.person()
-        found = self.tutor_text(region, person.user_group)
+        found = atlas.tutor_text(region, person.user_group)
         if found is None:
             return None
         _, text = found
-        references = [self.content.references[r] for r in text.references]
+        references = [atlas.content.references[r] for r in text.references]
         blocks = [Block(kind="markdown", text=text.text)]
         if references:
             # Citations are Markdown (journal and book titles in italics): a list

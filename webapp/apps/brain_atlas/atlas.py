@@ -1,14 +1,18 @@
 """The brain atlas's running part: its content, views, answer keys, volumes and pins,
 loaded on first use and kept, for its pages, routes and the app.
 
-The app object is an :class:`Atlas`; its pages and routes find it with
-:func:`brain_atlas`, so nothing below the app names the app's class.
+An :class:`Atlas` reads one content folder. The app object is an :class:`Atlases`,
+made before it is handed any settings, so it keeps the atlas of the content folder the
+settings name (``TAGWALL_CONTENT_DIR``; a server hands it one); its pages and routes
+find that atlas with :func:`brain_atlas`, so nothing below the app names the app's
+class.
 """
 
 from __future__ import annotations
 
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas.content import (
@@ -17,6 +21,7 @@ from webapp.apps.brain_atlas.content import (
     Region,
     ResearchText,
     TagSetName,
+    atlas_folder,
     load_content,
 )
 from webapp.apps.brain_atlas.literature import PubMed
@@ -31,7 +36,7 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.brain_atlas.views import ViewPreset, load_views
+from webapp.apps.brain_atlas.views import VIEWS_NAME, ViewPreset, load_views
 from webapp.core.caching import SizedCache
 from webapp.core.roles import UserGroup
 from webapp.core.settings import Settings
@@ -59,9 +64,12 @@ class RoundGuide:
 
 
 class Atlas:
-    """The brain atlas's content and what is computed from it, kept across requests."""
+    """The brain atlas's content in ``folder`` and what is computed from it, kept
+    across requests. Read once: an edit takes effect when the server restarts (a round
+    running keeps its pin numbers and answer keys)."""
 
-    def __init__(self) -> None:
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
         self._lock = threading.Lock()
         self._content: AtlasContent | None = None
         self._views: list[ViewPreset] | None = None
@@ -76,21 +84,21 @@ class Atlas:
     def content(self) -> AtlasContent:
         with self._lock:
             if self._content is None:
-                self._content = load_content()
+                self._content = load_content(self.folder)
             return self._content
 
     @property
     def views(self) -> list[ViewPreset]:
         with self._lock:
             if self._views is None:
-                self._views = load_views()
+                self._views = load_views(self.folder / VIEWS_NAME)
             return self._views
 
     @property
     def volumes(self) -> AtlasVolumes:
         with self._lock:
             if self._volumes is None:
-                self._volumes = AtlasVolumes.load()
+                self._volumes = AtlasVolumes.load(self.folder)
             return self._volumes
 
     def pubmed(self, settings: Settings) -> PubMed:
@@ -286,9 +294,27 @@ class Atlas:
         return (audience, chosen) if chosen is not None else None
 
 
+class Atlases:
+    """The atlas of each content folder the app is handed settings for: one per server
+    (the app object is made before the settings are handed to it)."""
+
+    def __init__(self) -> None:
+        self._atlases_lock = threading.Lock()
+        self._atlases: dict[Path, Atlas] = {}
+
+    def atlas(self, settings: Settings) -> Atlas:
+        """The atlas of the content folder of ``settings``."""
+        folder = atlas_folder(settings)
+        with self._atlases_lock:
+            found = self._atlases.get(folder)
+            if found is None:
+                found = self._atlases[folder] = Atlas(folder)
+            return found
+
+
 def brain_atlas(context: AppContext) -> Atlas:
-    """The installed brain atlas."""
-    atlas = context.app(APP)
-    if not isinstance(atlas, Atlas):
+    """The installed brain atlas, reading the content folder of the context's settings."""
+    app = context.app(APP)
+    if not isinstance(app, Atlases):
         raise TypeError(f"the installed {APP!r} app is not the brain atlas")
-    return atlas
+    return app.atlas(context.settings)

@@ -7,10 +7,10 @@ from pathlib import Path
 
 import click
 
-from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, load_content
+from webapp.apps.brain_atlas.content import ContentError, atlas_folder, load_content
 from webapp.apps.brain_atlas.pins import AtlasVolumes, PinCache
-from webapp.apps.brain_atlas.views import load_views, showing
-from webapp.cli.console import EXIT_USAGE
+from webapp.apps.brain_atlas.views import VIEWS_NAME, load_views, showing
+from webapp.cli.console import EXIT_USAGE, load_settings
 
 
 @click.group()
@@ -24,15 +24,17 @@ def content() -> None:
     "directory",
     type=click.Path(path_type=Path, file_okay=False),
     default=None,
-    help="The brain atlas content folder (default: content/brain_atlas).",
+    help="The brain atlas content folder (default: brain_atlas/ of TAGWALL_CONTENT_DIR, "
+    "the folder the server reads).",
 )
 def content_check(directory: Path | None) -> None:
     """Check the brain atlas's regions, tutor texts, references and view presets (every
-    region must show in one of them); exit 2 on problems."""
-    folder = directory or ATLAS_DIR
+    region must show in one of them), one line per problem; exit 2 on problems."""
+    folder = directory or atlas_folder(load_settings())
+    click.echo(f"checking {folder}")
     try:
         loaded = load_content(folder)
-        presets = load_views(folder / "views.yaml")
+        presets = load_views(folder / VIEWS_NAME)
         shown = showing(presets, loaded.regions, AtlasVolumes.load(folder), PinCache())
     except ContentError as error:
         for problem in error.problems:

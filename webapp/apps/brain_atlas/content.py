@@ -1,7 +1,8 @@
 """The brain atlas's content: regions (names people may answer with, the atlas labels
 that make them up) and tutor texts per user group, in files an instructor edits.
 
-``content/brain_atlas/regions.yaml`` lists the regions; ``tutor/<region id>.yaml``
+The app reads them from ``brain_atlas/`` of the content folder (``TAGWALL_CONTENT_DIR``,
+:func:`atlas_folder`). ``regions.yaml`` lists the regions; ``tutor/<region id>.yaml``
 holds each region's texts; ``references.yaml`` the works they cite;
 ``atlas-names.yaml`` a readable name for every atlas label (the names of the regions a
 set leaves out are wrong answers in that set's quiz). :func:`check` says what is wrong
@@ -17,9 +18,13 @@ from typing import Literal, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from webapp.core.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR, Settings
 
-ATLAS_DIR = CONTENT_DIR / "brain_atlas"
+FOLDER_NAME = "brain_atlas"
+"""The app's subfolder of the content folder."""
+ATLAS_DIR = CONTENT_DIR / FOLDER_NAME
+"""The shipped content (the default of the functions that read a folder, for tests and
+benchmarks); the server reads the folder of its settings, :func:`atlas_folder`."""
 REGION_ID = r"^[a-z0-9]+(-[a-z0-9]+)*$"
 TagSetName = Literal["full", "k5"]
 M = TypeVar("M", bound=BaseModel)
@@ -147,6 +152,12 @@ class AtlasContent(BaseModel):
         return parts
 
 
+def atlas_folder(settings: Settings) -> Path:
+    """Where the brain atlas reads its content: ``brain_atlas/`` of the content folder,
+    or the shipped one when that folder has none."""
+    return settings.content_folder(FOLDER_NAME)
+
+
 def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
     """The content of ``directory``; ContentError listing every problem found."""
     problems: list[str] = []
@@ -155,11 +166,14 @@ def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
     regions = _read_list(directory / "regions.yaml", "regions", Region, problems)
     references = _read_mapping(directory / "references.yaml", Reference, problems)
     tutors: dict[str, Tutor] = {}
+    unreadable: set[str] = set()  # their problems are said; "missing" would be wrong
     tutor_dir = directory / "tutor"
     for path in sorted(tutor_dir.glob("*.yaml")) if tutor_dir.is_dir() else []:
         tutor = _read_model(path, Tutor, problems)
         if tutor is not None:
             tutors[path.stem] = tutor
+        else:
+            unreadable.add(path.stem)
     content = AtlasContent(
         regions=regions,
         tutors=tutors,
@@ -167,7 +181,7 @@ def load_content(directory: Path = ATLAS_DIR) -> AtlasContent:
         labels=labels,
         atlas_names=atlas_names,
     )
-    problems += _cross_check(content)
+    problems += _cross_check(content, unreadable)
     if problems:
         raise ContentError(problems)
     return content
@@ -182,13 +196,16 @@ def check(directory: Path = ATLAS_DIR) -> list[str]:
     return []
 
 
-def _read_yaml(path: Path, problems: list[str]) -> object:
+def _read_yaml(path: Path, problems: list[str], label: str = "") -> object:
+    """The file's data; None (with its problem) when it is missing or no YAML, or
+    when it is empty. ``label``: how problems name it (default: its name)."""
+    label = label or path.name
     try:
         return yaml.safe_load(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        problems.append(f"{path.name}: missing")
+        problems.append(f"{label}: missing")
     except (yaml.YAMLError, UnicodeDecodeError) as error:
-        problems.append(f"{path.name}: not valid YAML: {error}".replace("\n", " "))
+        problems.append(f"{label}: not valid YAML: {error}".replace("\n", " "))
     return None
 
 
@@ -201,14 +218,18 @@ def _explain(label: str, error: ValidationError) -> list[str]:
 
 
 def _read_model(path: Path, model: type[M], problems: list[str]) -> M | None:
-    data = _read_yaml(path, problems)
-    if data is None and path.exists():
-        problems.append(f"{path.name}: empty")
+    """A tutor file, its problems named ``tutor/<name>`` (one line for a broken file)."""
+    label = f"tutor/{path.name}"
+    said = len(problems)
+    data = _read_yaml(path, problems, label)
+    if data is None:
+        if len(problems) == said:
+            problems.append(f"{label}: empty")
         return None
     try:
         return model.model_validate(data)
     except ValidationError as error:
-        problems += _explain(f"tutor/{path.name}", error)
+        problems += _explain(label, error)
         return None
 
 
@@ -258,9 +279,10 @@ def _read_atlas_names(
     path: Path, labels: dict[int, AtlasLabel], problems: list[str]
 ) -> dict[str, str]:
     """``label: readable name`` for every label of the atlas CSV, and nothing else."""
+    said = len(problems)
     data = _read_yaml(path, problems)
     if data is None:
-        if path.exists():
+        if len(problems) == said:
             problems.append(f"{path.name}: empty")
         return {}
     if not isinstance(data, dict):
@@ -286,8 +308,9 @@ def _read_atlas_names(
     return names
 
 
-def _cross_check(content: AtlasContent) -> list[str]:
-    """Problems between files: labels, names, tutor files and references."""
+def _cross_check(content: AtlasContent, unreadable: set[str]) -> list[str]:
+    """Problems between files: labels, names, tutor files (those ``unreadable`` have
+    had their problem said) and references."""
     problems = []
     seen_ids: set[str] = set()
     names: dict[tuple[TagSetName, str], str] = {}
@@ -330,7 +353,8 @@ def _cross_check(content: AtlasContent) -> list[str]:
                 problems.append(f"{where}: {text!r} also names {other} ({', '.join(tag_sets)})")
         tutor = content.tutors.get(region.id)
         if tutor is None:
-            problems.append(f"tutor/{region.id}.yaml: missing")
+            if region.id not in unreadable:
+                problems.append(f"tutor/{region.id}.yaml: missing")
             continue
         for tag_set in region.sets:
             for group in GROUPS_OF_SET[tag_set]:

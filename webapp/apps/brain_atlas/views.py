@@ -26,7 +26,9 @@ from webapp.apps.brain_atlas.pins import (
 )
 from webapp.engine.wall_state import View, VolumeLayer
 
-VIEWS_FILE = ATLAS_DIR / "views.yaml"
+VIEWS_NAME = "views.yaml"
+"""The presets' file in a content folder."""
+VIEWS_FILE = ATLAS_DIR / VIEWS_NAME
 
 
 class ViewPreset(BaseModel):

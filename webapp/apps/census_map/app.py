@@ -20,7 +20,7 @@ from webapp.apps.census_map.mapview import tract_codes
 from webapp.apps.census_map.routes import datasets, earth, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
-from webapp.apps.census_map.store import current_id
+from webapp.apps.census_map.store import current_id, first_dataset
 from webapp.apps.census_map.theme import kept_theme
 from webapp.apps.contract import Export, Scan, static_url
 from webapp.classes.roll import ClassSession
@@ -72,9 +72,9 @@ class CensusApp(CensusMaps):
         return state
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        """On the wall, the map shows the current data set (the shipped one until an
-        import): seeded on first use, so walls that never show the map pay nothing."""
-        dataset_id = current_id(context.db) or seed(context.db)
+        """On the wall, the map shows the current data set (the content folder's until
+        an import): seeded on first use, so walls that never show the map pay nothing."""
+        dataset_id = current_id(context.db) or seed(context.db, first_dataset(context.settings))
         theme = kept_theme(self.dataset(context, dataset_id), CensusState.of(state).theme)
         return CensusState(dataset=dataset_id, theme=theme).put(state)
 

@@ -11,6 +11,7 @@ from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
+from pathlib import Path
 from typing import Any
 
 from shapely.geometry import shape
@@ -24,13 +25,25 @@ from webapp.apps.census_map.dataset import (
     county_of,
     tract_label,
 )
-from webapp.core.settings import CONTENT_DIR
+from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
 from webapp.database.models import CensusDataSetRecord, CensusTractRecord
 
-SHIPPED = CONTENT_DIR / "census" / "sacramento-2000.geojson"
+FOLDER_NAME = "census"
+"""The app's subfolder of the content folder (``TAGWALL_CONTENT_DIR``)."""
+SHIPPED_NAME = "sacramento-2000.geojson"
+SHIPPED = CONTENT_DIR / FOLDER_NAME / SHIPPED_NAME
+"""The shipped data set as the checkout holds it (tests, benchmarks); a server starts
+from :func:`first_dataset`."""
 SHIPPED_KEY = "GEOID"
 KEPT_LOADED = 4
+
+
+def first_dataset(settings: Settings) -> Path:
+    """The data set a database without one is seeded from: ``census/`` of the content
+    folder (its settings beside it, as ``.toml``), or the shipped one when that folder
+    has no ``census/``."""
+    return settings.content_folder(FOLDER_NAME) / SHIPPED_NAME
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,18 @@ async def list_tags(wall: WallDep, services: ServicesDep) -> list[TagInfo]:
 
 @router.post("/walls/{wall_id}/tags", dependencies=[StaffOnly], status_code=201)
 async def issue_tag(wall: WallDep, spec: TagSpec, services: ServicesDep) -> TagInfo:
-    """Register a tag (any payload kind); when it belongs on the wall now, it is placed."""
+    """Register a tag (any payload kind); when it belongs on the wall now, it is placed.
+
+    Its app must be installed: a scan is handed to the tag's app, so a tag of no app
+    could only ever answer "no longer in use". The registration app (``core``) counts:
+    an extra student code on a poster by the door is one of its tags."""
+    if spec.app not in services.apps:
+        known = ", ".join(sorted(services.apps))
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT,
+            f"There is no app {spec.app!r} (installed: {known}); a scan of the tag is "
+            "handed to its app.",
+        )
     try:
         tag = await run_blocking(issue, services.db, wall.id, spec, "operator")
     except PayloadError as error:  # pragma: no cover - TagSpec validation catches these first

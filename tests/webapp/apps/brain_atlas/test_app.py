@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
+from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 from fastapi.testclient import TestClient
 from markupsafe import escape
 
@@ -20,7 +23,8 @@ from tests.conftest import (
     sign_in,
 )
 from webapp.apps.brain_atlas.app import BrainApp
-from webapp.apps.brain_atlas.content import Region, TagSetName
+from webapp.apps.brain_atlas.atlas import Atlas
+from webapp.apps.brain_atlas.content import ATLAS_DIR, Region, TagSetName
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.markdown import markdown_html
 from webapp.core.settings import Settings
@@ -34,10 +38,12 @@ def state_of(client: TestClient) -> WallState:
     return read_state(services_of(client).db, "demo")[1]
 
 
-def brain(client: TestClient) -> BrainApp:
-    app = services_of(client).apps["brain"]
+def brain(client: TestClient) -> Atlas:
+    """The brain atlas the server reads (that of its content folder)."""
+    services = services_of(client)
+    app = services.apps["brain"]
     assert isinstance(app, BrainApp)
-    return app
+    return app.atlas(services.settings)
 
 
 def show_brain(client: TestClient) -> WallState:
@@ -618,6 +624,34 @@ def test_the_offline_reading_list_sets_journal_titles_in_italics(settings: Setti
 
     assert listed and all("Offline" in p.text for p in pages if p.status_code == 200)
     assert all("<em>" in items and "*" not in items for items in listed)
+
+
+def test_the_server_reads_the_tutor_texts_of_its_content_folder(
+    settings: Settings, tmp_path: Path
+) -> None:
+    """Issue 30: an instructor edits a copy of the content, not the checkout: the server
+    shows the text of ``TAGWALL_CONTENT_DIR``."""
+    folder = tmp_path / "our-content" / "brain_atlas"
+    shutil.copytree(ATLAS_DIR, folder, ignore=shutil.ignore_patterns("*.nii.gz"))
+    for volume in ATLAS_DIR.glob("*.nii.gz"):
+        (folder / volume.name).symlink_to(volume)
+    edited = "Edited by our instructor: the region as our course teaches it."
+    for path in (folder / "tutor").glob("*.yaml"):
+        tutor = yaml.safe_load(path.read_text())
+        if tutor.get("undergraduate"):
+            tutor["undergraduate"]["text"] = f"{edited}\n\n{tutor['undergraduate']['text']}"
+        path.write_text(yaml.safe_dump(tutor, sort_keys=False))
+    ours = settings.model_copy(update={"content_dir": folder.parent})
+    migrate(ours.resolved_database_url)
+    with TestClient(create_app(ours)) as client:
+        show_brain(client)
+        control(client, mode="tutor")
+        register_student(client)
+        code = next(iter(pins_on_wall(client, "full").values()))
+        page = client.get(f"/t/{code}")
+
+    assert page.status_code == 200 and "For the Undergraduate group" in page.text
+    assert edited in page.text
 
 
 def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(

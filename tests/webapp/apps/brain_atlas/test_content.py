@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from webapp.apps.brain_atlas.content import ATLAS_DIR, check, load_content
 from webapp.apps.brain_atlas.matching import answer_key
 from webapp.cli.commands import main
+from webapp.core.settings import CONTENT_DIR
 
 TEXT = "A text long enough to be a real paragraph about this part of the brain."
 
@@ -332,3 +333,36 @@ def test_the_command_explains_a_broken_views_file(small: Path) -> None:
     (small / "views.yaml").write_text("views:\n  - id: x\n    name: X\n    colour: red\n")
     result = CliRunner().invoke(main, ["content", "check", "--dir", str(small)])
     assert result.exit_code == 2 and "views.yaml" in result.output
+
+
+def test_the_command_checks_the_content_folder_in_use(
+    small: Path, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    """Issue 30: without ``--dir`` it checks the folder the server reads
+    (``TAGWALL_CONTENT_DIR``), and a broken file is one line, not three."""
+    root = tmp_path_factory.mktemp("our-content")
+    shutil.copytree(small, root / "brain_atlas", symlinks=True)
+    (root / "brain_atlas" / "tutor" / "brainstem.yaml").write_text("k5: [unclosed\n")
+
+    result = CliRunner().invoke(main, ["content", "check"], env={"TAGWALL_CONTENT_DIR": str(root)})
+
+    assert result.exit_code == 2
+    lines = result.output.splitlines()
+    assert lines[0] == f"checking {root / 'brain_atlas'}"
+    assert lines[-1] == "1 problem(s) found"
+    [problem] = lines[1:-1]
+    assert problem.startswith("tutor/brainstem.yaml: not valid YAML")
+
+
+def test_a_content_folder_that_is_not_there_stops_the_command_with_one_line(
+    tmp_path: Path,
+) -> None:
+    missing = tmp_path / "nowhere"
+    result = CliRunner().invoke(
+        main, ["content", "check"], env={"TAGWALL_CONTENT_DIR": str(missing)}
+    )
+    assert result.exit_code == 2
+    assert result.output.splitlines() == [
+        f"error: TAGWALL_CONTENT_DIR: {missing} is not a folder; copy the shipped "
+        f"{CONTENT_DIR} there, or leave the setting out to use it"
+    ]

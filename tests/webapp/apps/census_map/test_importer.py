@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session
 
 from webapp.apps.census_map import importer, store
 from webapp.apps.census_map.importer import CensusImportError, ImportReport, import_files
+from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import CensusDataSetRecord, CensusTractRecord
 
@@ -113,6 +114,14 @@ def test_the_shipped_data_set_imports_cleanly_and_becomes_current(db: Database) 
     assert report.unmatched_shapes == report.unmatched_rows == ()
     assert report.repaired == report.skipped == ()
     assert store.current_id(db) == report.dataset_id
+
+
+def test_a_server_seeds_the_data_set_of_its_content_folder(tmp_path: Path) -> None:
+    (tmp_path / "census").mkdir()
+    ours = Settings(content_dir=tmp_path)
+    assert store.first_dataset(ours) == tmp_path / "census" / store.SHIPPED_NAME
+    # a content folder without census/ keeps the shipped data set
+    assert store.first_dataset(Settings(content_dir=tmp_path / "census")) == store.SHIPPED
 
 
 def test_the_database_keeps_one_current_data_set(db: Database) -> None:

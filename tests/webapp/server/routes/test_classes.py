@@ -10,6 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import csrf_of, operator_headers, services_of, sign_in
+from webapp.apps.brain_atlas.atlas import brain_atlas
 from webapp.apps.brain_atlas.state import BrainState
 from webapp.classes.roll import roll_names, running_class
 from webapp.engine.wall_state import PublicItem, WallState, read_state
@@ -76,7 +77,7 @@ def test_start_class_brings_the_app_fresh_on_every_tile(client: TestClient) -> N
     state = state_of(client)
     assert state.app == "brain" and state.mode == "quiz" and state.public is None
     assert state.tag_set == "brain-full"
-    first = services.apps["brain"].views[0]  # type: ignore[attr-defined]
+    first = brain_atlas(services).views[0]
     assert state.view == first.view
     number = BrainState.of(state).quiz_round
     assert number is not None

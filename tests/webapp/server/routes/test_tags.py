@@ -77,6 +77,21 @@ def test_bad_tags_are_refused_and_nothing_is_stored(
     assert after == before
 
 
+def test_a_tag_of_an_app_not_installed_is_refused_and_nothing_is_stored(
+    client: TestClient,
+) -> None:
+    """A scan goes to the tag's app: a tag of no installed app could never answer one."""
+    before = client.get("/api/walls/demo/tags", headers=operator_headers(client)).json()
+    response = issue(client, app="custom")
+    assert response.status_code == 422
+    assert "There is no app 'custom' (installed: brain, census, core, pattern)" in response.text
+    after = client.get("/api/walls/demo/tags", headers=operator_headers(client)).json()
+    assert after == before
+    # the registration codes' app is installed: an extra student code is one of its tags
+    extra = issue(client, app="core", action="register", params={"role": "student"})
+    assert extra.status_code == 201, extra.text
+
+
 def test_unknown_wall_and_tag(client: TestClient) -> None:
     assert issue(client, wall="nowhere").status_code == 404
     headers = operator_headers(client)
