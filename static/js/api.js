@@ -11,7 +11,8 @@ export async function api(path, options = {}) {
   if (!response.ok) {
     // The server says why in its problem's detail; say that, not just the status.
     const detail = await response.json().then((body) => body.detail, () => null);
-    throw new Error(typeof detail === "string" ? detail : `${path}: ${response.status}`);
+    const said = Array.isArray(detail) ? detail[0]?.msg : detail;  // a request's first fault
+    throw new Error(typeof said === "string" ? said : `${path}: ${response.status}`);
   }
   return response.json();
 }

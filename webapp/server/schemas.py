@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, HttpUrl, UrlConstraints
 
 from wall_client.layout import Wall
 from webapp.classes.roll import NameMode
 from webapp.database.models import PublicationRecord
 from webapp.engine.hub import TileStatus
 from webapp.engine.wall_state import PublicItem, PublicPolicy, View, VolumeLayer
+from webapp.tags.registry import ContactSpec, TagSpec
 from webapp.tags.schemas import UnplacedCode
 
 
@@ -238,3 +239,40 @@ class ClassInfo(BaseModel):
     ended_at: datetime | None
     joined: int  # students on the roll
     exports: list[ExportLink]  # what the class produced, once it ended
+
+
+OWN_APP = "core"
+"""The app of an instructor's own codes: the core's, like the registration codes."""
+OwnKind = Literal["link", "text", "contact", "phone"]
+WebAddress = Annotated[HttpUrl, UrlConstraints(max_length=500, allowed_schemes=["http", "https"])]
+
+
+class OwnCode(BaseModel):
+    """A code of the instructor's own at a point of the wall (wall mm): a web page to
+    open, a text to read, a contact to save or a number to call. A link goes through
+    the server (its scans are counted, and switching it off works on printed copies
+    too); the others carry their content in the symbol."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    kind: OwnKind
+    label: str = Field(min_length=1, max_length=60)  # its caption on the wall
+    url: WebAddress | None = None
+    text: str | None = Field(default=None, min_length=1, max_length=500)
+    number: str | None = Field(default=None, min_length=1, max_length=40)
+    contact: ContactSpec | None = None
+    anchor: tuple[float, float]
+
+    def spec(self) -> TagSpec:
+        """The tag that stands for it (the tag's own checks apply: a text QR codes
+        cannot carry is refused)."""
+        common: dict[str, Any] = {"label": self.label, "app": OWN_APP, "anchor": self.anchor}
+        if self.kind == "link":
+            if self.url is None:
+                raise ValueError("a link needs its url")
+            return TagSpec(**common, action="link", params={"url": str(self.url)})
+        if self.kind == "text":
+            return TagSpec(**common, action="note", kind="text", text=self.text)
+        if self.kind == "phone":
+            return TagSpec(**common, action="note", kind="tel", number=self.number)
+        return TagSpec(**common, action="note", kind="vcard", contact=self.contact)

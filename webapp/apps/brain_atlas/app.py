@@ -9,7 +9,7 @@ from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas import commands, pages, routes
-from webapp.apps.brain_atlas.atlas import Atlases
+from webapp.apps.brain_atlas.atlas import Atlases, group_menu
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
 from webapp.apps.brain_atlas.rules import (
     APP,
@@ -70,6 +70,9 @@ class BrainApp(Atlases):
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         return self.atlas(context.settings).declare_tags(context, wall, state)
+
+    def screen_tags(self, wall: Wall) -> list[TagSpec]:
+        return group_menu()
 
     def leave(self, state: WallState) -> WallState:
         """The brain's volume goes with it (its quiz round stays for its return)."""

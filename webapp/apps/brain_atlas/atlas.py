@@ -218,21 +218,6 @@ class Atlas:
     def preset(self, preset_id: str) -> ViewPreset | None:
         return next((v for v in self.views if v.id == preset_id), None)
 
-    def screen_tags(self, wall: Wall) -> list[TagSpec]:
-        """The user-group menu, on the menu screen whenever the brain is on the wall."""
-        return [
-            TagSpec(
-                name=group_tag(group),
-                label=label,
-                app=APP,
-                action="group",
-                params={"group": group},
-                screen="menu",
-                slot=slot,
-            )
-            for slot, (group, label) in enumerate(GROUP_LABELS.items(), start=1)
-        ]
-
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the brain is on the wall: the user-group menu on the menu screen and a
         pin on every region of each set that the current picture shows, numbered and
@@ -240,7 +225,7 @@ class Atlas:
         if state.app != APP or state.volume is None or state.volume.volume != VOLUME:
             return []
         quiz_round = self.round_on_wall(context, wall.id, state)
-        menu = self.screen_tags(wall)
+        menu = group_menu()
         clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(context.base_url, wall)
         pins = []
         for tag_set, tag_set_name in TAG_SETS.items() if quiz_round is not None else ():
@@ -292,6 +277,22 @@ class Atlas:
         chosen = getattr(tutor, group) or tutor.undergraduate
         audience: UserGroup = group if getattr(tutor, group) is not None else "undergraduate"
         return (audience, chosen) if chosen is not None else None
+
+
+def group_menu() -> list[TagSpec]:
+    """The user-group menu, on the menu screen whenever the brain is on the wall."""
+    return [
+        TagSpec(
+            name=group_tag(group),
+            label=label,
+            app=APP,
+            action="group",
+            params={"group": group},
+            screen="menu",
+            slot=slot,
+        )
+        for slot, (group, label) in enumerate(GROUP_LABELS.items(), start=1)
+    ]
 
 
 class Atlases:

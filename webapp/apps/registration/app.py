@@ -4,7 +4,7 @@ codes."""
 from __future__ import annotations
 
 from pathlib import Path
-from urllib.parse import quote
+from urllib.parse import quote, urlsplit
 
 import click
 from fastapi import APIRouter, Response, status
@@ -65,7 +65,9 @@ class RegistrationApp:
     async def on_scan(self, scan: Scan) -> Response:
         """Student: always. Instructor: only a phone already authorised (signed in,
         paired, or by an address rule where those are on); others go to sign in and
-        come back to this code."""
+        come back to this code. An instructor's own link opens its page."""
+        if scan.tag.action == "link":
+            return _open_link(scan)
         person = await scan.person()
         context = scan.context
         if scan.tag.params.get("role") == "instructor" and not person.may_assume("instructor"):
@@ -110,3 +112,19 @@ class RegistrationApp:
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return None
+
+
+def _open_link(scan: Scan) -> Response:
+    """The web page of an instructor's own link code; only http(s), whatever a tag
+    issued through the raw API says."""
+    url = str(scan.tag.params.get("url", ""))
+    if urlsplit(url).scheme not in ("http", "https"):
+        return render(
+            scan.request,
+            "scan_problem.html",
+            status_code=status.HTTP_404_NOT_FOUND,
+            title="Not a web page",
+            detail="This code's link is not a web address.",
+            wall_id=scan.wall.id,
+        )
+    return RedirectResponse(url, status.HTTP_303_SEE_OTHER)

@@ -1,0 +1,114 @@
+// The dashboard's codes of one's own: a link, a text, a phone number or a contact at a
+// point of the wall (clicked on a drawing of its displays, or typed in mm), the list of
+// them, and switching one off.
+import {api, onStatus, wallId} from "../api.js";
+
+const $ = (id) => document.getElementById(id);
+const wall = JSON.parse(document.body.dataset.wallInfo);
+const map = $("own-map");
+const KINDS = {url: "web link", text: "text", tel: "phone number", vcard: "contact"};
+let codes = [];
+
+function scale() {
+  return Math.min(map.width / wall.width, map.height / wall.height);
+}
+
+function draw() {
+  const ctx = map.getContext("2d");
+  const k = scale();
+  ctx.clearRect(0, 0, map.width, map.height);
+  ctx.strokeStyle = "#8b949e";
+  for (const display of wall.displays) {
+    const [x, y, w, h] = display.rect;
+    ctx.strokeRect(x * k + 0.5, y * k + 0.5, w * k - 1, h * k - 1);
+  }
+  const mark = (x, y, colour) => {
+    ctx.fillStyle = colour;
+    ctx.beginPath();
+    ctx.arc(x * k, y * k, 4, 0, 2 * Math.PI);
+    ctx.fill();
+  };
+  for (const code of codes) if (code.active && code.anchor) mark(...code.anchor, "#58a6ff");
+  const x = Number($("own-x").value), y = Number($("own-y").value);
+  if ($("own-x").value !== "" && $("own-y").value !== "") mark(x, y, "#e63946");
+}
+
+function showKind() {
+  for (const label of document.querySelectorAll("[data-own]")) {
+    label.hidden = label.dataset.own !== $("own-kind").value;
+  }
+}
+
+function say(error) {
+  $("own-error").textContent = error ? error.message : "";
+  $("own-error").hidden = !error;
+}
+
+function entry(code) {
+  const li = document.createElement("li");
+  const what = code.action === "link" ? code.params.url : code.payload.split("\n")[0];
+  li.textContent = `${code.label} · ${KINDS[code.kind]} · ${what} `;
+  if (code.active) {
+    const off = document.createElement("button");
+    off.textContent = "Switch off";
+    off.addEventListener("click", () =>
+      api(`/api/tags/${code.code}`, {method: "PATCH", body: JSON.stringify({active: false})})
+        .then(refresh, say));
+    li.append(off);
+  } else {
+    li.append("(switched off)");
+    li.className = "hint";
+  }
+  return li;
+}
+
+async function refresh() {
+  codes = await api(`/api/walls/${wallId}/own-codes`);
+  $("own-codes").replaceChildren(...codes.map(entry));
+  draw();
+}
+
+function chosen() {
+  const kind = $("own-kind").value;
+  const code = {
+    kind,
+    label: $("own-label").value,
+    anchor: [Number($("own-x").value), Number($("own-y").value)],
+  };
+  if (kind === "link") code.url = $("own-url").value;
+  if (kind === "text") code.text = $("own-text").value;
+  if (kind === "phone") code.number = $("own-number").value;
+  if (kind === "contact") {
+    code.contact = {name: $("own-name").value};
+    if ($("own-phone").value) code.contact.phone = $("own-phone").value;
+    if ($("own-email").value) code.contact.email = $("own-email").value;
+  }
+  return code;
+}
+
+map.addEventListener("click", (event) => {
+  const box = map.getBoundingClientRect();
+  const k = scale() * box.width / map.width;
+  $("own-x").value = Math.round((event.clientX - box.left) / k);
+  $("own-y").value = Math.round((event.clientY - box.top) / k);
+  draw();
+});
+for (const id of ["own-x", "own-y"]) $(id).addEventListener("input", draw);
+$("own-kind").addEventListener("change", showKind);
+$("own-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  api(`/api/walls/${wallId}/own-codes`, {method: "POST", body: JSON.stringify(chosen())})
+    .then(() => { say(null); $("own-label").value = ""; return refresh(); }, say);
+});
+
+// Placing them again (another app, another view) may switch nothing off, but a status
+// after another dashboard's change should show its codes: follow the layout.
+let layout = null;
+onStatus((detail) => {
+  if (layout !== detail.status.state.tag_layout) {
+    layout = detail.status.state.tag_layout;
+    refresh().catch(say);
+  }
+});
+showKind();
+draw();
