@@ -370,6 +370,14 @@ def matrix(client: TestClient) -> list[Row]:
             "/api/walls/irregular/brain/unshown",
             STAFF_API,
         ),
+        Row("GET", "/api/walls/{wall_id}/own-codes", "/api/walls/irregular/own-codes", STAFF_API),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/own-codes",
+            "/api/walls/irregular/own-codes",
+            STAFF_API,
+            json={"kind": "text", "label": "Note", "text": "Hello", "anchor": [100, 100]},
+        ),
         Row("GET", "/api/walls/{wall_id}/class", "/api/walls/irregular/class", STAFF_API),
         Row("POST", "/api/walls/{wall_id}/class", "/api/walls/irregular/class", STAFF_API, json={}),
         Row(
