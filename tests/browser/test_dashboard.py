@@ -7,6 +7,7 @@ from pathlib import Path
 from playwright.sync_api import Browser, expect
 
 from tests.browser.conftest import open_tiles, serve, version_of
+from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
 
@@ -153,3 +154,32 @@ def test_the_dashboard_says_plainly_which_codes_do_not_fit_the_wall(
         assert "wall cramped: error: Student and Instructor codes" in server.log.read_text()
     finally:
         server.stop()
+
+
+def test_the_instructor_puts_a_link_of_their_own_on_the_wall(
+    browser: Browser, server: ServerProcess
+) -> None:
+    """A click on the drawing of the wall chooses the point; the code is placed there and
+    listed, and Switch off takes it away again."""
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+    box = page.locator("#own-form")
+    box.get_by_label("Kind").select_option("link")
+    box.get_by_label("Caption on the wall").fill("Reading list")
+    box.get_by_label("Web address").fill("https://example.org/reading")
+    page.locator("#own-map").click(position={"x": 240, "y": 60})
+    assert int(box.get_by_label("At x (mm)").input_value()) > 0
+    box.get_by_role("button", name="Add the code").click()
+
+    listed = page.locator("#own-codes li").first
+    expect(listed).to_contain_text("Reading list · web link · https://example.org/reading")
+    token = operator_token(server.secret)
+    wait_until(
+        lambda: (
+            "Reading list" in {c.label for c in fetch_layout(server.url, "demo", token)[1].placed}
+        ),
+        what="the code to be placed",
+    )
+    listed.get_by_role("button", name="Switch off").click()
+    expect(listed).to_contain_text("(switched off)")
+    page.close()

@@ -29,6 +29,7 @@ function showModes() {
   const modes = chosen ? chosen.dataset.modes.split(",").filter(Boolean) : [];
   $("class-mode").replaceChildren(...modes.map((mode) => new Option(mode, mode)));
   $("class-mode").disabled = modes.length === 0;
+  $("class-mode-label").hidden = modes.length === 0;  // an app without modes
 }
 
 function showRunning(running) {

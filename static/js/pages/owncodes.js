@@ -6,6 +6,7 @@ import {api, onStatus, wallId} from "../api.js";
 const $ = (id) => document.getElementById(id);
 const wall = JSON.parse(document.body.dataset.wallInfo);
 const map = $("own-map");
+map.height = Math.round(map.width * wall.height / wall.width);  // the wall's own shape
 const KINDS = {url: "web link", text: "text", tel: "phone number", vcard: "contact"};
 let codes = [];
 
