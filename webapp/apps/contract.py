@@ -58,6 +58,24 @@ class Export:
     url: str
 
 
+class WithoutClassSteps:
+    """Mixed into an app that does nothing of its own as a class starts and ends (no
+    modes, nothing to close, nothing to download): the core's fresh start is all."""
+
+    class_modes: tuple[str, ...] = ()
+
+    def begin_class(
+        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
+    ) -> WallState:
+        return state
+
+    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
+        return state
+
+    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
+        return []
+
+
 SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
 """The scene's layers drawn over every app's: the balloons' pointers, the placed codes
 with their pins, and the balloons' boxes."""

@@ -22,8 +22,7 @@ from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
 from webapp.apps.census_map.theme import kept_theme
-from webapp.apps.contract import Export, Scan, static_url
-from webapp.classes.roll import ClassSession
+from webapp.apps.contract import Scan, WithoutClassSteps, static_url
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import (
@@ -56,7 +55,7 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
     return f"{CLUSTER_PREFIX}{digest}"
 
 
-class CensusApp(CensusMaps):
+class CensusApp(WithoutClassSteps, CensusMaps):
     """The census map's :class:`~webapp.apps.contract.WallApp`: its maps (data sets, their
     geometry and colouring) with what the core calls."""
 
@@ -66,7 +65,6 @@ class CensusApp(CensusMaps):
     layers: tuple[str, ...] = (f"{static_url(APP)}/census.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-    class_modes: tuple[str, ...] = ()
 
     def leave(self, state: WallState) -> WallState:
         return state
@@ -211,17 +209,6 @@ class CensusApp(CensusMaps):
                 *(Block(kind="chart", svg=svg) for svg in charts),
             ],
         )
-
-    def begin_class(
-        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
-    ) -> WallState:
-        return state  # the whole map (the core's fresh view), as it is
-
-    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
-
-    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
-        return []
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "census/panel.html"

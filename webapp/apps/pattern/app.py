@@ -17,8 +17,7 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps.contract import Export, Scan, static_url
-from webapp.classes.roll import ClassSession
+from webapp.apps.contract import Scan, WithoutClassSteps, static_url
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import AppState, WallState, read_state
 from webapp.publishing.publication import Block, Publication
@@ -30,7 +29,7 @@ FOLDER = Path(__file__).parent
 SETUP_SET = "setup"
 
 
-class PatternApp:
+class PatternApp(WithoutClassSteps):
     name: str = "pattern"
     state: type[AppState] | None = None  # it keeps nothing in the wall state
     default_tag_set: str | None = SETUP_SET
@@ -38,7 +37,6 @@ class PatternApp:
     layers: tuple[str, ...] = ("/static/js/volume.js", f"{static_url('pattern')}/scene.js")
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-    class_modes: tuple[str, ...] = ()
 
     def leave(self, state: WallState) -> WallState:
         return state
@@ -99,17 +97,6 @@ class PatternApp:
                 )
             ],
         )
-
-    def begin_class(
-        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
-    ) -> WallState:
-        return state
-
-    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
-
-    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
-        return []
 
     def router(self) -> APIRouter | None:
         return None

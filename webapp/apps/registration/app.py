@@ -11,8 +11,7 @@ from fastapi import APIRouter, Response, status
 from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Export, Scan
-from webapp.classes.roll import ClassSession
+from webapp.apps.contract import Scan, WithoutClassSteps
 from webapp.core.roles import Role
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import AppState, WallState
@@ -25,7 +24,7 @@ from webapp.web.templating import render
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 
 
-class RegistrationApp:
+class RegistrationApp(WithoutClassSteps):
     """The registration codes every wall carries whatever app it shows (the app named
     ``core``: its codes are the core's, on the registration screen)."""
 
@@ -35,7 +34,6 @@ class RegistrationApp:
     layers: tuple[str, ...] = ()
     templates: Path | None = None  # the core's pages are its own
     static: Path | None = None
-    class_modes: tuple[str, ...] = ()
 
     def leave(self, state: WallState) -> WallState:
         return state
@@ -92,17 +90,6 @@ class RegistrationApp:
 
     async def publication(self, scan: Scan) -> Publication | None:
         return None  # registration is not content
-
-    def begin_class(
-        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
-    ) -> WallState:
-        return state
-
-    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
-
-    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
-        return []
 
     def router(self) -> APIRouter | None:
         return None

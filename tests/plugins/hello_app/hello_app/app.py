@@ -14,8 +14,7 @@ import click
 from fastapi import APIRouter, Body, Response
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Export, Scan, static_url
-from webapp.classes.roll import ClassSession
+from webapp.apps.contract import Scan, WithoutClassSteps, static_url
 from webapp.engine.wall_state import AppState, WallState, read_state
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
@@ -51,14 +50,13 @@ def hello() -> None:
     click.echo("hello from an installed app")
 
 
-class HelloApp:
+class HelloApp(WithoutClassSteps):
     name: str = APP
     default_tag_set: str | None = None
     state: type[AppState] | None = HelloState
     layers: tuple[str, ...] = (f"{static_url(APP)}/hello.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-    class_modes: tuple[str, ...] = ()
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         return state
@@ -88,17 +86,6 @@ class HelloApp:
         _, state = read_state(scan.context.db, scan.wall.id)
         text = HelloState.of(state).greeting
         return Publication(title="Hello", blocks=[Block(kind="text", text=text)])
-
-    def begin_class(
-        self, context: AppContext, wall: Wall, state: WallState, mode: str | None
-    ) -> WallState:
-        return state
-
-    def end_class(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
-
-    def class_exports(self, context: AppContext, wall: Wall, held: ClassSession) -> list[Export]:
-        return []
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return None
