@@ -9,8 +9,13 @@ Rules, in scene millimetres (the wall canvas; physical wall mm in overlay mode):
 * a code with a caption (its label) has the caption's strip reserved under it, on the
   same display: a caption is never cut by a display edge and never overlaps another
   code or caption. Anchored codes keep a gap of :data:`SPREAD_OF_SIDE` code sides
-  from each other, so neighbouring codes read as separate things and their pins stay
-  apart;
+  from each other, so neighbouring codes read as separate things;
+* pins never cross, so every head can be traced to its code: no pin crosses another
+  (they meet at most at a head they share), runs under a code or caption, or passes
+  through another tag's anchor, and no code or caption covers another tag's anchor
+  (every anchor of the layout, placed yet or not: its pin head goes there). A spot that
+  would break this is skipped (:func:`clashes` is the predicate; :func:`pin_conflicts`
+  reports a finished layout's breaches with it);
 * an anchored code never stands on a designated screen (public, menu, registration:
   those show panels) and stands as near its anchor as possible, at most
   ``max_offset_codes`` code sides plus its clearance (``clear_mm``) away, centre to
@@ -32,6 +37,9 @@ Rules, in scene millimetres (the wall canvas; physical wall mm in overlay mode):
 The nearest free position is exact: with rectangular obstacles, the best top-left
 corner has each coordinate either where the anchor wants it or flush against an
 obstacle or display edge, so those candidates are searched (vectorised per display).
+Pins are lines, not rectangles: among those candidates, the nearest whose pin keeps
+the rule wins (asked nearest first, a few at a time), which is not always the nearest
+spot that would keep it.
 """
 
 from __future__ import annotations
