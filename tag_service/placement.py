@@ -445,50 +445,48 @@ def _segments_cross(a: Floats, b: Floats) -> Bools:
     """(n, m): whether segment ``a[i]`` meets segment ``b[j]`` (rows x0, y0, x1, y1)
     anywhere but at an end they share: crossing, one ending on the other's line, or
     both running along the same line. Pins that only share their head (two tags
-    marking the same point) do not count; nor does a NaN row."""
+    marking the same point) do not count; nor does a NaN row or a point."""
     if not len(a) or not len(b):
         return np.zeros((len(a), len(b)), dtype=bool)
     tiny = 1e-9
-    p, r = a[:, None, :2], (a[:, 2:] - a[:, :2])[:, None, :]
-    q, s = b[None, :, :2], (b[:, 2:] - b[:, :2])[None, :, :]
+    r = (a[:, 2:] - a[:, :2])[:, None, :]
+    s = (b[:, 2:] - b[:, :2])[None, :, :]
+    qp = b[None, :, :2] - a[:, None, :2]  # from a's start to b's start
 
     def side(u: Floats, v: Floats) -> Floats:
-        """The sign of the cross product u x v, 0 within rounding."""
+        """The sign of the cross product u x v: which side of u the point v is on."""
         product = u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
-        sign: Floats = np.where(np.abs(product) < tiny, 0.0, np.sign(product))
+        sign: Floats = (product > tiny).astype(np.float64) - (product < -tiny)
         return sign
 
-    b0, b1 = side(r, q - p), side(r, q + s - p)  # b's ends against a's line
-    a0, a1 = side(s, p - q), side(s, p + r - q)  # a's ends against b's line
+    b0, b1 = side(r, qp), side(r, qp + s)  # b's ends against a's line
+    a0, a1 = side(s, -qp), side(s, r - qp)  # a's ends against b's line
     meet = (b0 * b1 <= 0) & (a0 * a1 <= 0)
     in_line = (b0 == 0) & (b1 == 0) & (a0 == 0) & (a1 == 0)
-    # on one line they meet where their extents overlap, along x (or y when upright)
-    axis = np.where(np.abs(r[..., 0]) + np.abs(s[..., 0]) > tiny, 0, 1)[..., None]
-    lo_a = np.take_along_axis(np.minimum(p, p + r), axis, -1)[..., 0]
-    hi_a = np.take_along_axis(np.maximum(p, p + r), axis, -1)[..., 0]
-    lo_b = np.take_along_axis(np.minimum(q, q + s), axis, -1)[..., 0]
-    hi_b = np.take_along_axis(np.maximum(q, q + s), axis, -1)[..., 0]
-    overlap = np.minimum(hi_a, hi_b) - np.maximum(lo_a, lo_b)
-    ends_a, ends_b = (p, p + r), (q, q + s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        length2 = (r * r).sum(axis=-1)
+        t0 = (qp * r).sum(axis=-1) / length2  # b's ends along a (a from 0 to 1)
+        t1 = ((qp + s) * r).sum(axis=-1) / length2
+    overlap = np.minimum(np.maximum(t0, t1), 1.0) - np.maximum(np.minimum(t0, t1), 0.0) > tiny
     shared = np.zeros(meet.shape, dtype=bool)
-    for end_a in ends_a:
-        for end_b in ends_b:
-            shared |= (np.abs(end_a - end_b) < tiny).all(axis=-1)
-    crossing: Bools = np.where(in_line, overlap > tiny, meet & ~shared)
+    for offset in (qp, qp + s, qp - r, qp + s - r):  # b's ends from a's ends
+        shared |= (offset * offset).sum(axis=-1) < tiny
+    crossing: Bools = np.where(in_line, overlap, meet & ~shared)
     return crossing
 
 
 def _passes(segments: Floats, points: Floats) -> Bools:
     """(n, m): whether segment ``segments[i]`` (x0, y0, x1, y1) passes through
     ``points[j]`` anywhere but at its end (x1, y1): a pin through another tag's head."""
-    tiny = 1e-9
+    if not len(segments) or not len(points):
+        return np.zeros((len(segments), len(points)), dtype=bool)
+    tiny = 1e-12
     start, delta = segments[:, None, :2], (segments[:, 2:] - segments[:, :2])[:, None, :]
     offset = points[None, :, :] - start
-    length2 = np.maximum((delta**2).sum(axis=-1), tiny)
-    t = np.clip((offset * delta).sum(axis=-1) / length2, 0.0, 1.0)
-    gap = np.hypot(*np.moveaxis(offset - t[..., None] * delta, -1, 0))
-    at_end = (np.abs(points[None, :, :] - segments[:, None, 2:]) < 1e-6).all(axis=-1)
-    result: Bools = (gap < 1e-6) & ~at_end
+    t = np.clip((offset * delta).sum(axis=-1) / np.maximum((delta**2).sum(axis=-1), tiny), 0, 1)
+    miss = offset - t[..., None] * delta
+    away = offset - delta  # from the segment's end
+    result: Bools = ((miss * miss).sum(axis=-1) < tiny) & ((away * away).sum(axis=-1) >= tiny)
     return result
 
 
@@ -651,12 +649,37 @@ class _Rule:
         self.refused = 0
 
     def __call__(self, boxes: Floats, edges: Floats) -> Bools:
+        # Only what reaches into the extent of these boxes and their pins can clash
+        # with them: the rest of the wall is left out before the pairwise tests.
+        low = np.minimum(boxes[:, :2].min(axis=0), self.head)
+        high = np.maximum(boxes[:, 2:].max(axis=0), self.head)
+        footprints = self.pins.footprints[_meets(self.pins.footprints, low, high)]
+        leaders = self.pins.leaders
+        spans = np.column_stack(
+            (np.minimum(leaders[:, :2], leaders[:, 2:]), np.maximum(leaders[:, :2], leaders[:, 2:]))
+        )
+        leaders = leaders[_meets(spans, low, high)]
+        others = self.others[((self.others >= low) & (self.others <= high)).all(axis=1)]
+        if not (len(footprints) or len(leaders) or len(others)):
+            return np.ones(len(boxes), dtype=bool)
         lines = np.column_stack((edges, np.broadcast_to(self.head, edges.shape)))
-        clash = clashes(boxes, lines, self.pins.footprints, self.pins.leaders)
-        hidden = _inside(self.others, boxes).any(axis=0)
-        bad = clash.any() | hidden | _passes(lines, self.others).any(axis=1)
+        clash = clashes(boxes, lines, footprints, leaders)
+        hidden = _inside(others, boxes).any(axis=0)
+        bad = clash.any() | hidden | _passes(lines, others).any(axis=1)
         self.refused += int(bad.sum())
         return ~bad
+
+
+def _meets(rects: Floats, low: Floats, high: Floats) -> Bools:
+    """Which ``rects`` (rows x0, y0, x1, y1) reach into the box ``low``-``high``
+    (touching counts)."""
+    result: Bools = (
+        (rects[:, 0] <= high[0])
+        & (rects[:, 2] >= low[0])
+        & (rects[:, 1] <= high[1])
+        & (rects[:, 3] >= low[1])
+    )
+    return result
 
 
 def _place_anchored(
