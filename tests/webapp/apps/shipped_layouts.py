@@ -15,7 +15,7 @@ from tag_service.placement import Layout, PlacementRequest, place
 from tag_service.sizing import min_module_mm
 from wall_client.config import load_walls
 from wall_client.layout import Wall
-from webapp.apps.brain_atlas.atlas import PIN_CLEARANCE_OF_CODE
+from webapp.apps.brain_atlas.atlas import PIN_CLEARANCE_OF_CODE, pin_order
 from webapp.apps.brain_atlas.rules import GROUP_LABELS
 from webapp.apps.census_map.dataset import DataSet
 from webapp.apps.census_map.mapview import MapGeometry, TractCodes, tract_codes
@@ -76,10 +76,14 @@ def anchored_requests(
 
 def brain_layout(wall: Wall, pins: Sequence[tuple[str, Point]]) -> Layout:
     """The brain atlas's layout: the user-group menu, and its pins (region id and scene
-    point, in the content's order) each kept clear around its head."""
+    point, in the content's order) each kept clear around its head, in the order the
+    app places them (:func:`pin_order`)."""
     menu = [(f"group-{g}", "menu", slot) for slot, g in enumerate(GROUP_LABELS, start=1)]
     clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(BASE_URL, wall)
-    return place(wall, slot_requests(wall, menu) + anchored_requests(wall, pins, clear))
+    heads = dict(pins)
+    order = pin_order(pins, lambda anchors: places_anchored(wall, BASE_URL, anchors, clear))
+    ordered = [(key, heads[key]) for key in order]
+    return place(wall, slot_requests(wall, menu) + anchored_requests(wall, ordered, clear))
 
 
 def census_codes(dataset: DataSet, geometry: MapGeometry, wall: Wall, view: View) -> TractCodes:
