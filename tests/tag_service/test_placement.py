@@ -14,10 +14,14 @@ from hypothesis import strategies as st
 from tag_service.placement import (
     SPREAD_OF_SIDE,
     Layout,
+    Mark,
+    PinConflict,
     Placement,
     PlacementRequest,
     _crosses,
     caption_height,
+    marks_of,
+    pin_conflicts,
     place,
     place_box,
 )
@@ -107,6 +111,12 @@ def assert_valid(
             assert cw >= side and ch == caption_height(side) and cy == y + side
         else:
             assert p.caption is None
+    assert pin_conflicts(marks_of(layout)) == [], "pins never cross"
+    anchors = [(r.key, r.anchor) for r in requests if r.anchor is not None]
+    for p in layout.placed:
+        hidden = [k for k, a in anchors if k != p.key and grown(p.footprint, -TOL).contains(a)]
+        if by_key[p.key].anchor is not None:
+            assert not hidden, f"{p.key} covers the anchors of {hidden}"
     for a, b in itertools.combinations(layout.placed, 2):
         if a.display_id == b.display_id:
             assert not boxes_overlap(pixel_box(a), pixel_box(b)), (a, b)
@@ -217,7 +227,8 @@ def test_crowded_codes_move_apart_and_point_back(demo: Wall) -> None:
     requests = [anchored(f"A{i}", *centre, distance_m=0.8, caption=True) for i in range(5)]
     layout = place(demo, requests)
     assert len(layout.placed) == 5
-    assert sum(p.leader is None for p in layout.placed) == 1, "only the first sits on the anchor"
+    # none sits on the anchor: it would hide the others' pin heads there
+    assert all(p.leader is not None and p.leader[1] == centre for p in layout.placed)
     assert_valid(demo, requests, [], layout)
 
 
@@ -365,8 +376,8 @@ def test_no_code_covers_another_tags_cleared_anchor(demo: Wall) -> None:
 
 def test_no_clearance_places_as_before(demo: Wall) -> None:
     centre = demo.viewport("r2c2").scene_rect.center
-    plain = [anchored(f"A{i}", centre[0] + 40 * i, centre[1]) for i in range(4)]
-    zero = [anchored(f"A{i}", centre[0] + 40 * i, centre[1], clear_mm=0.0) for i in range(4)]
+    plain = [anchored(f"A{i}", centre[0] + 300 * i, centre[1]) for i in range(4)]
+    zero = [anchored(f"A{i}", centre[0] + 300 * i, centre[1], clear_mm=0.0) for i in range(4)]
     layout = place(demo, plain)
     assert place(demo, zero) == layout
     assert layout.placed[0].leader is None, "the first still sits on its anchor"
@@ -396,6 +407,87 @@ def test_cleared_layouts_are_deterministic(demo: Wall) -> None:
     layout = place(demo, requests, reserved)
     assert place(demo, requests, reserved) == layout
     assert_valid(demo, requests, reserved, layout)
+
+
+# --- pins never cross ----------------------------------------------------------------
+
+SQUARE = Rect(0, 0, 10, 10)
+
+
+def mark(key: str, footprint: Rect, head: tuple[float, float] | None = None) -> Mark:
+    """A code on ``footprint`` with a pin from its nearest point to ``head``."""
+    if head is None:
+        return Mark(key, footprint, None)
+    edge = (
+        min(max(head[0], footprint.x), footprint.right),
+        min(max(head[1], footprint.y), footprint.bottom),
+    )
+    return Mark(key, footprint, (edge, head))
+
+
+def test_two_pins_that_cross_are_found() -> None:
+    a = mark("A", Rect(0, 0, 10, 10), (40, 40))  # from (10, 10) down to the right
+    b = mark("B", Rect(30, 0, 10, 10), (5, 40))  # from (30, 10) down to the left
+    assert [str(c) for c in pin_conflicts([a, b])] == ["the pins of A and B cross"]
+    apart = mark("B", Rect(30, 0, 10, 10), (60, 40))
+    assert pin_conflicts([a, apart]) == []
+
+
+def test_pins_meeting_only_at_a_shared_head_do_not_cross_but_one_along_another_does() -> None:
+    a = mark("A", Rect(0, 0, 10, 10), (20, 20))
+    b = mark("B", Rect(30, 0, 10, 10), (20, 20))
+    assert pin_conflicts([a, b]) == []
+    along = mark("C", Rect(30, 30, 10, 10), (15, 15))  # back along the same diagonal
+    assert [c.kind for c in pin_conflicts([a, along])] == ["crossing"]
+
+
+def test_a_pin_under_a_code_is_found_whichever_stood_first() -> None:
+    pinned = mark("A", Rect(0, 0, 10, 10), (50, 5))  # runs right, under B
+    code = mark("B", Rect(20, 0, 10, 10))
+    expected = [PinConflict("pin under code", "A", "B")]
+    assert pin_conflicts([pinned, code]) == expected
+    assert pin_conflicts([code, pinned]) == expected
+    below = mark("A", Rect(0, 0, 10, 10), (50, 30))  # passes under B's corner: clear
+    assert pin_conflicts([below, code]) == []
+
+
+def test_a_pin_head_under_a_code_is_found() -> None:
+    pinned = mark("A", Rect(0, 0, 10, 10), (25, 25))
+    code = mark("B", Rect(20, 20, 10, 10))
+    found = pin_conflicts([code, pinned])
+    assert PinConflict("head under code", "A", "B") in found
+    touching = mark("A", Rect(0, 0, 10, 10), (20, 25))  # on B's edge: still seen
+    assert pin_conflicts([code, touching]) == []
+
+
+def test_no_code_stands_over_another_tags_anchor(demo: Wall) -> None:
+    """Census cluster codes stood on a neighbour's anchor: its code then pointed at a
+    head under the cluster's code."""
+    centre = demo.viewport("r2c2").scene_rect.center
+    first = anchored("A", *centre)
+    neighbour = anchored("B", centre[0] + 30, centre[1] + 20)
+    layout = place(demo, [first, neighbour])
+    assert len(layout.placed) == 2
+    assert all(p.leader is not None for p in layout.placed), "neither covers the other's"
+    assert pin_conflicts(marks_of(layout)) == []
+    assert_valid(demo, [first, neighbour], [], layout)
+
+
+def test_pins_of_a_crowd_go_round_each_other(demo: Wall) -> None:
+    """Deep brain structures: a dozen heads in a hand's width, each kept clear, placed
+    in order; no pin crosses another or runs under a code, and a code that finds no
+    such spot says so."""
+    centre = demo.viewport("r2c2").scene_rect.center
+    requests = [
+        anchored(f"P{i}", centre[0] + 40 * math.cos(i * 2.4), centre[1] + 30 * math.sin(i * 1.7),
+                 distance_m=0.8, clear_mm=40.0, caption=True)
+        for i in range(12)
+    ]  # fmt: skip
+    layout = place(demo, requests)
+    assert pin_conflicts(marks_of(layout)) == []
+    assert all("pin" in u.reason for u in layout.unplaced)
+    assert len(layout.placed) >= 8
+    assert_valid(demo, requests, [], layout)
 
 
 # --- captions and spreading -----------------------------------------------------------

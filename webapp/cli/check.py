@@ -1,4 +1,9 @@
-"""``tagwall check``: photograph every tile of a running wall and decode its codes.
+"""``tagwall check``: hold a running wall's layout to the pin rule, then photograph
+every tile and decode its codes.
+
+The layout's geometry comes first: a pin that crosses another, runs under a code or
+has its head under one leaves every code readable, so no photograph catches it; the
+placement's own predicate (:func:`tag_service.placement.pin_conflicts`) does.
 
 What counts is what the tiles actually show: each tile page is opened in headless
 Chromium at its display's native resolution, screenshotted, and every QR code in
@@ -18,8 +23,9 @@ import numpy as np
 from PIL import Image
 from playwright.sync_api import Page, sync_playwright
 
+from tag_service.placement import Mark, pin_conflicts
 from tag_service.verify import decode_image, module_boxes, symbol_damage
-from wall_client.layout import Wall
+from wall_client.layout import Rect, Wall
 from webapp.server.schemas import WallStatus
 from webapp.tags.schemas import LayoutInfo, PlacedCode
 
@@ -36,6 +42,7 @@ class CheckReport:
     intact: int = 0  # codes whose pixels match their symbol, quiet zone included
     damaged_modules: int = 0  # over all codes
     dirty_quiet_zones: int = 0  # codes with something in their quiet zone
+    pin_conflicts: int = 0  # pins crossing, under a code, or with their head under one
 
     @property
     def ok(self) -> bool:
@@ -46,6 +53,7 @@ class CheckReport:
             f"decoded {self.decoded}/{self.expected} codes",
             f"intact {self.intact}/{self.expected} codes: {self.damaged_modules} damaged"
             f" modules, {self.dirty_quiet_zones} dirty quiet zones",
+            f"pins: {self.pin_conflicts} crossing, under a code or with the head under one",
         ]
         lines += [f"  FAIL {failure}" for failure in self.failures]
         if self.smallest is not None:
@@ -80,12 +88,40 @@ def check_wall(
     layout: LayoutInfo,
     browser_path: str,
 ) -> CheckReport:
-    """Screenshot every tile at ``version`` and match decoded codes to ``layout``."""
+    """Hold ``layout`` to the pin rule, then screenshot every tile at ``version`` and
+    match decoded codes to it."""
+    report = check_layout(layout)
+    _photograph(wall, tile_urls, version, layout, browser_path, report)
+    return report
+
+
+def check_layout(layout: LayoutInfo) -> CheckReport:
+    """What the layout says before any tile is photographed: its unplaced codes, and
+    every way its pins break the placement's rule."""
     report = CheckReport(expected=len(layout.placed))
     if layout.placed:
         report.smallest = min(layout.placed, key=lambda code: code.px_per_module)
     for failure in layout.unplaced:
         report.failures.append(f"{failure.code} ({failure.label}) not placed: {failure.reason}")
+    marks = [
+        Mark(f"{code.code} ({code.label})", Rect(*code.footprint), code.leader)
+        for code in layout.placed
+    ]
+    conflicts = pin_conflicts(marks)
+    report.pin_conflicts = len(conflicts)
+    report.failures += [str(conflict) for conflict in conflicts]
+    return report
+
+
+def _photograph(
+    wall: Wall,
+    tile_urls: dict[str, str],
+    version: int,
+    layout: LayoutInfo,
+    browser_path: str,
+    report: CheckReport,
+) -> None:
+    """Screenshot every tile and check what it shows against ``layout``."""
     with sync_playwright() as playwright:
         browser = playwright.chromium.launch(executable_path=browser_path, args=CHROMIUM_ARGS)
         try:
@@ -103,7 +139,6 @@ def check_wall(
                 context.close()
         finally:
             browser.close()
-    return report
 
 
 def _tile_picture(

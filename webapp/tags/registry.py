@@ -524,16 +524,27 @@ def anchored_code_side_mm(base_url: str, wall: Wall) -> float:
 
 
 def places_anchored(
-    wall: Wall, base_url: str, anchors: Sequence[tuple[str, tuple[float, float]]]
+    wall: Wall,
+    base_url: str,
+    anchors: Sequence[tuple[str, tuple[float, float]]],
+    clear_mm: float = 0.0,
 ) -> set[str]:
     """The keys of ``anchors`` that find a spot when URL tags with captions are anchored
-    there and placed in this order, as :func:`compute_layout` places them (give the
-    tags falling priorities in this order). Apps try their anchored codes so before
-    declaring them, and hand what would not fit to codes that do."""
+    there (each keeping ``clear_mm`` around its anchor) and placed in this order, as
+    :func:`compute_layout` places them (give the tags falling priorities in this order).
+    Apps try their anchored codes so before declaring them, and hand what would not fit
+    to codes that do, or choose the order that leaves fewest out."""
     sizes = url_code_sizes(base_url)
     module_mm = min_module_mm(wall.walk_up_distance_m)
     requests = [
-        PlacementRequest(key=key, sizes=sizes, module_mm=module_mm, anchor=anchor, caption=True)
+        PlacementRequest(
+            key=key,
+            sizes=sizes,
+            module_mm=module_mm,
+            anchor=anchor,
+            clear_mm=clear_mm,
+            caption=True,
+        )
         for key, anchor in anchors
     ]
     return {placed.key for placed in place(wall, requests).placed}

@@ -19,6 +19,7 @@ from webapp.core.settings import CONTENT_DIR
 from webapp.database.connection import Database
 from webapp.engine.wall_state import read_state
 from webapp.people.accounts import authenticate
+from webapp.tags.schemas import LayoutInfo, PlacedCode
 from webapp.volume.store import VolumeStore
 
 
@@ -506,3 +507,45 @@ def test_serve_logs_what_does_not_fit_each_wall(
     first = caplog.records[0].getMessage()
     assert first == f"wall cramped: {CRAMPED_ERROR}"
     assert not [r for r in caplog.records if r.getMessage().startswith("wall demo")]
+
+
+Point = tuple[float, float]
+
+
+def placed_code(code: str, rect: tuple[float, float, float, float], head: Point) -> PlacedCode:
+    """A code standing on ``rect`` (scene mm of the demo wall) with a pin to ``head``."""
+    x, y, w, h = rect
+    edge = (min(max(head[0], x), x + w), min(max(head[1], y), y + h))
+    return PlacedCode(
+        code=code, label=f"Tract {code}", kind="tract", payload=f"http://wall/t/{code}",
+        display="r2c2", rect=rect, pixels=(0, 0, 99), px_per_module=3, modules=33,
+        error="M", version=2, matrix=[], anchor=head, leader=(edge, head),
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("crossing", [True, False])
+def test_check_reports_pins_that_cross_and_exits_1(
+    env: dict[str, str], monkeypatch: pytest.MonkeyPatch, crossing: bool
+) -> None:
+    """The pin rule is checked on the layout the server gives (its geometry: every
+    code still decodes), before and whatever the tiles' photographs say."""
+    a = placed_code("AAAAAAA", (1000, 800, 100, 100), (1300, 1000))
+    b = placed_code("BBBBBBB", (1200, 800, 100, 100), (1000 if crossing else 1400, 1000))
+    layout = LayoutInfo(id=1, wall="demo", tag_set=None, placed=[a, b], unplaced=[])
+    check_module = pytest.importorskip("webapp.cli.check")  # Playwright: the check extra
+
+    def every_code_decodes(*args: object) -> None:
+        report = args[-1]
+        assert isinstance(report, check_module.CheckReport)
+        report.decoded = report.intact = report.expected
+
+    monkeypatch.setattr(check_module, "fetch_layout", lambda *args: (1, layout))
+    monkeypatch.setattr(check_module, "_photograph", every_code_decodes)
+    code, out, _ = run(env, "check", "--wall", "demo", "--browser", "/bin/true")
+    if crossing:
+        assert code == 1, out
+        assert "pins: 1 crossing, under a code or with the head under one" in out
+        assert "  FAIL the pins of AAAAAAA (Tract AAAAAAA) and BBBBBBB (Tract BBBBBBB) cross" in out
+    else:
+        assert code == 0, out
+        assert "pins: 0 crossing" in out

@@ -11,6 +11,7 @@ class.
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,10 +43,18 @@ from webapp.core.roles import UserGroup
 from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState
 from webapp.quiz.engine import Round, new_order
-from webapp.tags.registry import TagSpec, anchored_code_side_mm, preview, wall_tags
+from webapp.tags.registry import (
+    TagSpec,
+    anchored_code_side_mm,
+    places_anchored,
+    preview,
+    wall_tags,
+)
 from webapp.web.context import AppContext
 
 PIN_CLEARANCE_OF_CODE = 0.75
+ORDER_TRIES = 6
+"""How many orders :func:`pin_order` tries at most for a view's pins."""
 """How far a pin's code stands from the point it marks, in code sides."""
 PLACED_KEPT = 64
 """Placement previews kept (views x sets x rounds x walls), for the phones' hints."""
@@ -231,8 +240,17 @@ class Atlas:
         for tag_set, tag_set_name in TAG_SETS.items() if quiz_round is not None else ():
             assert quiz_round is not None
             numbered = self.pins(quiz_round, tag_set)
-            rank = {region.id: i for i, region in enumerate(self.regions(tag_set))}
             points = self.pin_points(context, wall, state, list(numbered.values()))
+            shown = [(r.id, points[r.id]) for r in self.regions(tag_set) if r.id in points]
+            rank = {
+                region_id: i
+                for i, region_id in enumerate(
+                    pin_order(
+                        shown,
+                        lambda anchors: places_anchored(wall, context.base_url, anchors, clear),
+                    )
+                )
+            }
             pins += [
                 TagSpec(
                     name=pin_tag(tag_set, quiz_round.number, number),
@@ -243,8 +261,8 @@ class Atlas:
                     tag_set=tag_set_name,
                     anchor=points[region.id],
                     clear_mm=clear,
-                    # Placed in the content's order, the same in every round (and so
-                    # are the places): a layout lists codes in code order, not this.
+                    # Placed in the order pin_order gives, the same in every round
+                    # (and so are the places): a layout lists codes in code order.
                     priority=-1 - rank[region.id],
                 )
                 for number, region in sorted(numbered.items())
@@ -319,3 +337,29 @@ def brain_atlas(context: AppContext) -> Atlas:
     if not isinstance(app, Atlases):
         raise TypeError(f"the installed {APP!r} app is not the brain atlas")
     return app.atlas(context.settings)
+
+
+def pin_order(
+    pins: Sequence[tuple[str, tuple[float, float]]],
+    places: Callable[[list[tuple[str, tuple[float, float]]]], set[str]],
+) -> list[str]:
+    """The order to place a view's ``pins`` (region id and head, in the content's order)
+    in: the content's order, unless some then find no spot, tried with ``places`` (the
+    keys that find a spot, placed in the order given).
+
+    Pins never cross, so in a crowded view (the deep structures) the pins placed first
+    can fence in a head placed late, whose code then finds no way to it. The pins left
+    out go first and the rest follow, tried again up to :data:`ORDER_TRIES` times; the
+    order leaving fewest out wins (the first such). It depends only on the view, the
+    wall and the set: the same in every round."""
+    order = list(pins)
+    best: tuple[int, list[tuple[str, tuple[float, float]]]] | None = None
+    for _ in range(ORDER_TRIES):
+        placed = places(order)
+        left_out = [pin for pin in order if pin[0] not in placed]
+        if best is None or len(left_out) < best[0]:
+            best = (len(left_out), order)
+        if not left_out:
+            break
+        order = left_out + [pin for pin in order if pin[0] in placed]
+    return [key for key, _ in (best[1] if best is not None else order)]

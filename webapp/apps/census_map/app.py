@@ -106,7 +106,7 @@ class CensusApp(WithoutClassSteps, CensusMaps):
             anchored_code_side_mm(context.base_url, wall),
             anchored_footprint_mm(context.base_url, wall),
         )
-        codes = codes.keeping(places_anchored(wall, context.base_url, codes.anchors()))
+        codes = codes.settled(lambda anchors: places_anchored(wall, context.base_url, anchors))
         # falling priorities keep the wall's placement in the order just tried
         order = {key: FIRST_PRIORITY - n for n, (key, _) in enumerate(codes.anchors())}
         tracts = [

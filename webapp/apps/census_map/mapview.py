@@ -16,7 +16,7 @@ from __future__ import annotations
 import itertools
 import math
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -464,6 +464,22 @@ class TractCodes:
             for c, extra in zip(kept, joining, strict=True)
         )
         return TractCodes(own, clusters)
+
+    def settled(
+        self, places: Callable[[list[tuple[str, tuple[float, float]]]], set[str]]
+    ) -> TractCodes:
+        """These codes once every one finds a spot: those that ``places`` (the keys of
+        the anchors given that find a spot) leaves out are handed to clusters that do
+        (:meth:`keeping`), and the rest tried again, until none is left out. One try is
+        not enough: with an anchor gone, the codes placed before it may stand over it
+        (no code hides another's pin head), and a later one can lose its spot."""
+        codes = self
+        while True:
+            anchors = codes.anchors()
+            placed = places(anchors)
+            if len(placed) == len(anchors):
+                return codes
+            codes = codes.keeping(placed)
 
 
 def tract_codes(

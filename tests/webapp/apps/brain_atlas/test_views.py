@@ -9,10 +9,12 @@ from typing import Any
 import pytest
 import yaml
 
+from tag_service.placement import marks_of, pin_conflicts
+from tests.webapp.apps.shipped_layouts import brain_layout
 from wall_client.config import load_walls
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas.content import ATLAS_DIR, ContentError, Region
-from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache
+from webapp.apps.brain_atlas.pins import VOLUME, AtlasVolumes, PinCache, scene_pins
 from webapp.apps.brain_atlas.views import (
     VIEWS_FILE,
     ViewPreset,
@@ -212,3 +214,32 @@ def test_missing_fields_and_repeated_ids_are_named(tmp_path: Path) -> None:
 )
 def test_a_malformed_file_is_explained(tmp_path: Path, text: str, expected: str) -> None:
     assert problems(write(tmp_path, text))[0].startswith(expected)
+
+
+@pytest.mark.parametrize(("wall_id", "wall"), shipped_walls())
+def test_no_pin_crosses_another_or_hides_under_a_code_in_any_preset(
+    volumes: AtlasVolumes,
+    regions: list[Region],
+    presets: list[ViewPreset],
+    cache: PinCache,
+    wall_id: str,
+    wall: Wall,
+) -> None:
+    """Issue 31: in the deep views pin lines crossed and ran under other codes, so no
+    one could tell which red head a code marks. A pin that finds no spot clear of the
+    others is reported, with why; every region still gets its pin in some preset (the
+    app orders its pins so, see pin_order)."""
+    placed: dict[str, set[str]] = {"full": set(), "k5": set()}
+    for preset in presets:
+        plane = cache.get(volumes, regions, preset.view, preset.layer())
+        points = scene_pins(plane, wall, preset.view, volumes.meta)
+        for tag_set, standing in placed.items():
+            pins = [(r.id, points[r.id]) for r in regions if tag_set in r.sets and r.id in points]
+            layout = brain_layout(wall, pins)
+            conflicts = [str(c) for c in pin_conflicts(marks_of(layout))]
+            assert not conflicts, f"{wall_id} {preset.id} {tag_set}: {conflicts}"
+            assert all(u.reason for u in layout.unplaced)
+            standing |= {p.key for p in layout.placed}
+    for tag_set, standing in placed.items():
+        missing = sorted(r.id for r in regions if tag_set in r.sets and r.id not in standing)
+        assert not missing, f"{wall_id} {tag_set}: no preset places a pin for {missing}"

@@ -10,7 +10,9 @@ import pytest
 import shapely
 from shapely.geometry import Polygon
 
-from tests.webapp.apps.census_map.conftest import grid_dataset
+from tag_service.placement import Layout, marks_of, pin_conflicts
+from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
+from tests.webapp.apps.shipped_layouts import census_codes, census_layout, shipped_walls
 from wall_client.config import load_walls
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet
@@ -376,3 +378,45 @@ def test_outlines_are_as_wide_as_read_from_the_seats(
     far = dataclasses.replace(walls["demo"], seat_distance_m=2 * walls["demo"].seat_distance_m)
     view = tile_view(shipped, geometry, far, "r2c2", View(), {})
     assert view["outline_px"] == pytest.approx(2 * widths["demo"], abs=0.1)
+
+
+# --- pins on the shipped walls --------------------------------------------------------
+
+CENSUS_VIEWS = {"whole": View(), "zoom 3": View(center=(0.5, 0.5), zoom=3.0)}
+
+
+@pytest.fixture(scope="module")
+def census_layouts() -> dict[tuple[str, str], Layout]:
+    """The census map's layout on every shipped wall at the whole view, and zoomed in on
+    the demo wall, computed once for the tests that read them."""
+    dataset = sacramento()
+    geometry = MapGeometry.of(dataset)
+    layouts = {}
+    for name, wall in sorted(shipped_walls().items()):
+        for view_name, view in CENSUS_VIEWS.items():
+            if view_name != "whole" and name != "demo":
+                continue
+            codes = census_codes(dataset, geometry, wall, view)
+            layouts[name, view_name] = census_layout(dataset, wall, codes)
+    return layouts
+
+
+def test_no_census_pin_crosses_another_or_hides_under_a_code(
+    census_layouts: dict[tuple[str, str], Layout],
+) -> None:
+    """Issue 31: at the whole view, cluster codes stood on a neighbour's pin head (4 on
+    the demo wall, 6 on HIPerWall) and pins ran under codes."""
+    assert {wall for wall, _ in census_layouts} == set(shipped_walls())
+    for (wall, view), layout in census_layouts.items():
+        conflicts = [str(c) for c in pin_conflicts(marks_of(layout))]
+        assert not conflicts, f"{wall} at {view}: {conflicts}"
+
+
+def test_every_tract_and_cluster_code_the_map_declares_finds_its_spot(
+    census_layouts: dict[tuple[str, str], Layout],
+) -> None:
+    """The app tries its codes before declaring them, so the wall places every one."""
+    for (wall, view), layout in census_layouts.items():
+        lost = [u for u in layout.unplaced if u.key.startswith(("tract:", "cluster:"))]
+        assert not lost, f"{wall} at {view}: {lost}"
+        assert sum(p.key.startswith(("tract:", "cluster:")) for p in layout.placed) > 10
