@@ -12,7 +12,6 @@ from fastapi.responses import FileResponse
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.datastructures import UploadFile
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import Message
 
 from webapp.apps.image.library import image_library
 from webapp.apps.image.state import APP, ImageState
@@ -43,11 +42,16 @@ def _too_large(store: ImageStore) -> HTTPException:
 
 
 async def upload_within_limit(request: Request, context: ContextDep) -> None:
-    """A declared size over the limit is refused before anything is read (this runs
-    before the staff check, which may read a form for its CSRF token)."""
+    """An upload declares its length (browsers always do for a form), and one over the
+    limit is refused before anything is read. This runs before the staff check, which
+    may read the form for its CSRF token; the server reads no more than declared."""
     store = store_of(context)
     declared = request.headers.get("content-length", "")
-    if declared.isdigit() and int(declared) > store.max_upload_bytes + ENVELOPE_BYTES:
+    if not declared.isdigit():
+        raise HTTPException(
+            status.HTTP_411_LENGTH_REQUIRED, "Send the upload with its length (Content-Length)."
+        )
+    if int(declared) > store.max_upload_bytes + ENVELOPE_BYTES:
         raise _too_large(store)
 
 
@@ -61,6 +65,7 @@ class _TooLarge(Exception):
     status_code=status.HTTP_201_CREATED,
     responses={
         **errors(400),
+        411: {"description": "The upload did not declare its length."},
         413: {"description": "The file is larger than the upload limit."},
         422: {"description": "Not a whole PNG, JPEG or TIFF image within the pixel limit."},
     },
@@ -70,38 +75,23 @@ async def upload(request: Request, context: ContextDep) -> ImageManifest:
     with its manifest; 413 over the byte limit, 422 for what is not a whole PNG, JPEG
     or TIFF within the pixel limit. Nothing of a refused upload is kept."""
     store = store_of(context)
-    received = 0
-
-    async def counting_receive() -> Message:
-        # the body is counted as it arrives: a chunked upload declares no length
-        nonlocal received
-        message = await request.receive()
-        if message["type"] == "http.request":
-            received += len(message.get("body", b""))
-            if received > store.max_upload_bytes + ENVELOPE_BYTES:
-                raise _TooLarge
-        return message
-
-    try:
-        form = await Request(request.scope, counting_receive).form(max_files=1, max_fields=4)
-    except _TooLarge:
-        raise _too_large(store) from None
+    try:  # the form the CSRF check read, if it read one (files spool to disk)
+        form = await request.form(max_files=1, max_fields=4)
     except StarletteHTTPException as error:  # malformed multipart, too many parts
         raise HTTPException(status.HTTP_400_BAD_REQUEST, "The upload was malformed.") from error
+    upload = form.get(FILE_FIELD)
+    if not isinstance(upload, UploadFile):
+        raise HTTPException(status.HTTP_400_BAD_REQUEST, "No file was sent (field 'file').")
+    title = form.get("title")
+    name = Path(upload.filename or "image").name
     try:
-        upload = form.get(FILE_FIELD)
-        if not isinstance(upload, UploadFile):
-            raise HTTPException(status.HTTP_400_BAD_REQUEST, "No file was sent (field 'file').")
-        title = form.get("title")
-        name = Path(upload.filename or "image").name
-        try:
-            return await run_blocking(
-                _store_upload, store, upload.file, name, title if isinstance(title, str) else None
-            )
-        except ImageRefused as error:
-            raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-        except _TooLarge:
-            raise _too_large(store) from None
+        return await run_blocking(
+            _store_upload, store, upload.file, name, title if isinstance(title, str) else None
+        )
+    except ImageRefused as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+    except _TooLarge:
+        raise _too_large(store) from None
     finally:
         await form.close()
 

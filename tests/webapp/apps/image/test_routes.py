@@ -121,8 +121,13 @@ def test_a_bad_upload_gets_its_status_and_one_line_and_nothing_is_kept(
         assert stored_folders(client) == [], name  # no orphan pyramid, no upload copy
 
 
-def test_an_upload_without_a_file_is_a_bad_request(client: TestClient) -> None:
-    response = client.post(
-        "/api/image/images", data={"title": "nothing"}, headers=operator_headers(client)
-    )
+def test_an_upload_without_a_file_or_a_length_is_refused(client: TestClient) -> None:
+    operator = operator_headers(client)
+    response = client.post("/api/image/images", data={"title": "nothing"}, headers=operator)
     assert response.status_code == 400
+    chunked = client.post(
+        "/api/image/images",
+        content=iter([b"--x\r\n"]),
+        headers={**operator, "Content-Type": "multipart/form-data; boundary=x"},
+    )
+    assert chunked.status_code == 411, chunked.text

@@ -27,6 +27,7 @@ async function refresh() {
     button.addEventListener("click", () => showImage(image.id));
     const action = document.createElement("td");
     action.append(button);
+    action.dataset.label = "Wall";
     tr.append(cell(image.title, "Title"), cell(`${image.width} × ${image.height} px`, "Size"), action);
     return tr;
   }));
