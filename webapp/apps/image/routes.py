@@ -15,7 +15,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from webapp.apps.image.library import image_library
 from webapp.apps.image.state import APP, ImageState
-from webapp.apps.image.store import ImageManifest, ImageRefused, ImageStore
+from webapp.apps.image.store import UPLOADING, ImageManifest, ImageRefused, ImageStore
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import WallState
 from webapp.web.context import AppContext
@@ -102,7 +102,7 @@ def _store_upload(
     """Copy the upload to a file of its own beside the store (libvips reads a path),
     never past the limit, store it, and remove the copy whatever happens."""
     store.root.mkdir(parents=True, exist_ok=True)
-    copy = store.root / f".upload-{uuid.uuid4().hex}"
+    copy = store.root / f"{UPLOADING}{uuid.uuid4().hex}"
     try:
         with copy.open("wb") as out:
             size = 0

@@ -20,6 +20,7 @@ import json
 import math
 import re
 import shutil
+import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,8 @@ TILE_SUFFIX = ".jpg[Q=85,strip]"
 PYRAMID = "pyramid"  # dzsave's base name: pyramid.dzi and pyramid_files/
 MANIFEST = "manifest.json"
 BUILDING = ".building-"  # the prefix of a folder being built (never listed)
+UPLOADING = ".upload-"  # the prefix of an upload's copy, removed once stored or refused
+STALE_S = 6 * 3600  # a build or copy this old was cut short (a killed server): swept
 _ID = re.compile(r"^[0-9a-f]{12}$")
 
 
@@ -92,6 +95,7 @@ class ImageStore:
         image, kind = self._open(source, name)
         image_id = uuid.uuid4().hex[:12]
         self.root.mkdir(parents=True, exist_ok=True)
+        self.sweep()
         building = self.root / f"{BUILDING}{image_id}"
         building.mkdir()
         try:
@@ -135,6 +139,21 @@ class ImageStore:
                 f"more than the {self.max_pixels:.3g} taken."
             )
         return image, kind
+
+    def sweep(self, now: float | None = None) -> list[Path]:
+        """Remove what a build or upload cut short by a killed server left (hidden, never
+        listed, but taking disk), once it is :data:`STALE_S` old: a build still running
+        is younger. Returns what was removed."""
+        cutoff = (time.time() if now is None else now) - STALE_S
+        removed = []
+        for left in self.root.glob(".*"):
+            if left.name.startswith((BUILDING, UPLOADING)) and left.stat().st_mtime < cutoff:
+                if left.is_dir():
+                    shutil.rmtree(left, ignore_errors=True)
+                else:
+                    left.unlink(missing_ok=True)
+                removed.append(left)
+        return removed
 
     def images(self) -> list[ImageManifest]:
         """Every stored image, newest first (a folder being built is not one yet)."""

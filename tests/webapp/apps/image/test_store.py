@@ -3,13 +3,20 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import pytest
 from PIL import Image
 
 from tests.webapp.apps.image.samples import png_declaring, quadrants, save
-from webapp.apps.image.store import TILE_SIZE, ImageRefused, ImageStore, deep_zoom_levels
+from webapp.apps.image.store import (
+    STALE_S,
+    TILE_SIZE,
+    ImageRefused,
+    ImageStore,
+    deep_zoom_levels,
+)
 
 
 @pytest.fixture
@@ -93,3 +100,14 @@ def test_a_bad_input_is_refused_in_one_line_and_nothing_is_kept(
     assert "\n" not in str(refused.value)
     assert store.images() == []
     assert not store.root.exists() or list(store.root.iterdir()) == []  # no orphan pyramid
+
+
+def test_what_a_killed_build_left_is_swept_once_stale(store: ImageStore, tmp_path: Path) -> None:
+    kept = store.add(save(tmp_path / "kept.png", quadrants(40, 30)))
+    (store.root / ".building-0123456789ab" / "pyramid_files").mkdir(parents=True)
+    (store.root / ".upload-feed").write_bytes(b"half an upload")
+    assert store.sweep() == []  # young: perhaps still running
+    later = time.time() + STALE_S + 1
+    swept = sorted(p.name for p in store.sweep(now=later))
+    assert swept == [".building-0123456789ab", ".upload-feed"]
+    assert [p.name for p in store.root.iterdir()] == [kept.id]
