@@ -8,7 +8,7 @@ from pathlib import Path
 import click
 
 from webapp.apps.image.library import ImageLibrary
-from webapp.apps.image.store import ImageRefused
+from webapp.apps.image.store import ImageRefused, NoLibvips
 from webapp.cli.console import fail, load_settings
 
 
@@ -27,7 +27,7 @@ def image_add(file: Path, title: str | None) -> None:
     started = time.monotonic()
     try:
         added = store.add(file, title)
-    except ImageRefused as error:
+    except (ImageRefused, NoLibvips) as error:
         fail(str(error))
     click.echo(
         f"added {added.id}: {added.title!r}, {added.width} x {added.height} px, "

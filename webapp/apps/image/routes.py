@@ -15,7 +15,13 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from webapp.apps.image.library import image_library
 from webapp.apps.image.state import APP, ImageState
-from webapp.apps.image.store import UPLOADING, ImageManifest, ImageRefused, ImageStore
+from webapp.apps.image.store import (
+    UPLOADING,
+    ImageManifest,
+    ImageRefused,
+    ImageStore,
+    NoLibvips,
+)
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import WallState
 from webapp.web.context import AppContext
@@ -64,7 +70,7 @@ class _TooLarge(Exception):
     dependencies=[Depends(upload_within_limit), StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
-        **errors(400),
+        **errors(400, 503),
         411: {"description": "The upload did not declare its length."},
         413: {"description": "The file is larger than the upload limit."},
         422: {"description": "Not a whole PNG, JPEG or TIFF image within the pixel limit."},
@@ -92,6 +98,8 @@ async def upload(request: Request, context: ContextDep) -> ImageManifest:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
     except _TooLarge:
         raise _too_large(store) from None
+    except NoLibvips as error:
+        raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(error)) from None
     finally:
         await form.close()
 

@@ -16,6 +16,7 @@ cached for good).
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import re
@@ -24,9 +25,13 @@ import time
 import uuid
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
 
-import pyvips
 from pydantic import BaseModel, Field
+
+if TYPE_CHECKING:
+    import pyvips
 
 TILE_SIZE = 256
 MAX_PIXELS = 1_200_000_000
@@ -48,6 +53,19 @@ _ID = re.compile(r"^[0-9a-f]{12}$")
 
 class ImageRefused(ValueError):
     """An input that is not stored; the message says why in one line."""
+
+
+class NoLibvips(RuntimeError):
+    """libvips is not installed: images cannot be added (those stored still show)."""
+
+
+def _vips() -> ModuleType:
+    """pyvips, imported when an image is added: a server without libvips still starts,
+    serves the stored pyramids and says what to install when one is added."""
+    try:
+        return importlib.import_module("pyvips")
+    except (ImportError, OSError) as error:
+        raise NoLibvips(f"libvips is not installed ({error}): apt-get install libvips42") from None
 
 
 class ImageManifest(BaseModel):
@@ -121,6 +139,7 @@ class ImageStore:
         """The image's header (nothing decoded yet) and its format, if it is one we take."""
         if source.stat().st_size == 0:
             raise ImageRefused(f"{name} is empty.")
+        pyvips = _vips()
         try:
             image = pyvips.Image.new_from_file(
                 str(source), access="sequential", fail_on="truncated"
@@ -188,6 +207,7 @@ def _pyramid(image: pyvips.Image, base: Path, name: str) -> None:
         image = image.flatten(background=[0])
     if image.format != "uchar":
         image = image.cast("uchar")
+    pyvips = _vips()
     try:
         image.dzsave(str(base), tile_size=TILE_SIZE, overlap=0, suffix=TILE_SUFFIX, layout="dz")
     except pyvips.Error as error:

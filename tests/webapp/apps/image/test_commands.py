@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
+from types import ModuleType
 
+import pytest
 from click.testing import CliRunner
 
 from tests.webapp.apps.image.samples import png_declaring, quadrants, save
+from webapp.apps.image import store
 from webapp.cli.commands import main
 
 
@@ -30,3 +33,21 @@ def test_add_then_list_and_bad_files_exit_2_with_one_line(tmp_path: Path) -> Non
     assert sorted(p.name for p in (tmp_path / "var" / "images").iterdir()) == [
         listed.stdout.split()[0]
     ]
+
+
+def test_without_libvips_adding_says_what_to_install(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def missing(name: str) -> ModuleType:
+        raise OSError("cannot load library 'libvips.so.42'")
+
+    monkeypatch.setattr(store.importlib, "import_module", missing)
+    source = save(tmp_path / "slide.png", quadrants(30, 20))
+    refused = CliRunner().invoke(
+        main, ["image", "add", str(source)], env={"TAGWALL_VAR_DIR": str(tmp_path / "var")}
+    )
+    assert refused.exit_code == 2
+    assert refused.stderr.strip() == (
+        "error: libvips is not installed (cannot load library 'libvips.so.42'): "
+        "apt-get install libvips42"
+    )
