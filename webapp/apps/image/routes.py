@@ -1,19 +1,26 @@
-"""The image app's API: instructors upload, list and show images; tiles and the overview
-fetch each image's manifest and the pyramid tiles their displays show."""
+"""The image app's API: instructors upload, list and show images, mark their hotspots
+and run quiz rounds on their questions; tiles and the overview fetch each image's
+manifest and the pyramid tiles their displays show; phones open a hotspot's page and
+answer its question."""
 
 from __future__ import annotations
 
 import uuid
+from collections.abc import Callable
+from datetime import datetime
 from pathlib import Path
-from typing import IO
+from typing import IO, Annotated, TypeVar
 
-from fastapi import APIRouter, Depends, HTTPException, Request, status
+from fastapi import APIRouter, Depends, Form, HTTPException, Query, Request, Response, status
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.datastructures import UploadFile
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from webapp.apps.image import hotspots, pages
+from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
 from webapp.apps.image.library import image_library
+from webapp.apps.image.questions import asked, fresh_orders, numbers, quiz_of, round_on_wall
 from webapp.apps.image.state import APP, ImageState
 from webapp.apps.image.store import (
     UPLOADING,
@@ -22,10 +29,14 @@ from webapp.apps.image.store import (
     ImageStore,
     NoLibvips,
 )
+from webapp.classes.roll import class_at
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState
+from webapp.database.connection import RowId
+from webapp.engine.wall_state import WallState, read_state
+from webapp.quiz.engine import QuizError, Round
 from webapp.web.context import AppContext
-from webapp.web.deps import ContextDep, StaffOnly, WallDep
+from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, StaffOnly, WallDep
+from webapp.web.downloads import attachment
 from webapp.web.problems import errors
 
 router = APIRouter(tags=["image"])
@@ -184,3 +195,252 @@ async def pyramid_tile(
     except KeyError:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such image tile.") from None
     return FileResponse(path, media_type="image/jpeg", headers={"Cache-Control": FOREVER})
+
+
+# --- hotspots ------------------------------------------------------------------------
+
+T = TypeVar("T")
+
+
+async def _hotspot_step(step: Callable[..., T], *args: object) -> T:
+    """Run a change of an image's hotspots in a worker thread: 404 for an image or
+    hotspot that is not there, 422 with the reason for a refused one."""
+    try:
+        return await run_blocking(step, *args)
+    except KeyError as missing:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no {missing.args[0]}.") from None
+    except HotspotRefused as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+
+
+async def _replace_codes(context: AppContext, image_id: str) -> None:
+    """The walls showing ``image_id`` place their codes again (a hotspot came, moved or
+    went); the others have nothing of it up."""
+    for wall in context.walls.values():
+        _, state = await context.db.read(read_state, context.db, wall.id)
+        if state.app == APP and ImageState.of(state).image == image_id:
+            await context.change_wall(wall, lambda current: current, replace_codes=True)
+
+
+@router.get(
+    "/api/image/images/{image_id}/hotspots", dependencies=[StaffOnly], responses=errors(404)
+)
+async def list_hotspots(image_id: str, context: ContextDep) -> list[Hotspot]:
+    """An image's hotspots, in the order they were added."""
+    return await _hotspot_step(hotspots.hotspots, store_of(context), image_id)
+
+
+@router.post(
+    "/api/image/images/{image_id}/hotspots",
+    dependencies=[StaffOnly],
+    status_code=status.HTTP_201_CREATED,
+    responses={
+        **errors(404),
+        422: {"description": "A place outside the image, a question without an answer."},
+    },
+)
+async def add_hotspot(image_id: str, fields: HotspotFields, context: ContextDep) -> Hotspot:
+    """Mark a place of the image (in its full-size pixels): 422 for a place outside the
+    image or a question without an accepted answer, nothing stored."""
+    added = await _hotspot_step(hotspots.add, store_of(context), image_id, fields)
+    await _replace_codes(context, image_id)
+    return added
+
+
+@router.put(
+    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    dependencies=[StaffOnly],
+    responses={**errors(404), 422: {"description": "As adding: refused, nothing changed."}},
+)
+async def edit_hotspot(
+    image_id: str, hotspot_id: str, fields: HotspotFields, context: ContextDep
+) -> Hotspot:
+    """Replace a hotspot's fields (its id, and so its codes, stay)."""
+    edited = await _hotspot_step(hotspots.edit, store_of(context), image_id, hotspot_id, fields)
+    await _replace_codes(context, image_id)
+    return edited
+
+
+@router.delete(
+    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    dependencies=[StaffOnly],
+    status_code=status.HTTP_204_NO_CONTENT,
+    responses=errors(404),
+)
+async def delete_hotspot(image_id: str, hotspot_id: str, context: ContextDep) -> Response:
+    await _hotspot_step(hotspots.delete, store_of(context), image_id, hotspot_id)
+    await _replace_codes(context, image_id)
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+# --- phones ----------------------------------------------------------------------------
+
+
+@router.get("/apps/image/{wall_id}/hotspots/{code}", include_in_schema=False)
+async def hotspot_page(
+    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
+) -> Response:
+    """A hotspot's page again (after an answer), without counting a scan."""
+    tag = await pages.tag_of(context, wall, code)
+    return await pages.hotspot_page(request, context, wall, tag, person)
+
+
+@router.post(
+    "/apps/image/{wall_id}/hotspots/{code}/answer",
+    include_in_schema=False,
+    dependencies=[CsrfDep],
+)
+async def answer(
+    request: Request,
+    wall: WallDep,
+    context: ContextDep,
+    person: PersonDep,
+    code: str,
+    answer: Annotated[str, Form()] = "",
+) -> Response:
+    return await pages.answer(request, context, wall, person, code, answer)
+
+
+# --- the instructor's quiz controls ------------------------------------------------------
+
+
+class RoundStatus(BaseModel):
+    model_config = ConfigDict(from_attributes=True)  # read off the stored round
+
+    number: int
+    open: bool
+    started_at: datetime
+    closed_at: datetime | None
+
+
+class QuestionStats(BaseModel):
+    number: int
+    hotspot: str
+    title: str
+    answered: int
+    share_correct: float | None
+    common_wrong: list[tuple[str, int]]
+
+
+class QuizStatus(BaseModel):
+    image: str | None  # the image on the wall (None: the app or an image is not up)
+    questions: int  # its hotspots with a question
+    round: RoundStatus | None
+    participants: int
+    answers: int
+    finished: int
+    items: list[QuestionStats]
+
+
+def _quiz_status(context: AppContext, wall_id: str) -> QuizStatus:
+    """The round on the wall and the class's results on the image shown (in a worker
+    thread; names and answers included: staff only)."""
+    _, state = read_state(context.db, wall_id)
+    image_id = ImageState.of(state).image if state.app == APP else None
+    try:
+        spots = hotspots.hotspots(store_of(context), image_id) if image_id else []
+    except KeyError:
+        spots = []
+    quiz_round = round_on_wall(context, wall_id, state)
+    status_now = QuizStatus(
+        image=image_id,
+        questions=len(asked(spots)),
+        round=None if quiz_round is None else RoundStatus.model_validate(quiz_round),
+        participants=0,
+        answers=0,
+        finished=0,
+        items=[],
+    )
+    if quiz_round is None or image_id is None:
+        return status_now
+    numbered = sorted((n, hid) for hid, n in numbers(quiz_round, image_id, spots).items())
+    by_id = {spot.id: spot for spot in spots}
+    ordered = [by_id[hid] for _, hid in numbered]
+    stats = quiz_of(context).statistics(wall_id, quiz_round.number, image_id, ordered)
+    return status_now.model_copy(
+        update={
+            "participants": stats.participants,
+            "answers": stats.answers,
+            "finished": stats.finished,
+            "items": [
+                QuestionStats(
+                    number=n,
+                    hotspot=spot.id,
+                    title=spot.title,
+                    answered=s.answered,
+                    share_correct=s.share_correct,
+                    common_wrong=s.common_wrong,
+                )
+                for (n, _), spot, s in zip(numbered, ordered, stats.items, strict=True)
+            ],
+        }
+    )
+
+
+@router.get("/api/walls/{wall_id}/image")
+async def quiz_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
+    """The image's quiz on a wall: its round and the class's results so far."""
+    return await run_blocking(_quiz_status, context, wall.id)
+
+
+@router.post("/api/walls/{wall_id}/image/quiz/start", responses=errors(409))
+async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
+    """A new round on the image on the wall: the one before closes (its students see
+    the answers), its questions get new numbers and codes on every tile at once."""
+    now = await run_blocking(_quiz_status, context, wall.id)
+    if now.image is None or not now.questions:
+        raise HTTPException(status.HTTP_409_CONFLICT, f"No image with questions is on {wall.name}.")
+    spots = await run_blocking(hotspots.hotspots, store_of(context), now.image)
+    started = await _round_step(
+        quiz_of(context).start_round, wall.id, staff, fresh_orders(now.image, spots)
+    )
+
+    def apply(current: WallState) -> WallState:
+        return ImageState.of(current).later_round(started.number).put(current)
+
+    await context.change_wall(wall, apply)
+    return await run_blocking(_quiz_status, context, wall.id)
+
+
+@router.post("/api/walls/{wall_id}/image/quiz/close", responses=errors(409))
+async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
+    """Close the round on the wall: answers stop counting and students see the answers."""
+    now = await run_blocking(_quiz_status, context, wall.id)
+    if now.round is None:
+        raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
+    await _round_step(quiz_of(context).close_round, wall.id, now.round.number, staff)
+    return await run_blocking(_quiz_status, context, wall.id)
+
+
+async def _round_step(step: Callable[..., Round], *args: object) -> Round:
+    try:
+        return await run_blocking(step, *args)
+    except QuizError as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
+
+
+@router.get("/api/walls/{wall_id}/image/answers.csv", responses=errors(404))
+async def answers_csv(
+    wall: WallDep,
+    context: ContextDep,
+    staff: StaffDep,
+    round_number: Annotated[RowId | None, Query(alias="round")] = None,
+) -> Response:
+    """Every answer of a round (default: the one on the wall), for a spreadsheet, in a
+    file named by the wall, the round's class, the round and its day."""
+    quiz = quiz_of(context)
+    if round_number is None:
+        now = await run_blocking(_quiz_status, context, wall.id)
+        round_number = now.round.number if now.round is not None else None
+    quiz_round = await run_blocking(quiz.get_round, wall.id, round_number) if round_number else None
+    if quiz_round is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
+    body = await run_blocking(quiz.export_csv, wall.id, quiz_round.number, wall.time_zone)
+    held = await run_blocking(class_at, context.db, wall.id, quiz_round.started_at)
+    day = wall.local_time(quiz_round.started_at).date().isoformat()
+    parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]
+    return Response(
+        body,
+        media_type="text/csv; charset=utf-8",
+        headers={"Content-Disposition": attachment(parts, ".csv")},
+    )

@@ -1,9 +1,11 @@
-"""The image app's slot of the wall state: which stored image the wall shows."""
+"""The image app's slot of the wall state: which stored image the wall shows and the
+quiz round whose hotspot codes stand on it."""
 
 from __future__ import annotations
 
 from typing import ClassVar
 
+from webapp.database.connection import RowId
 from webapp.engine.wall_state import AppState
 
 APP = "image"
@@ -13,5 +15,13 @@ class ImageState(AppState):
     app: ClassVar[str] = APP
     # tiles fetch the new image's coarse level before the swap, so it appears at once
     heavy: ClassVar[frozenset[str]] = frozenset({"image"})
+    # another image has other hotspots; a new round, new codes for them
+    placing: ClassVar[frozenset[str]] = frozenset({"image", "quiz_round"})
 
     image: str | None = None  # the stored image's id (None: none chosen yet)
+    quiz_round: RowId | None = None  # the round on the wall (None: none started yet)
+
+    def later_round(self, number: int) -> ImageState:
+        """The slot showing round ``number`` unless a later one is already up (two
+        instructors starting rounds at once: the wall keeps the newest)."""
+        return self.model_copy(update={"quiz_round": max(number, self.quiz_round or 0)})

@@ -175,11 +175,13 @@ class ImageStore:
         return removed
 
     def images(self) -> list[ImageManifest]:
-        """Every stored image, newest first (a folder being built is not one yet)."""
+        """Every stored image, newest first (a folder being built is not one yet); by
+        its manifest's time, which never changes (the folder's does as hotspots are
+        stored in it)."""
         found = []
         for folder in self.root.glob("*/"):
             if _ID.match(folder.name) and (folder / MANIFEST).is_file():
-                found.append((folder.stat().st_mtime, self.get(folder.name)))
+                found.append(((folder / MANIFEST).stat().st_mtime, self.get(folder.name)))
         return [manifest for _, manifest in sorted(found, key=lambda f: -f[0])]
 
     def get(self, image_id: str) -> ImageManifest:

@@ -28,6 +28,8 @@ from tests.conftest import (
 )
 from tests.webapp.apps.image.samples import quadrants, save
 from webapp.apps.census_map.state import CensusState
+from webapp.apps.image import hotspots
+from webapp.apps.image.hotspots import HotspotFields
 from webapp.apps.image.library import ImageLibrary
 from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
 from webapp.people.accounts import add_account
@@ -98,7 +100,11 @@ def matrix(client: TestClient) -> list[Row]:
     settings = services_of(client).settings
     settings.var_dir.mkdir(parents=True, exist_ok=True)
     picture = save(settings.var_dir / "picture.png", quadrants(40, 30))
-    image = ImageLibrary().store(settings).add(picture).id
+    store = ImageLibrary().store(settings)
+    image = store.add(picture).id
+    spot = HotspotFields(x=10, y=10, title="Red", question="Which colour?", accepted=["red"])
+    hotspot = hotspots.add(store, image, spot).id
+    spots = f"/api/image/images/{image}/hotspots"
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -423,6 +429,42 @@ def matrix(client: TestClient) -> list[Row]:
             f"/apps/image/images/{image}/6/0_0.jpg",
             PUBLIC,
         ),
+        Row("GET", "/api/image/images/{image_id}/hotspots", spots, STAFF_API),
+        Row(
+            "POST",
+            "/api/image/images/{image_id}/hotspots",
+            spots,
+            STAFF_API,
+            json={"x": 1, "y": 1, "title": "{role}"},
+        ),
+        Row(
+            "PUT",
+            "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+            f"{spots}/{hotspot}",
+            STAFF_API,
+            json=spot.model_dump(),
+        ),
+        Row(
+            "DELETE",
+            "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+            f"{spots}/{'f' * 12}",
+            (401, 401, 404, 404),
+            json={},
+        ),
+        # a code no wall shows: nobody gets a page (the phones' flow: test_hotspot_routes)
+        Row(
+            "GET",
+            "/apps/image/{wall_id}/hotspots/{code}",
+            "/apps/image/demo/hotspots/X",
+            (404,) * 4,
+        ),
+        Row(
+            "POST",
+            "/apps/image/{wall_id}/hotspots/{code}/answer",
+            "/apps/image/demo/hotspots/X/answer",
+            (404,) * 4,
+            form={"answer": "red"},
+        ),
         # late: it puts the image app on the demo wall
         Row(
             "POST",
@@ -430,6 +472,27 @@ def matrix(client: TestClient) -> list[Row]:
             "/api/image/walls/demo/show",
             STAFF_API,
             json={"image": image},
+        ),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/image/quiz/start",
+            "/api/walls/demo/image/quiz/start",
+            STAFF_API,
+            json={},
+        ),
+        Row("GET", "/api/walls/{wall_id}/image", "/api/walls/demo/image", STAFF_API),
+        Row(
+            "POST",
+            "/api/walls/{wall_id}/image/quiz/close",
+            "/api/walls/demo/image/quiz/close",
+            STAFF_API,
+            json={},
+        ),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/image/answers.csv",
+            "/api/walls/demo/image/answers.csv",
+            STAFF_API,
         ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]

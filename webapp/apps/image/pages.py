@@ -1,0 +1,192 @@
+"""The image app's phone pages: a hotspot (its title and text for the phone's user
+group, or its question while a round runs) and the answer to its question.
+
+A question is a secret while its round runs: the page then shows the question and the
+form, never the hotspot's title, text or accepted answers (any of which may give the
+answer away), until the round's rule says the student may see them
+(``Round.names_shown``); instructors see them at once. The public screen gets what
+the page shows, never more.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fastapi import HTTPException, Request, Response, status
+from fastapi.responses import RedirectResponse
+from markupsafe import Markup
+
+from tag_service.codes import normalize_code
+from wall_client.layout import Wall
+from webapp.apps.image.hotspots import Hotspot, hotspots
+from webapp.apps.image.library import image_library
+from webapp.apps.image.questions import judge, numbers, quiz_of, reveals_answers, round_on_wall
+from webapp.apps.image.state import APP
+from webapp.core.markdown import markdown_html
+from webapp.core.roles import UserGroup
+from webapp.core.threads import run_blocking
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import read_state
+from webapp.people.person import Person
+from webapp.publishing.publication import Block, Publication
+from webapp.quiz.engine import Progress, QuizError, Round
+from webapp.web.context import AppContext
+from webapp.web.templating import render
+
+GROUP_LABELS: dict[UserGroup, str] = {
+    "k5": "K-5",
+    "undergraduate": "Undergraduate",
+    "medical": "Medical",
+    "research": "Research",
+}
+
+
+@dataclass(frozen=True)
+class Spot:
+    """A scanned hotspot as its page needs it, read in one go."""
+
+    image_id: str
+    spot: Hotspot
+    spots: list[Hotspot]
+    round: Round | None  # the round on the wall
+    number: int | None  # the question's number in it (None: no question, or no round)
+    stale: bool  # the code is of an earlier round than the wall's
+    progress: Progress | None  # the visitor's answers in the round
+
+    @property
+    def asking(self) -> bool:
+        """The form is shown: a question of the running round, by a code of that round."""
+        return self.number is not None and self.round is not None and self.round.open
+
+    def secret(self, person: Person) -> bool:
+        """Whether the hotspot's title, text and answers are hidden from ``person``."""
+        if not self.spot.question or self.round is None or reveals_answers(person):
+            return False
+        finished = self.progress is not None and self.progress.finished
+        return not self.round.names_shown(finished)
+
+
+async def tag_of(context: AppContext, wall: Wall, code: str) -> TagRecord:
+    """A hotspot code of this wall (switched off ones too: a question of the running
+    round may still be answered when the view moved on); 404 otherwise."""
+    normal = normalize_code(code)
+    tag = (await context.codes.resolve(normal)).tag if normal else None
+    if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "hotspot":
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a hotspot of this wall.")
+    return tag
+
+
+def spot_of(context: AppContext, wall: Wall, tag: TagRecord, person: Person) -> Spot:
+    """What ``tag`` marks and where the visitor stands (in a worker thread)."""
+    image_id = str(tag.params.get("image", ""))
+    try:
+        spots = hotspots(image_library(context).store(context.settings), image_id)
+    except KeyError:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "That image is no longer stored.") from None
+    spot = next((s for s in spots if s.id == tag.params.get("hotspot")), None)
+    if spot is None:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, "That hotspot was removed.")
+    _, state = read_state(context.db, wall.id)
+    quiz_round = round_on_wall(context, wall.id, state)
+    number, progress, stale = None, None, False
+    if quiz_round is not None and spot.question:
+        stale = tag.params.get("round") != quiz_round.number
+        number = None if stale else numbers(quiz_round, image_id, spots).get(spot.id)
+        progress = quiz_of(context).progress(
+            wall.id, quiz_round.number, person.visitor.id, image_id
+        )
+    return Spot(image_id, spot, spots, quiz_round, number, stale, progress)
+
+
+def text_html(spot: Hotspot, person: Person) -> tuple[str | None, Markup | None]:
+    """The hotspot's text for the visitor's group (whose group wrote it, if another),
+    rendered safely; information class 1 reads its first paragraph."""
+    found = spot.text_for(person.user_group)
+    if found is None:
+        return None, None
+    reader, text = found
+    if person.info_class <= 1:
+        text = text.split("\n\n")[0]
+    return (GROUP_LABELS[reader] if reader != person.user_group else None), markdown_html(text)
+
+
+async def hotspot_page(
+    request: Request,
+    context: AppContext,
+    wall: Wall,
+    tag: TagRecord,
+    person: Person,
+    problem: str | None = None,
+    status_code: int = status.HTTP_200_OK,
+) -> Response:
+    seen = await run_blocking(spot_of, context, wall, tag, person)
+    secret = seen.secret(person)
+    written_for, text = (None, None) if secret else text_html(seen.spot, person)
+    mine = seen.progress.answers.get(seen.spot.id) if seen.progress else None
+    return render(
+        request,
+        "image/hotspot.html",
+        status_code=status_code,
+        wall=wall,
+        tag=tag,
+        seen=seen,
+        spot=seen.spot,
+        secret=secret,
+        text=text,
+        written_for=written_for,
+        previous=mine.text if mine else "",
+        right=None if secret or mine is None else mine.correct,
+        finished=bool(seen.progress and seen.progress.finished),
+        problem=problem,
+    )
+
+
+async def answer(
+    request: Request, context: AppContext, wall: Wall, person: Person, code: str, text: str
+) -> Response:
+    """Judge and store the visitor's answer, then show the hotspot's page again."""
+    tag = await tag_of(context, wall, code)
+    problem = await run_blocking(store_answer, context, wall, tag, person, text)
+    if problem is not None:
+        return await hotspot_page(
+            request, context, wall, tag, person, problem, status.HTTP_422_UNPROCESSABLE_CONTENT
+        )
+    return RedirectResponse(f"/apps/image/{wall.id}/hotspots/{tag.code}", status.HTTP_303_SEE_OTHER)
+
+
+def store_answer(
+    context: AppContext, wall: Wall, tag: TagRecord, person: Person, text: str
+) -> str | None:
+    """Store an answer to the hotspot ``tag`` (in a worker thread); why not, if refused."""
+    seen = spot_of(context, wall, tag, person)
+    if seen.stale:
+        return "This code is from an earlier round: scan the hotspot's code on the wall now."
+    if seen.round is None or seen.number is None:
+        return "This hotspot asks nothing now."
+    try:
+        quiz_of(context).record_answer(
+            wall.id,
+            seen.round.number,
+            person.visitor.id,
+            seen.image_id,
+            seen.spot.id,
+            text,
+            judge(seen.spot, seen.spots, text[:1_000]),
+        )
+    except QuizError as error:
+        return str(error)
+    return None
+
+
+async def publication(
+    context: AppContext, wall: Wall, tag: TagRecord, person: Person
+) -> Publication | None:
+    """The hotspot's title and text as the phone shows them; nothing while its question
+    is a secret (the public screen is seen by every student)."""
+    seen = await run_blocking(spot_of, context, wall, tag, person)
+    running = seen.round is not None and seen.round.open
+    if seen.secret(person) or (seen.spot.question and running):
+        return None
+    found = seen.spot.text_for(person.user_group)
+    blocks = [Block(kind="markdown", text=found[1][:8_000])] if found else []
+    return Publication(title=seen.spot.title, blocks=blocks)
