@@ -1,6 +1,8 @@
 """An image across the demo wall in Chromium: uploaded and shown from the dashboard,
 each native-size tile showing exactly its region of it, fetching only its own pyramid
-tiles, and zoomed and panned from the dashboard in step."""
+tiles, and zoomed and panned from the dashboard in step; a hotspot placed on the
+panel's picture puts a code on the wall that a 390 px phone opens, and in a round
+answers."""
 
 from __future__ import annotations
 
@@ -14,11 +16,15 @@ import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
+from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, version_of
+from tests.browser.phone_audit import measure
 from tests.webapp.apps.image.samples import quadrants
+from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
 
+PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
 DEMO = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 STAGE = ["r2c2", "r2c3"]  # the demo's stage: the two displays clear of the screens
 SHRINK = 8  # screenshots are compared at an eighth of their size: tolerant of filtering
@@ -74,6 +80,24 @@ def marked(page: Page) -> str:
     return str(page.evaluate("document.body.dataset.image || ''"))
 
 
+def placed_code(server: ServerProcess, label: str, tiles: dict[str, Page], path: Path) -> str:
+    """The URL of the code labelled ``label`` once every tile shows the wall's newest
+    state, as decoded from a native tile's screenshot (saved at ``path``-<tile>.png)."""
+    wait_until(
+        lambda: all(version_of(page) == server.version("demo") for page in tiles.values()),
+        what="every tile to show the new codes",
+    )
+    layout = fetch_layout(server.url, "demo", operator_token(server.secret))[1]
+    payload = next(c.payload for c in layout.placed if c.label == label)
+    seen: set[str] = set()
+    for name in STAGE:  # the hotspot's code stands beside it, on the stage
+        shot = screenshot(tiles[name])
+        shot.save(f"{path}-{name}.png")
+        seen |= {code.payload for code in decode_image(shot)}
+    assert payload in seen, (label, seen)
+    return payload
+
+
 def test_an_uploaded_image_shows_its_own_region_on_every_tile_and_pans_and_zooms_in_step(
     browser: Browser, server: ServerProcess, tmp_path: Path
 ) -> None:
@@ -89,8 +113,8 @@ def test_an_uploaded_image_shows_its_own_region_on_every_tile_and_pans_and_zooms
     panel = dashboard.locator("#image-panel")
     expect(panel).to_be_visible()
 
-    panel.locator("input[name=file]").set_input_files(tmp_path / "gradient.png")
-    panel.locator("input[name=title]").fill("Gradient")
+    panel.locator("#image-upload input[name=file]").set_input_files(tmp_path / "gradient.png")
+    panel.locator("#image-upload input[name=title]").fill("Gradient")
     panel.get_by_role("button", name="Upload").click()
     expect(panel.locator("#image-upload-status")).to_have_text(
         "added Gradient (4000 \u00d7 1120 px)", timeout=30_000
@@ -150,6 +174,59 @@ def test_an_uploaded_image_shows_its_own_region_on_every_tile_and_pans_and_zooms
         shot = screenshot(tiles[name])
         shot.save(tmp_path / f"{name}-zoomed.png")
         assert difference(shot, expected_tile(pixels, displays[name], wall["stage"], zoomed)) < 8
+
+    # a hotspot at the image's middle, clicked on the panel's picture of it
+    hotspots = panel.locator("#image-hotspots")
+    expect(hotspots).to_be_visible()
+    canvas = hotspots.locator("#hotspot-canvas")
+    expect(canvas).to_have_attribute("height", "90")  # 320 px wide, the image's shape
+    canvas.click(position={"x": 160, "y": 45})
+    # the canvas's CSS box may round a pixel: within a few image pixels of the middle
+    expect(hotspots.locator("#hotspot-place")).to_have_text(
+        re.compile(r"At \(20\d\d, 5[4-7]\d\) px")
+    )
+    hotspots.locator("input[name=title]").fill("Middle")
+    hotspots.locator("textarea[name=text-undergraduate]").fill("The **middle** of it all.")
+    hotspots.locator("input[name=question]").fill("What colour is it here?")
+    hotspots.locator("textarea[name=accepted]").fill("khaki\nolive")
+    hotspots.get_by_role("button", name="Add hotspot").click()
+    expect(hotspots.locator("#hotspot-status")).to_have_text("added Middle")
+    expect(hotspots.locator("#hotspot-list li")).to_have_count(1)
+    code = placed_code(server, "Middle", tiles, tmp_path / "hotspot")
+
+    phone = browser.new_context(**PHONE).new_page()
+    phone.goto(code)
+    expect(phone.locator("#hotspot-title")).to_have_text("Middle")
+    phone.goto(f"{server.url}/me")  # an undergraduate reads the undergraduates' text
+    phone.locator("select[name=user_group]").select_option("undergraduate")
+    with phone.expect_navigation():
+        phone.locator("form[action='/me'] button[type=submit]").click()
+    phone.goto(code)
+    expect(phone.locator("#hotspot-text strong")).to_have_text("middle")
+    phone.screenshot(path=tmp_path / "phone-hotspot.png")
+    assert measure(phone).problems == []
+
+    # a round: the code is new, labelled by its number, and the phone answers it
+    hotspots.get_by_role("button", name="Start round").click()
+    expect(hotspots.locator("#image-quiz-status")).to_contain_text("Round 1 running")
+    question = placed_code(server, "Question 1", tiles, tmp_path / "question")
+    assert question != code
+    phone.goto(question)
+    expect(phone.locator("h1")).to_have_text("Question 1")
+    expect(phone.locator("#hotspot-title")).to_have_count(0)  # secret while it runs
+    phone.locator("#answer").fill("  Olive! ")
+    phone.get_by_role("button", name="Send").click()
+    expect(phone.locator("#answer")).to_have_value("Olive!")
+    phone.screenshot(path=tmp_path / "phone-question.png")
+    assert measure(phone).problems == []
+    hotspots.get_by_role("button", name="Close round").click()
+    expect(hotspots.locator("#image-quiz-status")).to_contain_text("Round 1 closed")
+    expect(hotspots.locator("#image-quiz-status")).to_contain_text("1 answered, 100 % right")
+    hotspots.screenshot(path=tmp_path / "panel-hotspots.png")
+    phone.reload()
+    expect(phone.locator("#your-answer")).to_have_text("Your answer: Olive! \u2713")
+
+    phone.context.close()
     for page in tiles.values():
         page.context.close()
     dashboard.close()

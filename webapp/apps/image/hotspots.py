@@ -148,15 +148,15 @@ def edit(store: ImageStore, image_id: str, hotspot_id: str, fields: HotspotField
     return edited
 
 
-def delete(store: ImageStore, image_id: str, hotspot_id: str) -> None:
-    """Remove a hotspot (KeyError: no such hotspot)."""
+def delete(store: ImageStore, image_id: str, hotspot_id: str) -> list[Hotspot]:
+    """Remove a hotspot (KeyError: no such hotspot); the hotspots left."""
 
     def remove(now: list[Hotspot]) -> list[Hotspot]:
         if hotspot_id not in {h.id for h in now}:
             raise KeyError(hotspot_id)
         return [h for h in now if h.id != hotspot_id]
 
-    change(store, image_id, remove)
+    return change(store, image_id, remove)
 
 
 # --- on the wall -------------------------------------------------------------------------

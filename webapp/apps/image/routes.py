@@ -264,13 +264,13 @@ async def edit_hotspot(
 @router.delete(
     "/api/image/images/{image_id}/hotspots/{hotspot_id}",
     dependencies=[StaffOnly],
-    status_code=status.HTTP_204_NO_CONTENT,
     responses=errors(404),
 )
-async def delete_hotspot(image_id: str, hotspot_id: str, context: ContextDep) -> Response:
-    await _hotspot_step(hotspots.delete, store_of(context), image_id, hotspot_id)
+async def delete_hotspot(image_id: str, hotspot_id: str, context: ContextDep) -> list[Hotspot]:
+    """Remove a hotspot (its code leaves the wall); the image's hotspots left."""
+    left = await _hotspot_step(hotspots.delete, store_of(context), image_id, hotspot_id)
     await _replace_codes(context, image_id)
-    return Response(status_code=status.HTTP_204_NO_CONTENT)
+    return left
 
 
 # --- phones ----------------------------------------------------------------------------

@@ -1,7 +1,9 @@
 // The image app's dashboard panel: upload an image (multipart, with the session's CSRF
-// token), list the stored ones, show one on the wall, pan and zoom it.
+// token), list the stored ones, show one on the wall, pan and zoom it, and mark the
+// hotspots of the one shown (hotspots.js).
 import {api, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
+import {refreshQuiz, showHotspots} from "./hotspots.js";
 
 const panel = document.getElementById("image-panel");
 const form = document.getElementById("image-upload");
@@ -63,7 +65,9 @@ onStatus((detail) => {
   if (shown !== shownBefore) {
     shownBefore = shown;
     refresh();
+    showHotspots(state?.app === "image" ? shown : null).then(refreshQuiz);
   }
 });
+setInterval(() => refreshQuiz().catch(() => {}), 5000);
 bindViewControls(panel, () => state);
 refresh();
