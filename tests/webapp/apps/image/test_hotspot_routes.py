@@ -168,3 +168,23 @@ def test_a_round_needs_an_image_with_questions(client: TestClient) -> None:
     refused = client.post("/api/walls/demo/image/quiz/start", headers=operator)
     assert refused.status_code == 409 and "No image with questions" in refused.json()["detail"]
     assert client.post("/api/walls/demo/image/quiz/close", headers=operator).status_code == 409
+
+
+def test_a_class_runs_a_fresh_round_closes_it_and_offers_its_answers(client: TestClient) -> None:
+    image = shown_image(client)
+    operator = operator_headers(client)
+    client.post(f"/api/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
+    began = client.post("/api/walls/demo/class", json={"app": "image"}, headers=operator)
+    assert began.status_code == 200, began.text
+    _, state = read_state(services_of(client).db, "demo")
+    number = ImageState.of(state).quiz_round
+    assert number is not None and ImageState.of(state).image == image
+    status = client.get("/api/walls/demo/image", headers=operator).json()
+    assert status["round"]["open"] and status["questions"] == 1
+
+    ended = client.post("/api/walls/demo/class/end", headers=operator)
+    assert ended.status_code == 200, ended.text
+    url = f"/api/walls/demo/image/answers.csv?round={number}"
+    assert ended.json()["exports"] == [{"label": f"Round {number} answers (CSV)", "url": url}]
+    assert not client.get("/api/walls/demo/image", headers=operator).json()["round"]["open"]
+    assert client.get(url, headers=operator).status_code == 200
