@@ -192,6 +192,7 @@ def test_an_uploaded_image_shows_its_own_region_on_every_tile_and_pans_and_zooms
     hotspots.get_by_role("button", name="Add hotspot").click()
     expect(hotspots.locator("#hotspot-status")).to_have_text("added Middle")
     expect(hotspots.locator("#hotspot-list li")).to_have_count(1)
+    expect(hotspots.locator("#hotspot-place")).to_have_text("No place chosen yet.")
     code = placed_code(server, "Middle", tiles, tmp_path / "hotspot")
 
     phone = browser.new_context(**PHONE).new_page()

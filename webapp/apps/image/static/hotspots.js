@@ -40,6 +40,14 @@ function draw() {
   }
 }
 
+/** An empty form, no place chosen (hidden inputs keep their value through reset()). */
+function clearForm() {
+  form.reset();
+  field("x").value = "";
+  field("y").value = "";
+  document.getElementById("hotspot-place").textContent = "No place chosen yet.";
+}
+
 function listSpots() {
   document.getElementById("hotspot-list").replaceChildren(...spots.map((spot) => {
     const li = document.createElement("li");
@@ -63,7 +71,7 @@ export async function showHotspots(imageId) {
   if (!imageId || pyramid?.id === imageId) return;
   pyramid = new Pyramid(await (await fetch(`/apps/image/images/${imageId}/info.json`)).json());
   canvas.height = Math.max(1, Math.round((canvas.width * pyramid.height) / pyramid.width));
-  form.reset();
+  clearForm();
   picture = null;
   const tile = await fetch(pyramid.url(pyramid.coarse, 0, 0));
   if (tile.ok) picture = await createImageBitmap(await tile.blob());
@@ -104,7 +112,7 @@ form.addEventListener("submit", async (event) => {
       {method: "POST", body: JSON.stringify(body)});
     spots.push(added);
     said.textContent = `added ${added.title}`;
-    form.reset();
+    clearForm();
     listSpots();
     draw();
   } catch (error) {
@@ -122,7 +130,7 @@ function showQuiz(status) {
   });
   quizSaid.textContent = !round ? `${status.questions} questions, no round yet`
     : `Round ${round.number} ${round.open ? "running" : "closed"}: ${status.participants} `
-      + `taking part, ${status.finished} finished. ${items.join("; ")}`;
+      + `taking part. ${items.join("; ")}`;
 }
 
 for (const button of box.querySelectorAll("[data-quiz]")) {
