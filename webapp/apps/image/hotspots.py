@@ -10,10 +10,12 @@ holds for good; where it stands on the wall follows the view (:func:`placement`)
 
 from __future__ import annotations
 
+import fcntl
 import os
-import threading
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator
@@ -24,6 +26,7 @@ from webapp.core.roles import UserGroup
 from webapp.engine.wall_state import View
 
 HOTSPOTS = "hotspots.json"
+LOCK = ".hotspots.lock"
 MAX_TITLE = 120
 MAX_TEXT = 5_000
 MAX_QUESTION = 500
@@ -36,8 +39,6 @@ FALLBACK: dict[UserGroup, tuple[UserGroup, ...]] = {
     "research": ("research", "medical", "undergraduate", "k5"),
 }
 """Whose text a group reads when its own is empty: the nearest in level first."""
-
-_LOCK = threading.Lock()  # one change of a hotspot list at a time (read, change, write)
 
 
 class HotspotRefused(ValueError):
@@ -110,11 +111,12 @@ def change(
 ) -> list[Hotspot]:
     """Apply ``edit`` to the image's hotspots and store the result atomically; what
     ``edit`` raises leaves the file untouched."""
-    with _LOCK:
+    store.get(image_id)
+    folder = store.root / image_id
+    with _locked(folder):
         changed = edit(hotspots(store, image_id))
         if len(changed) > MAX_HOTSPOTS:
             raise HotspotRefused(f"An image has at most {MAX_HOTSPOTS} hotspots.")
-        folder = store.root / image_id
         temporary = folder / f".{HOTSPOTS}.{uuid.uuid4().hex}"
         try:
             temporary.write_bytes(_LIST.dump_json(changed, indent=2))
@@ -122,6 +124,16 @@ def change(
         finally:
             temporary.unlink(missing_ok=True)
         return changed
+
+
+@contextmanager
+def _locked(folder: Path) -> Iterator[None]:
+    """One change of an image's hotspots at a time (read, change, write), across
+    threads and a server's worker processes alike: an exclusive lock on a file of the
+    image's folder, released as it closes."""
+    with (folder / LOCK).open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
 
 
 def add(store: ImageStore, image_id: str, fields: HotspotFields) -> Hotspot:

@@ -14,7 +14,7 @@ from tests.conftest import wall_files
 from wall_client.config import load_wall
 from wall_client.layout import Rect
 from webapp.apps.image import hotspots
-from webapp.apps.image.hotspots import HOTSPOTS, HotspotFields, HotspotRefused, placement
+from webapp.apps.image.hotspots import HOTSPOTS, LOCK, HotspotFields, HotspotRefused, placement
 from webapp.apps.image.store import ImageManifest, ImageStore
 from webapp.engine.wall_state import View
 
@@ -126,7 +126,8 @@ def test_hotspots_are_validated_and_nothing_is_stored_on_error(tmp_path: Path) -
     with pytest.raises(KeyError):
         hotspots.add(store, "ba0123456789", HotspotFields(x=1, y=1, title="x"))
     assert file.read_bytes() == before
-    assert [p.name for p in file.parent.iterdir()] == sorted(["manifest.json", HOTSPOTS])
+    # no temporary file left behind (the lock file stays)
+    assert {p.name for p in file.parent.iterdir()} == {"manifest.json", HOTSPOTS, LOCK}
 
     hotspots.delete(store, image.id, spot.id)
     assert hotspots.hotspots(store, image.id) == []
