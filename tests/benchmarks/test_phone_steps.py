@@ -11,21 +11,23 @@ def test_a_tiny_run_measures_every_step_against_both_floors() -> None:
     assert set(result["floors"]) == {"starlette", "fastapi_jinja"}
     assert set(result["steps"]) == {*PHONE_STEPS, "healthz"}
     for step in result["steps"].values():
-        assert set(step) == {"server_cpu_ms", "ratio", "rounds_ms"}
+        assert set(step) == {"server_cpu_ms", "ratio", "rounds_ms", "floors_ms"}
         assert len(step["rounds_ms"]) == 1
     assert isinstance(result["meets_target"], bool)
     assert "FastAPI + Jinja" in summary(result)
 
 
-def test_each_figure_is_the_median_of_its_rounds_in_fastapi_floors() -> None:
-    figures = {name: [2.0, 9.0, 4.0] for name in (*PHONE_STEPS, "healthz")}
-    figures |= {"starlette": [0.5, 0.5, 0.5], "fastapi_jinja": [1.0, 2.0, 3.0]}
-    result = figures_of(figures, requests=10, rounds=3, idle=0.0)
-    assert result["floors"]["fastapi_jinja"]["server_cpu_ms"] == 2.0
+def test_each_ratio_is_the_median_of_a_step_over_the_floor_measured_beside_it() -> None:
+    pairs = {name: [(2.0, 1.0), (9.0, 3.0), (4.0, 1.0)] for name in (*PHONE_STEPS, "healthz")}
+    result = figures_of(pairs, [0.5, 0.4, 0.6], requests=10, idle=0.0)
+    assert result["floors"]["fastapi_jinja"]["server_cpu_ms"] == 1.0
+    assert result["floors"]["starlette"]["server_cpu_ms"] == 0.5
     assert result["steps"]["answer"] == {
         "server_cpu_ms": 4.0,
-        "ratio": 2.0,
+        "ratio": 3.0,
         "rounds_ms": [2.0, 9.0, 4.0],
+        "floors_ms": [1.0, 3.0, 1.0],
     }
-    assert result["worst_ratio"] == 2.0
-    assert result["meets_target"]
+    assert result["rounds"] == 3
+    assert result["worst_ratio"] == 3.0
+    assert not result["meets_target"]
