@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 SYSTEM_STAMP := var/.system-packages
-SYSTEM_PACKAGES := chromium libzbar0 redis-server
+SYSTEM_PACKAGES := chromium libzbar0 redis-server libvips42
 MNI := content/brain_atlas/mni_icbm152_t1_tal_nlin_sym_09a.nii.gz
 DEMO_VOLUME := var/volumes/mni152
 AXE := node_modules/axe-core/axe.min.js
@@ -47,7 +47,8 @@ $(AXE): package.json package-lock.json
 	npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
 	touch $@
 
-# Debian packages: the browser for tests and kiosks, and zbar for decoding QR codes.
+# Debian packages: the browser for tests and kiosks, zbar for decoding QR codes, libvips
+# for the image app's pyramids.
 system $(SYSTEM_STAMP):
 	@missing=""; \
 	for pkg in $(SYSTEM_PACKAGES); do \

@@ -38,6 +38,7 @@ class WallInfo(BaseModel):
     height: float
     bezel_mode: str
     time_zone: str  # the times the dashboard shows are the wall's
+    stage: tuple[float, float, float, float]  # the scene rect pictures are framed on (mm)
     displays: list[DisplayInfo]
 
     @classmethod
@@ -70,6 +71,7 @@ class WallInfo(BaseModel):
             height=wall.height,
             bezel_mode=wall.bezel_mode,
             time_zone=wall.time_zone,
+            stage=wall.stage.xywh,
             displays=displays,
         )
 

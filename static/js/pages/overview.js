@@ -29,5 +29,8 @@ function drawer(state, clock) {
 
 showLive(`/ws/wall/${wall.id}/view`, drawer, {
   prepare: (changes, state) => stack.load(state),
-  shown: (state, redraw, clock) => followClock(stack, state, redraw, clock),
+  shown: (state, redraw, clock) => {
+    stack.shown(state, redraw);  // layers refine at the overview's own density (an image)
+    followClock(stack, state, redraw, clock);
+  },
 });

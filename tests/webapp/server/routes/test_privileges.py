@@ -26,7 +26,9 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
+from tests.webapp.apps.image.samples import quadrants, save
 from webapp.apps.census_map.state import CensusState
+from webapp.apps.image.library import ImageLibrary
 from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
 from webapp.people.accounts import add_account
 from webapp.people.address_rules import add_rule
@@ -93,6 +95,10 @@ def matrix(client: TestClient) -> list[Row]:
     assert brain.status_code == 200, brain.text
     pin_code = next(t.code for t in wall_tags(db, "irregular") if t.action == "pin" and t.active)
     pin = f"/apps/brain/irregular/pins/{pin_code}"
+    settings = services_of(client).settings
+    settings.var_dir.mkdir(parents=True, exist_ok=True)
+    picture = save(settings.var_dir / "picture.png", quadrants(40, 30))
+    image = ImageLibrary().store(settings).add(picture).id
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -395,6 +401,35 @@ def matrix(client: TestClient) -> list[Row]:
             "/classes/1/join",
             (410, 410, 410, 410),
             form={"name": "{role}"},
+        ),
+        Row("GET", "/api/image/images", "/api/image/images", STAFF_API),
+        Row(
+            "POST",
+            "/api/image/images",
+            "/api/image/images",
+            STAFF_API,
+            form={"title": "{role}"},
+            files={"file": ("picture.png", picture.read_bytes(), "image/png")},
+        ),
+        Row(
+            "GET",
+            "/apps/image/images/{image_id}/info.json",
+            f"/apps/image/images/{image}/info.json",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/image/images/{image_id}/{level}/{col}_{row}.jpg",
+            f"/apps/image/images/{image}/6/0_0.jpg",
+            PUBLIC,
+        ),
+        # late: it puts the image app on the demo wall
+        Row(
+            "POST",
+            "/api/image/walls/{wall_id}/show",
+            "/api/image/walls/demo/show",
+            STAFF_API,
+            json={"image": image},
         ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]

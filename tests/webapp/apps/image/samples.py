@@ -1,0 +1,43 @@
+"""Images the image app's tests make: small, with a pattern a wrong region would break."""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+
+def quadrants(width: int, height: int) -> np.ndarray:
+    """An RGB image whose red rises left to right, green top to bottom, and blue marks
+    the right half: any region's colour says where in the image it lies."""
+    x = np.linspace(0, 255, width, dtype=np.float32)[None, :]
+    y = np.linspace(0, 255, height, dtype=np.float32)[:, None]
+    red = np.broadcast_to(x, (height, width))
+    green = np.broadcast_to(y, (height, width))
+    blue = np.where(np.arange(width)[None, :] >= width // 2, 220, 30) * np.ones((height, 1))
+    return np.stack([red, green, blue], axis=-1).astype(np.uint8)
+
+
+def save(path: Path, pixels: np.ndarray) -> Path:
+    Image.fromarray(pixels).save(path)
+    return path
+
+
+def _chunk(kind: bytes, data: bytes) -> bytes:
+    return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+
+def png_declaring(path: Path, width: int, height: int) -> Path:
+    """A PNG whose header declares ``width`` x ``height`` (a decompression bomb, or no
+    pixels at all) over a few bytes of data."""
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    path.write_bytes(
+        b"\x89PNG\r\n\x1a\n"
+        + _chunk(b"IHDR", header)
+        + _chunk(b"IDAT", zlib.compress(b"\0" * 1000))
+        + _chunk(b"IEND", b"")
+    )
+    return path

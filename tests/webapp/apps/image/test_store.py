@@ -1,0 +1,113 @@
+"""The image store: pyramids of the right shape, and nothing kept of a refused input."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from tests.webapp.apps.image.samples import png_declaring, quadrants, save
+from webapp.apps.image.store import (
+    STALE_S,
+    TILE_SIZE,
+    ImageRefused,
+    ImageStore,
+    deep_zoom_levels,
+)
+
+
+@pytest.fixture
+def store(tmp_path: Path) -> ImageStore:
+    return ImageStore(tmp_path / "images")
+
+
+@pytest.mark.parametrize("suffix,kind", [(".png", "PNG"), (".jpg", "JPEG"), (".tif", "TIFF")])
+def test_an_image_becomes_a_deep_zoom_pyramid(
+    store: ImageStore, tmp_path: Path, suffix: str, kind: str
+) -> None:
+    source = save(tmp_path / f"scan{suffix}", quadrants(700, 300))
+    added = store.add(source, title="A scan")
+    assert (added.title, added.width, added.height, added.format) == ("A scan", 700, 300, kind)
+    assert added.levels == deep_zoom_levels(700, 300) == 11  # 1 px .. 1024 px
+    assert store.images() == [added] and store.get(added.id) == added
+    folder = store.root / added.id / "pyramid_files"
+    for level in range(added.levels):
+        cols, rows = added.tile_grid(level)
+        shrink = 2 ** (added.levels - 1 - level)
+        assert (cols, rows) == (
+            math.ceil(math.ceil(700 / shrink) / TILE_SIZE),
+            math.ceil(math.ceil(300 / shrink) / TILE_SIZE),
+        )
+        tiles = sorted(p.name for p in (folder / str(level)).glob("*.jpg"))
+        assert len(tiles) == cols * rows, level
+    assert (cols, rows) == (3, 2)  # the full size: 256 + 256 + 188 by 256 + 44
+    with Image.open(store.tile(added.id, 10, 2, 1)) as corner:
+        assert corner.size == (700 - 512, 300 - 256)
+        red, green, blue = corner.getpixel((150, 30))
+    assert red > 230 and green > 230 and blue > 180  # the bottom-right of the image
+
+
+def test_the_title_defaults_to_the_file_name_and_tiles_outside_are_unknown(
+    store: ImageStore, tmp_path: Path
+) -> None:
+    added = store.add(save(tmp_path / "cells.png", quadrants(40, 30)))
+    assert added.title == "cells" and added.source == "cells.png"
+    for outside in [(added.levels, 0, 0), (5, 1, 0), (-1, 0, 0)]:
+        with pytest.raises(KeyError):
+            store.tile(added.id, *outside)
+    with pytest.raises(KeyError):
+        store.get("../../etc")
+
+
+def _truncated(path: Path) -> Path:
+    save(path, quadrants(400, 300))
+    path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
+    return path
+
+
+@pytest.mark.parametrize(
+    "make,message",
+    [
+        (lambda d: _truncated(d / "half.jpg"), r"half\.jpg is damaged or truncated"),
+        (lambda d: _truncated(d / "half.png"), r"half\.png is damaged or truncated"),
+        (
+            lambda d: (d / "notes.png").write_text("not an image") and d / "notes.png",
+            r"notes\.png is not a PNG, JPEG or TIFF image",
+        ),
+        (lambda d: (d / "empty.jpg").write_bytes(b"") or d / "empty.jpg", r"empty\.jpg is empty"),
+        (
+            lambda d: save(d / "anim.gif", quadrants(20, 20)),
+            r"anim\.gif is not a PNG, JPEG or TIFF",
+        ),
+        (lambda d: png_declaring(d / "zero.png", 0, 0), r"zero\.png is not a PNG|has no pixels"),
+        (
+            lambda d: png_declaring(d / "bomb.png", 100_000, 100_000),
+            r"bomb\.png declares 100000 x 100000 px \(1e\+10 pixels\), more than the 1\.2e\+09",
+        ),
+    ],
+    ids=["truncated-jpeg", "truncated-png", "text", "empty", "gif", "zero", "bomb"],
+)
+def test_a_bad_input_is_refused_in_one_line_and_nothing_is_kept(
+    store: ImageStore, tmp_path: Path, make: object, message: str
+) -> None:
+    assert callable(make)
+    source = make(tmp_path)
+    with pytest.raises(ImageRefused, match=message) as refused:
+        store.add(source)
+    assert "\n" not in str(refused.value)
+    assert store.images() == []
+    assert not store.root.exists() or list(store.root.iterdir()) == []  # no orphan pyramid
+
+
+def test_what_a_killed_build_left_is_swept_once_stale(store: ImageStore, tmp_path: Path) -> None:
+    kept = store.add(save(tmp_path / "kept.png", quadrants(40, 30)))
+    (store.root / ".building-0123456789ab" / "pyramid_files").mkdir(parents=True)
+    (store.root / ".upload-feed").write_bytes(b"half an upload")
+    assert store.sweep() == []  # young: perhaps still running
+    later = time.time() + STALE_S + 1
+    swept = sorted(p.name for p in store.sweep(now=later))
+    assert swept == [".building-0123456789ab", ".upload-feed"]
+    assert [p.name for p in store.root.iterdir()] == [kept.id]

@@ -1,0 +1,215 @@
+"""The image store: every image an instructor added, as a Deep Zoom tile pyramid.
+
+An image may be a phone photo or a 30,000 x 30,000 px scan, far more than fits in a
+tile's memory or a request: libvips (:mod:`pyvips`) streams it once from the file
+(``access="sequential"``) into a pyramid of 256 px JPEG tiles, level ``levels - 1`` the
+full size and each level below half the one above, down to one pixel (Deep Zoom's
+``{level}/{col}_{row}.jpg``). A tile of the wall then fetches only the pyramid tiles its
+display shows, at the level of its own pixel density (``static/image.js``).
+
+One folder per image under ``var/images/{id}``: ``manifest.json`` (what the wall needs to
+know of it) and ``pyramid_files/``. A folder is built under a hidden temporary name and
+renamed into place only when complete, so a failed or interrupted build leaves nothing a
+reader can take for an image, and an image never changes once stored (its tiles are
+cached for good).
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import math
+import re
+import shutil
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+from pydantic import BaseModel, Field
+
+if TYPE_CHECKING:
+    import pyvips
+
+TILE_SIZE = 256
+MAX_PIXELS = 1_200_000_000
+"""Refused before decoding: a 30,000 x 30,000 px scan is 9e8 pixels; a file declaring
+more is a mistake or a decompression bomb."""
+MAX_UPLOAD_BYTES = 2_000_000_000
+"""The largest upload taken (a 30,000 px square scan as a JPEG or compressed TIFF)."""
+LOADERS = {"pngload": "PNG", "jpegload": "JPEG", "tiffload": "TIFF"}
+"""The formats taken, by the libvips loader that reads them (nothing else, SVG or PDF
+included, reaches a decoder of ours)."""
+TILE_SUFFIX = ".jpg[Q=85,strip]"
+PYRAMID = "pyramid"  # dzsave's base name: pyramid.dzi and pyramid_files/
+MANIFEST = "manifest.json"
+BUILDING = ".building-"  # the prefix of a folder being built (never listed)
+UPLOADING = ".upload-"  # the prefix of an upload's copy, removed once stored or refused
+STALE_S = 6 * 3600  # a build or copy this old was cut short (a killed server): swept
+_ID = re.compile(r"^[0-9a-f]{12}$")
+
+
+class ImageRefused(ValueError):
+    """An input that is not stored; the message says why in one line."""
+
+
+class NoLibvips(RuntimeError):
+    """libvips is not installed: images cannot be added (those stored still show)."""
+
+
+def _vips() -> ModuleType:
+    """pyvips, imported when an image is added: a server without libvips still starts,
+    serves the stored pyramids and says what to install when one is added."""
+    try:
+        return importlib.import_module("pyvips")
+    except (ImportError, OSError) as error:
+        raise NoLibvips(f"libvips is not installed ({error}): apt-get install libvips42") from None
+
+
+class ImageManifest(BaseModel):
+    """What the wall and the dashboard know of a stored image."""
+
+    id: str
+    title: str = Field(max_length=200)
+    width: int
+    height: int
+    tile_size: int
+    levels: int  # Deep Zoom levels 0 (1 x 1 px) .. levels - 1 (full size)
+    source: str  # the file name it was added from
+    format: str  # PNG, JPEG or TIFF
+
+    def level_size(self, level: int) -> tuple[int, int]:
+        """The image's size in pixels at ``level``."""
+        shrink = 1 << (self.levels - 1 - level)
+        return math.ceil(self.width / shrink), math.ceil(self.height / shrink)
+
+    def tile_grid(self, level: int) -> tuple[int, int]:
+        """Columns and rows of tiles at ``level``."""
+        width, height = self.level_size(level)
+        return math.ceil(width / self.tile_size), math.ceil(height / self.tile_size)
+
+
+def deep_zoom_levels(width: int, height: int) -> int:
+    """How many levels Deep Zoom makes: halving down to one pixel."""
+    return math.ceil(math.log2(max(width, height))) + 1
+
+
+@dataclass
+class ImageStore:
+    """The stored images under ``root`` (``var/images``)."""
+
+    root: Path
+    max_pixels: int = MAX_PIXELS
+    max_upload_bytes: int = MAX_UPLOAD_BYTES
+
+    def add(self, source: Path, title: str | None = None, name: str | None = None) -> ImageManifest:
+        """Store the image in ``source`` (``name``: the file name it came as); raise
+        :class:`ImageRefused` for anything that is not a whole PNG, JPEG or TIFF within
+        the pixel limit, leaving nothing behind. Blocking: seconds to minutes for a
+        scan, so servers call it through ``run_blocking``."""
+        name = name or source.name
+        image, kind = self._open(source, name)
+        image_id = uuid.uuid4().hex[:12]
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.sweep()
+        building = self.root / f"{BUILDING}{image_id}"
+        building.mkdir()
+        try:
+            _pyramid(image, building / PYRAMID, name)
+            manifest = ImageManifest(
+                id=image_id,
+                title=(title or Path(name).stem).strip()[:200] or image_id,
+                width=image.width,
+                height=image.height,
+                tile_size=TILE_SIZE,
+                levels=deep_zoom_levels(image.width, image.height),
+                source=name,
+                format=kind,
+            )
+            (building / MANIFEST).write_text(manifest.model_dump_json(indent=2))
+            building.rename(self.root / image_id)
+        except BaseException:
+            shutil.rmtree(building, ignore_errors=True)
+            raise
+        return manifest
+
+    def _open(self, source: Path, name: str) -> tuple[pyvips.Image, str]:
+        """The image's header (nothing decoded yet) and its format, if it is one we take."""
+        if source.stat().st_size == 0:
+            raise ImageRefused(f"{name} is empty.")
+        pyvips = _vips()
+        try:
+            image = pyvips.Image.new_from_file(
+                str(source), access="sequential", fail_on="truncated"
+            )
+        except pyvips.Error:
+            raise ImageRefused(f"{name} is not a PNG, JPEG or TIFF image.") from None
+        kind = LOADERS.get(str(image.get("vips-loader")))
+        if kind is None:
+            raise ImageRefused(f"{name} is not a PNG, JPEG or TIFF image.")
+        pixels = image.width * image.height
+        if pixels == 0:
+            raise ImageRefused(f"{name} has no pixels ({image.width} x {image.height}).")
+        if pixels > self.max_pixels:
+            raise ImageRefused(
+                f"{name} declares {image.width} x {image.height} px ({pixels:.3g} pixels), "
+                f"more than the {self.max_pixels:.3g} taken."
+            )
+        return image, kind
+
+    def sweep(self, now: float | None = None) -> list[Path]:
+        """Remove what a build or upload cut short by a killed server left (hidden, never
+        listed, but taking disk), once it is :data:`STALE_S` old: a build still running
+        is younger. Returns what was removed."""
+        cutoff = (time.time() if now is None else now) - STALE_S
+        removed = []
+        for left in self.root.glob(".*"):
+            if left.name.startswith((BUILDING, UPLOADING)) and left.stat().st_mtime < cutoff:
+                if left.is_dir():
+                    shutil.rmtree(left, ignore_errors=True)
+                else:
+                    left.unlink(missing_ok=True)
+                removed.append(left)
+        return removed
+
+    def images(self) -> list[ImageManifest]:
+        """Every stored image, newest first (a folder being built is not one yet)."""
+        found = []
+        for folder in self.root.glob("*/"):
+            if _ID.match(folder.name) and (folder / MANIFEST).is_file():
+                found.append((folder.stat().st_mtime, self.get(folder.name)))
+        return [manifest for _, manifest in sorted(found, key=lambda f: -f[0])]
+
+    def get(self, image_id: str) -> ImageManifest:
+        """The manifest of ``image_id``; KeyError when there is no such image."""
+        path = self.root / image_id / MANIFEST if _ID.match(image_id) else None
+        if path is None or not path.is_file():
+            raise KeyError(image_id)
+        return ImageManifest.model_validate(json.loads(path.read_text()))
+
+    def tile(self, image_id: str, level: int, col: int, row: int) -> Path:
+        """The file of one pyramid tile; KeyError when there is none."""
+        manifest = self.get(image_id)
+        cols, rows = manifest.tile_grid(level) if 0 <= level < manifest.levels else (0, 0)
+        if not (0 <= col < cols and 0 <= row < rows):
+            raise KeyError((image_id, level, col, row))
+        return self.root / image_id / f"{PYRAMID}_files" / str(level) / f"{col}_{row}.jpg"
+
+
+def _pyramid(image: pyvips.Image, base: Path, name: str) -> None:
+    """Write the Deep Zoom pyramid of ``image`` at ``base`` in one streaming pass, as
+    8-bit sRGB (alpha flattened on black, 16-bit and CMYK converted) in JPEG tiles."""
+    if image.interpretation not in ("srgb", "b-w"):
+        image = image.colourspace("srgb")
+    if image.hasalpha():
+        image = image.flatten(background=[0])
+    if image.format != "uchar":
+        image = image.cast("uchar")
+    pyvips = _vips()
+    try:
+        image.dzsave(str(base), tile_size=TILE_SIZE, overlap=0, suffix=TILE_SUFFIX, layout="dz")
+    except pyvips.Error as error:
+        reason = str(error).strip().splitlines()[-1].strip()
+        raise ImageRefused(f"{name} is damaged or truncated ({reason}).") from None
