@@ -23,6 +23,7 @@ BENCHMARKS = (
     "census_fit",
     "brain",
     "signin",
+    "phone_steps",
     "sync",
     "lecture_hall",
     "memory",

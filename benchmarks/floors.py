@@ -13,6 +13,12 @@ answers 200 (what ``webapp.cli.testing.ServerProcess`` waits for).
   server and its ``broadcast()``, on uvloop when installed (as uvicorn picks it); the
   publish request is answered in ``process_request``.
 
+And one for ``benchmarks.phone_steps``, the least a phone's page costs:
+
+* ``fastapi_app``: a bare FastAPI page, ``GET /page``, with one dependency and one Jinja
+  template of about 2 kB (autoescaped, a block of the template inherits a base, a loop),
+  served as ``starlette_app`` is (``python -m uvicorn benchmarks.floors:fastapi_app``).
+
 Nothing of tagwall is imported: a floor is what any server pays.
 """
 
@@ -24,7 +30,11 @@ import itertools
 import json
 import time
 from http import HTTPStatus
+from typing import Annotated
 
+from fastapi import Depends, FastAPI
+from fastapi.responses import HTMLResponse
+from jinja2 import DictLoader, Environment, select_autoescape
 from starlette.applications import Starlette
 from starlette.requests import Request
 from starlette.responses import PlainTextResponse
@@ -88,6 +98,68 @@ starlette_app = Starlette(
         WebSocketRoute("/ws/{tile}", _tile),
     ]
 )
+
+
+# --- FastAPI with a Jinja page ---------------------------------------------------------
+
+_PAGE_BASE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{% block title %}{% endblock %} - floor</title>
+<link rel="stylesheet" href="/static/css/site.css">
+<script type="importmap">{"imports": {"floor/": "/static/js/"}}</script>
+</head><body>
+<header><nav><a href="/">Home</a> <a href="/me">Me</a> <a href="/help">Help</a></nav></header>
+<main>{% block main %}{% endblock %}</main>
+<footer><p>A page as small as a phone's page is, rendered for {{ who }}.</p></footer>
+</body></html>
+"""
+_PAGE = """{% extends "base.html" %}
+{% block title %}Question {{ number }}{% endblock %}
+{% block main %}
+<h1>Question {{ number }} of {{ total }}</h1>
+<p class="lead">What is the part of the brain this pin marks? Type its name: spelling
+need not be perfect, and you can change your answer until you finish the quiz.</p>
+<form method="post" action="/page/{{ number }}/answer" class="stack">
+<input type="hidden" name="csrf" value="{{ csrf }}">
+<label for="answer">Your answer</label>
+<input id="answer" name="answer" value="{{ previous }}" autocomplete="off" required>
+<button type="submit">Answer</button>
+</form>
+<ol class="progress">
+{% for item in items %}<li class="{{ 'done' if item.done else 'open' }}">
+<a href="/page/{{ item.number }}">Pin {{ item.number }}</a>{% if item.done %}
+answered{% endif %}</li>
+{% endfor %}</ol>
+<p>You answered {{ items | selectattr("done") | list | length }} of {{ total }}.</p>
+{% endblock %}
+"""
+_templates = Environment(
+    loader=DictLoader({"base.html": _PAGE_BASE, "page.html": _PAGE}),
+    autoescape=select_autoescape(default=True),
+)
+_ITEMS = [{"number": n, "done": n % 3 == 0} for n in range(1, 21)]
+
+
+async def _visitor(request: Request) -> str:
+    """The one dependency: what a page's dependency costs FastAPI to solve."""
+    return request.headers.get("user-agent", "a phone")
+
+
+fastapi_app = FastAPI()
+
+
+@fastapi_app.get("/page", response_class=HTMLResponse)
+async def _page(who: Annotated[str, Depends(_visitor)]) -> HTMLResponse:
+    html = _templates.get_template("page.html").render(
+        who=who, number=7, total=len(_ITEMS), csrf="x" * 43, previous="", items=_ITEMS
+    )
+    return HTMLResponse(html)
+
+
+@fastapi_app.get("/healthz")
+async def _fastapi_healthz() -> PlainTextResponse:
+    return PlainTextResponse("ok\n")
 
 
 # --- the websockets library's own server ----------------------------------------------

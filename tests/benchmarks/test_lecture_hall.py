@@ -89,8 +89,8 @@ def test_a_profile_sums_to_the_whole(tmp_path: Path) -> None:
     summary = summarise_profile(raw, cpu_ms_per_request=8.0)
     assert summary["samples"] == 4
     by_work = {entry["where"]: entry for entry in summary["by_work"]}
-    assert by_work["brain: answer stored (quiz.record_answer)"]["share"] == 0.25
-    assert by_work["brain: answer stored (quiz.record_answer)"]["ms_per_request"] == 2.0
+    assert by_work["brain: answer stored (Quiz.record_answer)"]["share"] == 0.25
+    assert by_work["brain: answer stored (Quiz.record_answer)"]["ms_per_request"] == 2.0
     assert {e["where"]: e["share"] for e in summary["self_by_package"]} == {
         "asyncio": 0.75,
         "sqlalchemy": 0.25,

@@ -13,9 +13,10 @@ from __future__ import annotations
 import unicodedata
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
-from sqlalchemy import Row, bindparam, insert, select, update
+from sqlalchemy import Insert, Row, Update, bindparam, insert, select, update
 from starlette.requests import HTTPConnection
 
 from webapp.core.roles import ROLES, Role, UserGroup
@@ -153,6 +154,21 @@ def _role(value: str) -> Role:
     return value if value in ROLES else "student"
 
 
+@cache
+def _writes(columns: tuple[str, ...]) -> tuple[Update, Insert]:
+    """The UPDATE and the INSERT of a visitor's row that write ``columns`` (values
+    ``new_COLUMN``, the row ``visitor_id``), each returning the row as written: built
+    once per set of columns (a phone's registration writes the same ones every time),
+    so a write is one statement, not a statement built and hashed and then a read."""
+    values: dict[str, Any] = {name: bindparam(f"new_{name}") for name in columns}
+    row = tuple(VisitorRecord.__table__.c)
+    which = VisitorRecord.id == bindparam("visitor_id")
+    return (
+        update(VisitorRecord).where(which).values(values).returning(*row),
+        insert(VisitorRecord).values(id=bindparam("visitor_id"), **values).returning(*row),
+    )
+
+
 def _store(
     db: Database,
     person: Person,
@@ -167,13 +183,12 @@ def _store(
     Core statements: every phone of a room registers through here."""
     visitor = person.visitor.rotated() if rotate else person.visitor
     values = {"session_id": visitor.session_id, **fields}
+    change, add = _writes(tuple(sorted(values)))
+    given = {"visitor_id": visitor.id, **{f"new_{name}": value for name, value in values.items()}}
     with db.engine.begin() as connection:
-        changed = connection.execute(
-            update(VisitorRecord).where(VisitorRecord.id == visitor.id).values(values)
-        )
-        if changed.rowcount == 0:
-            connection.execute(insert(VisitorRecord).values(id=visitor.id, **values))
-        record = connection.execute(_VISITOR, {"id": visitor.id}).one()
+        record = connection.execute(change, given).first()
+        if record is None:
+            record = connection.execute(add, given).one()
         if action:
             audit(
                 connection,

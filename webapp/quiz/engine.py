@@ -402,15 +402,16 @@ class Quiz:
         item_id: str,
         text: str,
         correct: bool,
-    ) -> Progress:
+    ) -> None:
         """Store (or change) the visitor's answer for an item in an open round; refused
-        once they finished or the round closed."""
+        once they finished or the round closed. Nothing is read back: the phone goes on
+        to its progress page, which reads it, and the write lock is held no longer."""
         cleaned = clean_answer(text)
         args = (wall_id, number, visitor_id, set_name, item_id, cleaned, correct)
         try:
-            return self._store_answer(*args)
+            self._store_answer(*args)
         except IntegrityError:  # the same answer sent twice at once: the second changes it
-            return self._store_answer(*args)
+            self._store_answer(*args)
 
     def _store_answer(
         self,
@@ -421,7 +422,7 @@ class Quiz:
         item_id: str,
         text: str,
         correct: bool,
-    ) -> Progress:
+    ) -> None:
         key = {
             "app": self.app,
             "wall_id": wall_id,
@@ -460,7 +461,6 @@ class Quiz:
                         "correct": correct,
                     },
                 )
-            return self._progress(connection, wall_id, number, visitor_id, set_name)
 
     def finish(
         self,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from sqlalchemy import select
+from sqlalchemy import event, select
 
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
@@ -82,6 +82,42 @@ def test_assuming_student_stores_the_visitor(db: Database, settings: Settings) -
     again = load_person(db, visitor, HERE, settings)
     assert again.stored and again.visitor.id == visitor.id
     assert assume(db, again, "student", settings, HERE) is again, "nothing to do"
+
+
+def test_a_registration_writes_the_row_and_reads_it_back_in_one_statement(
+    db: Database, settings: Settings
+) -> None:
+    """Every phone of a room registers: its row is written by a statement built once
+    that returns the row, so the write is not followed by a read of it."""
+    statements: list[str] = []
+
+    def executed(_conn: object, _cursor: object, statement: str, *_: object) -> None:
+        statements.append(" ".join(statement.split()[:3]).upper())
+
+    event.listen(db.engine, "before_cursor_execute", executed)
+    try:
+        first = assume(db, newcomer(db, settings), "student", settings, HERE)
+        statements.clear()
+        assume(db, newcomer(db, settings), "student", settings, HERE)
+        registered = list(statements)
+        statements.clear()
+        changed = update_profile(
+            db, first, settings, user_group="medical", info_class=2, display_name="Ann"
+        )
+    finally:
+        event.remove(db.engine, "before_cursor_execute", executed)
+    # the SELECTs: the newcomer's row (none yet) and the address rules, then the write
+    # (an UPDATE of no row, then the INSERT) and the rules the person is made with
+    assert registered == [
+        "SELECT VISITORS.ID, VISITORS.SESSION_ID,",
+        "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,",
+        "UPDATE VISITORS SET",
+        "INSERT INTO VISITORS",
+        "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,",
+    ]
+    assert statements == ["UPDATE VISITORS SET", "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,"]
+    assert changed.display_name == "Ann" and changed.user_group == "medical"
+    assert load_person(db, first.visitor, HERE, settings) == changed
 
 
 def test_grant_rotates_the_session_and_is_audited(db: Database, settings: Settings) -> None:

@@ -5,8 +5,10 @@ from __future__ import annotations
 import csv
 import io
 from dataclasses import dataclass
+from typing import Any
 
 import pytest
+from sqlalchemy import event
 
 from webapp.database.connection import Database
 from webapp.quiz.engine import Quiz, QuizError, new_order
@@ -220,3 +222,24 @@ def test_each_app_keeps_its_own_rounds_and_answers(db: Database) -> None:
     brain_round = quiz(db).get_round(WALL, R)
     assert brain_round is not None and brain_round.open
     assert "Mona Lisa" not in quiz(db).export_csv(WALL, R)
+
+
+def test_an_answer_is_one_transaction_that_reads_nothing_back(db: Database) -> None:
+    """A room's answers hold the write lock in turn: each is the round claimed, the
+    finish checked and the answer written, and no more (the progress page reads)."""
+    statements: list[str] = []
+
+    def executed(_conn: Any, _cursor: Any, statement: str, *_: Any) -> None:
+        statements.append(statement.split()[0].upper())
+
+    event.listen(db.engine, "before_cursor_execute", executed)
+    try:
+        quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "alpha", True)
+        first = list(statements)
+        statements.clear()
+        quiz(db).record_answer(WALL, R, "v1", "k5", "alpha", "beta", False)
+    finally:
+        event.remove(db.engine, "before_cursor_execute", executed)
+    assert first == ["UPDATE", "SELECT", "UPDATE", "INSERT"]  # a new answer
+    assert statements == ["UPDATE", "SELECT", "UPDATE"]  # a changed one
+    assert quiz(db).progress(WALL, R, "v1", "k5").answers["alpha"].text == "beta"

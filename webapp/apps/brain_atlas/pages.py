@@ -234,8 +234,11 @@ def store_answer(
     app: Atlas, context: AppContext, wall: Wall, tag: TagRecord, person: Person, text: str
 ) -> tuple[Pin, tuple[Progress, str] | None]:
     """Judge and store an answer to the pin ``tag`` (in a worker thread); when the
-    quiz refuses it, the visitor's progress and why."""
-    pin = pin_of(app, context, wall, tag)
+    quiz refuses it, the visitor's progress and why. The pin's reads share one connection
+    (as a page's do in :meth:`~webapp.database.connection.Database.read`); the answer is
+    written on another, in a transaction of its own."""
+    with context.db.reading():
+        pin = pin_of(app, context, wall, tag)
     correct = app.answer_key(pin.tag_set).judge(pin.region.id, text[:1_000])
     try:
         if mode_of(pin.state) != "quiz":

@@ -150,7 +150,8 @@ async def roll_call(
     its way to become an instructor."""
     if tag.app == REGISTRATION and tag.params.get("role") == "instructor":
         return None
-    now = await run_blocking(standing, services.db, tag.wall_id, visitor.id)
+    # every scan asks: a short read, on the loop for SQLite (no hand-off to a thread)
+    now = await services.db.read(standing, services.db, tag.wall_id, visitor.id)
     if now is None or now.joined:
         return None
     person = await person_of(request, services.db, services.settings, address)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ import pytest
 import yaml
 from fastapi.testclient import TestClient
 from markupsafe import escape
+from sqlalchemy import event
 
 from tests.conftest import (
     csrf_of,
@@ -22,6 +24,7 @@ from tests.conftest import (
     services_of,
     sign_in,
 )
+from webapp.apps.brain_atlas import pages
 from webapp.apps.brain_atlas.app import BrainApp
 from webapp.apps.brain_atlas.atlas import Atlas
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region, TagSetName
@@ -29,9 +32,11 @@ from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.markdown import markdown_html
 from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState, events_since, read_state
+from webapp.people.person import assume, load_person
+from webapp.people.visitors import Visitor
 from webapp.quiz.engine import Quiz
 from webapp.server.app import create_app
-from webapp.tags.registry import get_layout, wall_tags
+from webapp.tags.registry import find, get_layout, wall_tags
 
 
 def state_of(client: TestClient) -> WallState:
@@ -753,3 +758,36 @@ def test_a_round_opens_again_only_when_an_instructor_opens_one(on_wall: TestClie
     assert (shown["number"], shown["open"]) == (1, False)
     reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
     assert reset.json()["round"]["number"] == 2 and reset.json()["round"]["open"] is True
+
+
+def test_an_answer_takes_one_connection_for_its_reads_and_one_for_its_write(
+    on_wall: TestClient,
+) -> None:
+    """Every answer of a room reads its pin (the wall's state, the round) and writes in a
+    transaction of its own: two connections from the pool, not one per read."""
+    services = services_of(on_wall)
+    number, code = next(iter(pins_on_wall(on_wall, "full").items()))
+    tag = find(services.db, code)
+    assert tag is not None
+    newcomer = load_person(services.db, Visitor.fresh(), "10.0.0.9", services.settings)
+    person = assume(services.db, newcomer, "student", services.settings, "10.0.0.9")
+    here, checkouts = threading.get_ident(), []
+
+    def checked_out(*_: object) -> None:
+        if threading.get_ident() == here:  # not the server's own threads meanwhile
+            checkouts.append(1)
+
+    name = region_of(on_wall, "full", number).name
+    event.listen(services.db.engine, "checkout", checked_out)
+    try:
+        pin, refused = pages.store_answer(
+            brain(on_wall), services, services.walls["demo"], tag, person, name
+        )
+    finally:
+        event.remove(services.db.engine, "checkout", checked_out)
+    assert refused is None and pin.number == number
+    assert len(checkouts) == 2
+    progress = Quiz(services.db, "brain").progress(
+        "demo", pin.round.number, person.visitor.id, "full"
+    )
+    assert progress.answers[pin.region.id].correct

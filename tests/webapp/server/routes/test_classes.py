@@ -262,3 +262,29 @@ def test_a_scan_feed_starts_from_the_last_scans(client: TestClient) -> None:
     page = client.get("/dashboard").text
 
     assert f"&#34;code&#34;: &#34;{pin_less}&#34;" in page or f'"code": "{pin_less}"' in page
+
+
+def test_the_roll_call_of_a_scan_reads_on_the_loop_for_sqlite(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Every scan asks whether a class runs: on SQLite that short read is made where the
+    request runs, not handed to a worker thread and back (which cost more than it)."""
+    import asyncio
+
+    from webapp.server.routes import classes
+
+    original, on_loop = classes.standing, []
+
+    def standing(*args: Any) -> Any:
+        try:
+            on_loop.append(asyncio.get_running_loop() is not None)
+        except RuntimeError:  # a worker thread has no loop running
+            on_loop.append(False)
+        return original(*args)
+
+    monkeypatch.setattr(classes, "standing", standing)
+    start(client, app="brain", mode="quiz", names="anonymous")
+    assert phone(client).get(f"/t/{a_pin(client)}").status_code == 200
+    assert on_loop == [True]
+    info = client.get("/api/walls/demo/class", headers=operator_headers(client)).json()
+    assert info["joined"] == 1  # the class was seen, and the student joined it
