@@ -142,11 +142,13 @@ def _unsafe(name: str) -> bool:
     return path.is_absolute() or ".." in path.parts or ":" in name
 
 
-def inspect(store: ImageStore, source: Path, scratch: Path) -> tuple[Lesson, Path]:
-    """Check the lesson file ``source`` and extract its image into ``scratch`` (a
-    folder the caller removes): the lesson and the image's path. Raise
-    :class:`LessonRefused` with every problem found; nothing is stored here."""
-    name = source.name
+def inspect(
+    store: ImageStore, source: Path, scratch: Path, name: str | None = None
+) -> tuple[Lesson, Path]:
+    """Check the lesson file ``source`` (``name``: the file name it came as) and extract
+    its image into ``scratch`` (a folder the caller removes): the lesson and the image's
+    path. Raise :class:`LessonRefused` with every problem found; nothing is stored."""
+    name = name or source.name
     if not zipfile.is_zipfile(source):
         raise LessonRefused([f"{name}: not a ZIP file (a lesson file is one)."])
     with zipfile.ZipFile(source) as archive:
@@ -235,14 +237,16 @@ def _check_image(store: ImageStore, lesson: Lesson, image: Path) -> Path:
     return image
 
 
-def import_lesson(store: ImageStore, source: Path) -> tuple[ImageManifest, list[Hotspot]]:
+def import_lesson(
+    store: ImageStore, source: Path, name: str | None = None
+) -> tuple[ImageManifest, list[Hotspot]]:
     """Store the lesson in ``source`` as a new image with its hotspots (new ids), all
     or nothing; :class:`LessonRefused` with every problem, nothing stored."""
     store.root.mkdir(parents=True, exist_ok=True)
     scratch = store.root / f"{UPLOADING}{uuid.uuid4().hex}"  # swept if a kill leaves it
     scratch.mkdir()
     try:
-        lesson, image = inspect(store, source, scratch)
+        lesson, image = inspect(store, source, scratch, name)
         spots = [Hotspot(id=uuid.uuid4().hex[:12], **s.model_dump()) for s in lesson.hotspots]
         try:
             added = store.add(
