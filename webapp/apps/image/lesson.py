@@ -29,22 +29,20 @@ from pathlib import Path, PurePosixPath
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from webapp.apps.image.hotspots import (
-    _LIST,
     HOTSPOTS,
     MAX_HOTSPOTS,
     Hotspot,
     HotspotFields,
     HotspotRefused,
     check,
+    encoded,
     hotspots,
 )
 from webapp.apps.image.store import (
-    PYRAMID,
     UPLOADING,
     ImageManifest,
     ImageRefused,
     ImageStore,
-    _vips,
 )
 
 VERSION = 1
@@ -109,7 +107,7 @@ def export(store: ImageStore, image_id: str, target: Path) -> Lesson:
     try:
         with tempfile.TemporaryDirectory(prefix="tagwall-lesson-") as scratch:
             image = Path(scratch) / IMAGE_FILE
-            _finest_level(store, manifest, image)
+            store.full_size(manifest, image)
             with zipfile.ZipFile(partial, "w") as out:
                 out.writestr(LESSON_JSON, lesson.model_dump_json(indent=2), zipfile.ZIP_DEFLATED)
                 out.write(image, IMAGE_FILE, zipfile.ZIP_STORED)  # already compressed
@@ -117,23 +115,6 @@ def export(store: ImageStore, image_id: str, target: Path) -> Lesson:
     finally:
         partial.unlink(missing_ok=True)
     return lesson
-
-
-def _finest_level(store: ImageStore, manifest: ImageManifest, target: Path) -> None:
-    """The image at full size, joined from its finest level's tiles, as a TIFF (no
-    size limit, unlike JPEG's 65,535 px; JPEG-compressed like the tiles)."""
-    pyvips = _vips()
-    level = manifest.levels - 1
-    cols, rows = manifest.tile_grid(level)
-    folder = store.root / manifest.id / f"{PYRAMID}_files" / str(level)
-    tiles = [
-        pyvips.Image.new_from_file(str(folder / f"{col}_{row}.jpg"), access="sequential")
-        for row in range(rows)
-        for col in range(cols)
-    ]
-    # arrayjoin gives every cell the largest tile's size: the edge tiles are cut short
-    joined = pyvips.Image.arrayjoin(tiles, across=cols).crop(0, 0, manifest.width, manifest.height)
-    joined.tiffsave(str(target), compression="jpeg", Q=90, tile=True, bigtiff=True)
 
 
 def _unsafe(name: str) -> bool:
@@ -253,7 +234,7 @@ def import_lesson(
                 image,
                 lesson.title,
                 lesson.image.source or lesson.image.file,
-                extras={HOTSPOTS: _LIST.dump_json(spots, indent=2)},
+                extras={HOTSPOTS: encoded(spots)},
             )
         except ImageRefused as error:
             raise LessonRefused([str(error)]) from None

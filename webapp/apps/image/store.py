@@ -216,6 +216,25 @@ class ImageStore:
             raise KeyError((image_id, level, col, row))
         return self.root / image_id / f"{PYRAMID}_files" / str(level) / f"{col}_{row}.jpg"
 
+    def full_size(self, manifest: ImageManifest, target: Path) -> None:
+        """Write the stored image at full size to ``target`` as a TIFF (no size limit,
+        unlike JPEG's 65,535 px; JPEG-compressed like the tiles), joined from its finest
+        level's tiles: the store keeps no original (a lesson's export needs one)."""
+        pyvips = _vips()
+        level = manifest.levels - 1
+        cols, rows = manifest.tile_grid(level)
+        folder = self.root / manifest.id / f"{PYRAMID}_files" / str(level)
+        tiles = [
+            pyvips.Image.new_from_file(str(folder / f"{col}_{row}.jpg"), access="sequential")
+            for row in range(rows)
+            for col in range(cols)
+        ]
+        # arrayjoin gives every cell the largest tile's size: the edge tiles are cut short
+        joined = pyvips.Image.arrayjoin(tiles, across=cols).crop(
+            0, 0, manifest.width, manifest.height
+        )
+        joined.tiffsave(str(target), compression="jpeg", Q=90, tile=True, bigtiff=True)
+
 
 def _pyramid(image: pyvips.Image, base: Path, name: str) -> None:
     """Write the Deep Zoom pyramid of ``image`` at ``base`` in one streaming pass, as
