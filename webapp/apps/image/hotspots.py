@@ -99,6 +99,11 @@ def check(fields: HotspotFields, image: ImageManifest) -> None:
         raise HotspotRefused("Accepted answers need a question.")
 
 
+def encoded(spots: list[Hotspot]) -> bytes:
+    """A hotspot list as ``hotspots.json`` holds it (a change, or an imported lesson)."""
+    return _LIST.dump_json(spots, indent=2)
+
+
 def hotspots(store: ImageStore, image_id: str) -> list[Hotspot]:
     """The hotspots of ``image_id`` in the order they were added (KeyError: no image)."""
     store.get(image_id)
@@ -119,7 +124,7 @@ def change(
             raise HotspotRefused(f"An image has at most {MAX_HOTSPOTS} hotspots.")
         temporary = folder / f".{HOTSPOTS}.{uuid.uuid4().hex}"
         try:
-            temporary.write_bytes(_LIST.dump_json(changed, indent=2))
+            temporary.write_bytes(encoded(changed))
             os.replace(temporary, folder / HOTSPOTS)
         finally:
             temporary.unlink(missing_ok=True)

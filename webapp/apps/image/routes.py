@@ -9,15 +9,16 @@ import uuid
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
-from typing import IO, Annotated, TypeVar
+from typing import Annotated, TypeVar
 
 from fastapi import APIRouter, Depends, Form, HTTPException, Query, Request, Response, status
 from fastapi.responses import FileResponse
 from pydantic import BaseModel, ConfigDict, Field
+from starlette.background import BackgroundTask
 from starlette.datastructures import UploadFile
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from webapp.apps.image import hotspots, pages
+from webapp.apps.image import hotspots, lesson, pages
 from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
 from webapp.apps.image.library import image_library
 from webapp.apps.image.questions import asked, fresh_orders, numbers, quiz_of, round_on_wall
@@ -44,6 +45,7 @@ router = APIRouter(tags=["image"])
 FILE_FIELD = "file"
 ENVELOPE_BYTES = 64 * 1024  # the multipart boundaries and part headers around the file
 CHUNK_BYTES = 1 << 20
+T = TypeVar("T")
 FOREVER = "public, max-age=31536000, immutable"  # a stored image never changes
 
 
@@ -76,6 +78,49 @@ class _TooLarge(Exception):
     pass
 
 
+async def _take_upload(
+    request: Request, context: ContextDep, then: Callable[[ImageStore, Path, str, str | None], T]
+) -> T:
+    """Copy the multipart field ``file`` (``title`` optional) to a file of its own beside
+    the store (libvips and zipfile read a path), never past the limit, run ``then`` on
+    it in a worker thread, and remove the copy whatever happens: 400 for a malformed
+    upload, 413 over the limit, 503 without libvips."""
+    store = store_of(context)
+    try:  # the form the CSRF check read, if it read one (files spool to disk)
+        form = await request.form(max_files=1, max_fields=4)
+    except StarletteHTTPException as error:  # malformed multipart, too many parts
+        raise HTTPException(status.HTTP_400_BAD_REQUEST, "The upload was malformed.") from error
+    upload = form.get(FILE_FIELD)
+    if not isinstance(upload, UploadFile):
+        raise HTTPException(status.HTTP_400_BAD_REQUEST, "No file was sent (field 'file').")
+    title = form.get("title")
+    name = Path(upload.filename or "upload").name
+
+    def copied() -> T:
+        store.root.mkdir(parents=True, exist_ok=True)
+        copy = store.root / f"{UPLOADING}{uuid.uuid4().hex}"
+        try:
+            with copy.open("wb") as out:
+                size = 0
+                while chunk := upload.file.read(CHUNK_BYTES):
+                    size += len(chunk)
+                    if size > store.max_upload_bytes:
+                        raise _TooLarge
+                    out.write(chunk)
+            return then(store, copy, name, title if isinstance(title, str) else None)
+        finally:
+            copy.unlink(missing_ok=True)
+
+    try:
+        return await run_blocking(copied)
+    except _TooLarge:
+        raise _too_large(store) from None
+    except NoLibvips as error:
+        raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(error)) from None
+    finally:
+        await form.close()
+
+
 @router.post(
     "/api/image/images",
     dependencies=[Depends(upload_within_limit), StaffOnly],
@@ -91,48 +136,68 @@ async def upload(request: Request, context: ContextDep) -> ImageManifest:
     """Store an image sent as the multipart field ``file`` (``title`` optional): 201
     with its manifest; 413 over the byte limit, 422 for what is not a whole PNG, JPEG
     or TIFF within the pixel limit. Nothing of a refused upload is kept."""
-    store = store_of(context)
-    try:  # the form the CSRF check read, if it read one (files spool to disk)
-        form = await request.form(max_files=1, max_fields=4)
-    except StarletteHTTPException as error:  # malformed multipart, too many parts
-        raise HTTPException(status.HTTP_400_BAD_REQUEST, "The upload was malformed.") from error
-    upload = form.get(FILE_FIELD)
-    if not isinstance(upload, UploadFile):
-        raise HTTPException(status.HTTP_400_BAD_REQUEST, "No file was sent (field 'file').")
-    title = form.get("title")
-    name = Path(upload.filename or "image").name
+
+    def stored(store: ImageStore, copy: Path, name: str, title: str | None) -> ImageManifest:
+        return store.add(copy, title, name)
+
     try:
-        return await run_blocking(
-            _store_upload, store, upload.file, name, title if isinstance(title, str) else None
-        )
+        return await _take_upload(request, context, stored)
     except ImageRefused as error:
         raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
-    except _TooLarge:
-        raise _too_large(store) from None
+
+
+# --- lessons -------------------------------------------------------------------------
+
+
+@router.post(
+    "/api/image/lessons",
+    dependencies=[Depends(upload_within_limit), StaffOnly],
+    status_code=status.HTTP_201_CREATED,
+    responses={
+        **errors(400, 503),
+        411: {"description": "The upload did not declare its length."},
+        413: {"description": "The file is larger than the upload limit."},
+        422: {"description": "Not a lesson file: every problem, one line each."},
+    },
+)
+async def import_lesson(request: Request, context: ContextDep) -> ImageManifest:
+    """Store a lesson file sent as the multipart field ``file`` as a new image with its
+    hotspots: 201 with the image's manifest; 422 with every problem, one line each
+    (``detail``), and nothing stored."""
+
+    def imported(store: ImageStore, copy: Path, name: str, title: str | None) -> ImageManifest:
+        return lesson.import_lesson(store, copy, name)[0]
+
+    try:
+        return await _take_upload(request, context, imported)
+    except lesson.LessonRefused as error:
+        raise HTTPException(status.HTTP_422_UNPROCESSABLE_CONTENT, str(error)) from None
+
+
+@router.get(
+    "/api/image/images/{image_id}/lesson",
+    dependencies=[StaffOnly],
+    response_class=FileResponse,
+    responses={**errors(404, 503), 200: {"content": {"application/zip": {}}}},
+)
+async def export_lesson(image_id: str, context: ContextDep) -> FileResponse:
+    """The image's lesson file (the image, its hotspots, texts and questions), named
+    after its title, to import on another installation."""
+    store = store_of(context)
+    store.root.mkdir(parents=True, exist_ok=True)
+    target = store.root / f"{UPLOADING}{uuid.uuid4().hex}"  # swept if a kill leaves it
+    try:
+        exported = await run_blocking(lesson.export, store, image_id, target)
+    except KeyError:
+        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no image {image_id}.") from None
     except NoLibvips as error:
         raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(error)) from None
-    finally:
-        await form.close()
-
-
-def _store_upload(
-    store: ImageStore, file: IO[bytes], name: str, title: str | None
-) -> ImageManifest:
-    """Copy the upload to a file of its own beside the store (libvips reads a path),
-    never past the limit, store it, and remove the copy whatever happens."""
-    store.root.mkdir(parents=True, exist_ok=True)
-    copy = store.root / f"{UPLOADING}{uuid.uuid4().hex}"
-    try:
-        with copy.open("wb") as out:
-            size = 0
-            while chunk := file.read(CHUNK_BYTES):
-                size += len(chunk)
-                if size > store.max_upload_bytes:
-                    raise _TooLarge
-                out.write(chunk)
-        return store.add(copy, title, name)
-    finally:
-        copy.unlink(missing_ok=True)
+    return FileResponse(
+        target,
+        media_type="application/zip",
+        headers={"Content-Disposition": attachment([exported.title], lesson.SUFFIX)},
+        background=BackgroundTask(target.unlink, missing_ok=True),
+    )
 
 
 @router.get("/api/image/images", dependencies=[StaffOnly])
@@ -198,8 +263,6 @@ async def pyramid_tile(
 
 
 # --- hotspots ------------------------------------------------------------------------
-
-T = TypeVar("T")
 
 
 async def _hotspot_step(step: Callable[..., T], *args: object) -> T:

@@ -23,6 +23,7 @@ import re
 import shutil
 import time
 import uuid
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -104,10 +105,18 @@ class ImageStore:
     max_pixels: int = MAX_PIXELS
     max_upload_bytes: int = MAX_UPLOAD_BYTES
 
-    def add(self, source: Path, title: str | None = None, name: str | None = None) -> ImageManifest:
+    def add(
+        self,
+        source: Path,
+        title: str | None = None,
+        name: str | None = None,
+        extras: Mapping[str, bytes] | None = None,
+    ) -> ImageManifest:
         """Store the image in ``source`` (``name``: the file name it came as); raise
         :class:`ImageRefused` for anything that is not a whole PNG, JPEG or TIFF within
-        the pixel limit, leaving nothing behind. Blocking: seconds to minutes for a
+        the pixel limit, leaving nothing behind. ``extras`` are files written into the
+        image's folder before it is renamed into place (an imported lesson's hotspots),
+        so the image never shows without them. Blocking: seconds to minutes for a
         scan, so servers call it through ``run_blocking``."""
         name = name or source.name
         image, kind = self._open(source, name)
@@ -129,11 +138,19 @@ class ImageStore:
                 format=kind,
             )
             (building / MANIFEST).write_text(manifest.model_dump_json(indent=2))
+            for file_name, data in (extras or {}).items():
+                (building / file_name).write_bytes(data)
             building.rename(self.root / image_id)
         except BaseException:
             shutil.rmtree(building, ignore_errors=True)
             raise
         return manifest
+
+    def probe(self, source: Path, name: str) -> tuple[int, int, str]:
+        """Width, height and format of the image in ``source``, refused as :meth:`add`
+        refuses it (from the header: nothing decoded), for a check before storing."""
+        image, kind = self._open(source, name)
+        return image.width, image.height, kind
 
     def _open(self, source: Path, name: str) -> tuple[pyvips.Image, str]:
         """The image's header (nothing decoded yet) and its format, if it is one we take."""
@@ -198,6 +215,25 @@ class ImageStore:
         if not (0 <= col < cols and 0 <= row < rows):
             raise KeyError((image_id, level, col, row))
         return self.root / image_id / f"{PYRAMID}_files" / str(level) / f"{col}_{row}.jpg"
+
+    def full_size(self, manifest: ImageManifest, target: Path) -> None:
+        """Write the stored image at full size to ``target`` as a TIFF (no size limit,
+        unlike JPEG's 65,535 px; JPEG-compressed like the tiles), joined from its finest
+        level's tiles: the store keeps no original (a lesson's export needs one)."""
+        pyvips = _vips()
+        level = manifest.levels - 1
+        cols, rows = manifest.tile_grid(level)
+        folder = self.root / manifest.id / f"{PYRAMID}_files" / str(level)
+        tiles = [
+            pyvips.Image.new_from_file(str(folder / f"{col}_{row}.jpg"), access="sequential")
+            for row in range(rows)
+            for col in range(cols)
+        ]
+        # arrayjoin gives every cell the largest tile's size: the edge tiles are cut short
+        joined = pyvips.Image.arrayjoin(tiles, across=cols).crop(
+            0, 0, manifest.width, manifest.height
+        )
+        joined.tiffsave(str(target), compression="jpeg", Q=90, tile=True, bigtiff=True)
 
 
 def _pyramid(image: pyvips.Image, base: Path, name: str) -> None:

@@ -28,7 +28,7 @@ from tests.conftest import (
 )
 from tests.webapp.apps.image.samples import quadrants, save
 from webapp.apps.census_map.state import CensusState
-from webapp.apps.image import hotspots
+from webapp.apps.image import hotspots, lesson
 from webapp.apps.image.hotspots import HotspotFields
 from webapp.apps.image.library import ImageLibrary
 from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
@@ -105,6 +105,8 @@ def matrix(client: TestClient) -> list[Row]:
     spot = HotspotFields(x=10, y=10, title="Red", question="Which colour?", accepted=["red"])
     hotspot = hotspots.add(store, image, spot).id
     spots = f"/api/image/images/{image}/hotspots"
+    lesson_file = settings.var_dir / "picture.tagwall-lesson"
+    lesson.export(store, image, lesson_file)
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -416,6 +418,20 @@ def matrix(client: TestClient) -> list[Row]:
             STAFF_API,
             form={"title": "{role}"},
             files={"file": ("picture.png", picture.read_bytes(), "image/png")},
+        ),
+        Row(
+            "GET",
+            "/api/image/images/{image_id}/lesson",
+            f"/api/image/images/{image}/lesson",
+            STAFF_API,
+        ),
+        Row(
+            "POST",
+            "/api/image/lessons",
+            "/api/image/lessons",
+            STAFF_API,
+            form={},  # the CSRF token goes in the form
+            files={"file": ("picture.tagwall-lesson", lesson_file.read_bytes(), "application/zip")},
         ),
         Row(
             "GET",
