@@ -16,7 +16,7 @@ from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MOST_GROUPS
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
-from webapp.apps.census_map.mapview import tract_codes
+from webapp.apps.census_map.mapview import on_the_map, tract_codes
 from webapp.apps.census_map.routes import datasets, earth, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
@@ -106,7 +106,16 @@ class CensusApp(WithoutClassSteps, CensusMaps):
             anchored_code_side_mm(context.base_url, wall),
             anchored_footprint_mm(context.base_url, wall),
         )
-        codes = codes.settled(lambda anchors: places_anchored(wall, context.base_url, anchors))
+        # A code wanting to stand on a designated screen (a cluster's middle beside it)
+        # may have its head under the panel's codes: its tracts join a cluster on the map.
+        on_map = on_the_map(wall)
+
+        def places(anchors: list[tuple[str, tuple[float, float]]]) -> set[str]:
+            where = dict(anchors)
+            placed = places_anchored(wall, context.base_url, anchors)
+            return {key for key in placed if on_map(where[key])}
+
+        codes = codes.settled(places)
         # falling priorities keep the wall's placement in the order just tried
         order = {key: FIRST_PRIORITY - n for n, (key, _) in enumerate(codes.anchors())}
         tracts = [

@@ -358,12 +358,12 @@ def code_anchors(
     """
     project = projection(geometry, wall, view)
     apart_x, apart_y = spacing_mm or (code_side_mm, code_side_mm)
-    shows_map = _free_rects(wall)
+    free = _free_rects(wall)
     fits = np.flatnonzero(geometry.room * project.scale >= code_side_mm / 2)
     anchors: dict[str, tuple[float, float]] = {}
     for index in fits[np.argsort(-geometry.room[fits], kind="stable")]:
         x, y = project.point(*geometry.label_points[index])
-        if not any(r.x <= x < r.right and r.y <= y < r.bottom for r in shows_map):
+        if not shows_map(free, (x, y)):
             continue
         if any(abs(x - ax) < apart_x and abs(y - ay) < apart_y for ax, ay in anchors.values()):
             continue
@@ -413,6 +413,19 @@ def pointer_targets(
 def _free_rects(wall: Wall) -> list[Rect]:
     """The scene rectangles of the displays that show the map (not designated ones)."""
     return [wall.viewport(d.id).scene_rect for d in wall.displays if d.id not in wall.designated()]
+
+
+def shows_map(rects: Sequence[Rect], point: tuple[float, float]) -> bool:
+    """Whether ``point`` (scene mm) lies on one of ``rects`` (:func:`_free_rects`)."""
+    x, y = point
+    return any(r.x <= x < r.right and r.y <= y < r.bottom for r in rects)
+
+
+def on_the_map(wall: Wall) -> Callable[[tuple[float, float]], bool]:
+    """Whether a point (scene mm) lies on a display showing the map: a code's anchor on
+    a designated screen may lie under the panel's codes, where no pin head may go."""
+    rects = _free_rects(wall)
+    return lambda point: shows_map(rects, point)
 
 
 @dataclass(frozen=True)
@@ -511,7 +524,7 @@ def tract_codes(
         if geometry.geoids[index] in own:
             continue
         x, y = project.point(u, v)
-        if not any(r.x <= x < r.right and r.y <= y < r.bottom for r in near):
+        if not shows_map(near, (x, y)):
             continue
         cell = (
             math.floor((u - minx) * project.scale / width),
