@@ -119,6 +119,7 @@ FLOORS = {
     "webapp.server": 8,
     "webapp.cli": 9,
     "webapp.cli.console": 5,  # what every command shares, the apps' commands too
+    "webapp.quiz.http": 5,  # what the apps' quiz routes share
 }
 """Each room's floor: a module imports only from its own floor and those below. The
 engine knows nothing above it; the web layer's context is what apps are given; the door

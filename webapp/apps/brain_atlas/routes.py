@@ -3,7 +3,6 @@ instructor's controls (mode, view, pin set, statistics, reset, CSV export)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from datetime import datetime
 from typing import Annotated, Literal
 
@@ -25,13 +24,12 @@ from webapp.apps.brain_atlas.rules import (
     set_on_wall,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.classes.roll import class_at
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
-from webapp.quiz.engine import QuizError, Reveal, Round
+from webapp.quiz.engine import Reveal
+from webapp.quiz.http import answers_download, round_step
 from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, WallDep
-from webapp.web.downloads import attachment
 from webapp.web.problems import errors
 from webapp.web.templating import render
 
@@ -39,14 +37,6 @@ router = APIRouter(tags=["brain"])
 
 TagSetPath = Literal["k5", "full"]
 AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its own words
-
-
-async def quiz_step(step: Callable[..., Round], *args: object) -> Round:
-    """Run a change of rounds in a worker thread; what cannot be done now is a 409."""
-    try:
-        return await run_blocking(step, *args)
-    except QuizError as error:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
 
 
 # --- phones --------------------------------------------------------------------------
@@ -292,13 +282,13 @@ async def control(
     if choice.audience_switches is not None:
         await run_blocking(allow_audience_switches, context.db, wall.id, choice.audience_switches)
     if choice.reveal is not None and quiz_round is not None and quiz_round.open:
-        await quiz_step(quiz_of(context).set_reveal, wall.id, quiz_round.number, choice.reveal)
+        await round_step(quiz_of(context).set_reveal, wall.id, quiz_round.number, choice.reveal)
     switching = choice.mode is not None and choice.mode != mode_of(state)
     new_round: int | None = None
     if switching and choice.mode == "tutor" and quiz_round is not None and quiz_round.open:
-        await quiz_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
+        await round_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
     elif switching and choice.mode == "quiz" and (quiz_round is None or not quiz_round.open):
-        started = await quiz_step(quiz_of(context).start_round, wall.id, staff, app.fresh_orders())
+        started = await round_step(quiz_of(context).start_round, wall.id, staff, app.fresh_orders())
         new_round = started.number
 
     def apply(current: WallState) -> WallState:
@@ -329,7 +319,7 @@ async def reset_quiz(
     new numbers and codes on every tile at once; earlier rounds stay for export."""
     app = brain_atlas(context)
     reveal = choice.reveal if choice is not None else "close"
-    started = await quiz_step(
+    started = await round_step(
         quiz_of(context).start_round, wall.id, staff, app.fresh_orders(), reveal
     )
 
@@ -348,7 +338,7 @@ async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> Bra
     _, quiz_round = await pages.round_now(app, context, wall)
     if quiz_round is None:
         raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
-    await quiz_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
+    await round_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
     return await brain_status(wall, context, staff)
 
 
@@ -365,15 +355,4 @@ async def answers_csv(
         _, quiz_round = await pages.round_now(brain_atlas(context), context, wall)
     else:
         quiz_round = await run_blocking(quiz_of(context).get_round, wall.id, round_number)
-    if quiz_round is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
-    export = quiz_of(context).export_csv
-    body = await run_blocking(export, wall.id, quiz_round.number, wall.time_zone)
-    held = await run_blocking(class_at, context.db, wall.id, quiz_round.started_at)
-    day = wall.local_time(quiz_round.started_at).date().isoformat()
-    parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]
-    return Response(
-        body,
-        media_type="text/csv; charset=utf-8",
-        headers={"Content-Disposition": attachment(parts, ".csv")},
-    )
+    return await answers_download(quiz_of(context), wall, quiz_round)

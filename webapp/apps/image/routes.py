@@ -30,11 +30,10 @@ from webapp.apps.image.store import (
     ImageStore,
     NoLibvips,
 )
-from webapp.classes.roll import class_at
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState, read_state
-from webapp.quiz.engine import QuizError, Round
+from webapp.quiz.http import answers_download, round_step
 from webapp.web.context import AppContext
 from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, StaffOnly, WallDep
 from webapp.web.downloads import attachment
@@ -454,7 +453,7 @@ async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     if now.image is None or not now.questions:
         raise HTTPException(status.HTTP_409_CONFLICT, f"No image with questions is on {wall.name}.")
     spots = await run_blocking(hotspots.hotspots, store_of(context), now.image)
-    started = await _round_step(
+    started = await round_step(
         quiz_of(context).start_round, wall.id, staff, fresh_orders(now.image, spots)
     )
 
@@ -471,15 +470,8 @@ async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     now = await run_blocking(_quiz_status, context, wall.id)
     if now.round is None:
         raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
-    await _round_step(quiz_of(context).close_round, wall.id, now.round.number, staff)
+    await round_step(quiz_of(context).close_round, wall.id, now.round.number, staff)
     return await run_blocking(_quiz_status, context, wall.id)
-
-
-async def _round_step(step: Callable[..., Round], *args: object) -> Round:
-    try:
-        return await run_blocking(step, *args)
-    except QuizError as error:
-        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
 
 
 @router.get("/api/walls/{wall_id}/image/answers.csv", responses=errors(404))
@@ -496,14 +488,4 @@ async def answers_csv(
         now = await run_blocking(_quiz_status, context, wall.id)
         round_number = now.round.number if now.round is not None else None
     quiz_round = await run_blocking(quiz.get_round, wall.id, round_number) if round_number else None
-    if quiz_round is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
-    body = await run_blocking(quiz.export_csv, wall.id, quiz_round.number, wall.time_zone)
-    held = await run_blocking(class_at, context.db, wall.id, quiz_round.started_at)
-    day = wall.local_time(quiz_round.started_at).date().isoformat()
-    parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]
-    return Response(
-        body,
-        media_type="text/csv; charset=utf-8",
-        headers={"Content-Disposition": attachment(parts, ".csv")},
-    )
+    return await answers_download(quiz, wall, quiz_round)
