@@ -27,7 +27,7 @@ import subprocess
 import tempfile
 import threading
 import uuid
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -41,8 +41,9 @@ from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
 from webapp.apps.brain_atlas import app as brain_app
-from webapp.apps.brain_atlas.content import ATLAS_DIR
-from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
+from webapp.apps.brain_atlas import pins
+from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
+from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, Orientation, PlanePin
 from webapp.cli.testing import fresh_database, wait_until
 from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
@@ -184,9 +185,51 @@ def _mni152_once(source: Source, out: Path, **options: Any) -> VolumeMeta:
         return meta
 
 
+class _ShippedAtlas:
+    """The shipped atlas as every test that shows the brain reads it, worked out once
+    per test process: its volumes (a second to read) and, per view, the regions the
+    picture shows and their pins (rays cast through the volume: a tenth of a second or
+    more per view, for every brain test). Both are only ever read. Another atlas folder
+    or volume is read and cast for real."""
+
+    def __init__(self) -> None:
+        self._load = AtlasVolumes.load  # the real ones, saved before they are patched
+        self._cast = pins.visible_regions
+        self._volumes: AtlasVolumes | None = None
+        self._pictures: dict[object, dict[str, PlanePin]] = {}
+        self._guard = threading.Lock()
+
+    def load(self, directory: Path = ATLAS_DIR, meta: VolumeMeta | None = None) -> AtlasVolumes:
+        if meta is not None or directory.resolve() != ATLAS_DIR.resolve():
+            return self._load(directory, meta)
+        with self._guard:
+            if self._volumes is None:
+                self._volumes = self._load(directory)
+            return self._volumes
+
+    def visible_regions(
+        self, volumes: AtlasVolumes, regions: Sequence[Region], orientation: Orientation
+    ) -> dict[str, PlanePin]:
+        if volumes is not self._volumes:
+            return self._cast(volumes, regions, orientation)
+        key = (orientation, tuple((r.id, tuple(r.labels)) for r in regions))
+        with self._guard:
+            known = self._pictures.get(key)
+        if known is None:
+            known = self._cast(volumes, regions, orientation)
+            with self._guard:
+                self._pictures[key] = known
+        return dict(known)
+
+
+_SHIPPED_ATLAS = _ShippedAtlas()
+
+
 @pytest.fixture(autouse=True)
 def _brain_volume_built_once(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(brain_app, "build_store", _mni152_once)
+    monkeypatch.setattr(AtlasVolumes, "load", _SHIPPED_ATLAS.load)
+    monkeypatch.setattr(pins, "visible_regions", _SHIPPED_ATLAS.visible_regions)
 
 
 @pytest.fixture(scope="session")
