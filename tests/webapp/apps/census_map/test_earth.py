@@ -557,26 +557,62 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     assert client.get("/apps/census/earth/demo/captions/0/X.png").status_code == 422
 
 
-def test_the_wall_document_names_urls_on_the_public_base_not_the_host_header(
+URL = re.compile(r"https?://[^\s<>\"']+")
+
+
+def kml_of(response: Any) -> Any:
+    """A KML or KMZ answer's document, parsed (and checked against the schemas)."""
+    if response.content.startswith(b"PK"):
+        with zipfile.ZipFile(io.BytesIO(response.content)) as archive:
+            return parsed(archive.read("doc.kml").decode())
+    return parsed(response.text)
+
+
+def urls_in(root: Any) -> list[str]:
+    """Every http(s) URL a document holds, in its elements' text and attributes (the
+    namespace names are no addresses a client fetches)."""
+    return [
+        url
+        for element in root.iter()
+        for text in (element.text, *element.attrib.values())
+        for url in URL.findall(text or "")
+    ]
+
+
+def every_earth_document() -> list[str]:
+    """The paths of every KML document the census map serves a client of the demo wall."""
+    displays = [d.id for d in earth_displays(wall_named("demo"))]
+    return [
+        "/apps/census/census.kml?wall=demo",
+        "/apps/census/census.kmz?wall=demo",
+        "/apps/census/network-link.kml?wall=demo",
+        "/apps/census/earth/demo/map.kmz",
+        *(f"/apps/census/earth/demo/{display}.kml" for display in displays),
+        *(f"/apps/census/earth/demo/{display}/wall.kml" for display in displays),
+    ]
+
+
+def test_every_url_in_the_documents_is_on_the_public_base_whatever_the_host(
     client: TestClient,
 ) -> None:
-    """Issue 31 (security): ``targetHref`` and the code images were built from the
-    request's Host header, which whoever sends the request chooses."""
-    show_census(client)
+    """Issues 31 and 33: the documents name every address (targetHref, the code images,
+    the links) on the public base URL, never on the request's Host header, which whoever
+    sends the request chooses, and nothing on another host: the tract style's pin came
+    from maps.google.com, out of reach offline."""
+    show_census(client)  # with codes on the wall: their images and captions are named
     base = services_of(client).base_url
-    response = client.get(
-        "/apps/census/earth/demo/r2c2/wall.kml",
-        params={"fov": 50},
-        headers={"Host": "evil.example"},
-    )
-    assert response.status_code == 200, response.text
-    text = response.text
-    root = parsed(text)
+    documents = {}
+    for path in every_earth_document():
+        response = client.get(path, headers={"Host": "evil.example"})
+        assert response.status_code == 200, response.text
+        assert b"evil.example" not in response.content
+        documents[path] = kml_of(response)
+        urls = urls_in(documents[path])
+        assert all(url.startswith(f"{base}/") for url in urls), (path, urls)
+    root = documents["/apps/census/earth/demo/r2c2/wall.kml"]
     target = root.findtext("k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS)
     assert target == f"{base}/apps/census/earth/demo/map.kmz"
-    hrefs = [h.text for h in root.iterfind(".//k:ScreenOverlay/k:Icon/k:href", NS)]
-    assert hrefs and all(h.startswith(f"{base}/") for h in hrefs)
-    assert "evil.example" not in text
+    assert root.findall(".//k:ScreenOverlay/k:Icon/k:href", NS)  # the codes and captions
 
 
 def test_a_base_url_the_operator_chose_is_signed_and_followed(client: TestClient) -> None:
