@@ -615,6 +615,51 @@ def test_every_url_in_the_documents_is_on_the_public_base_whatever_the_host(
     assert root.findall(".//k:ScreenOverlay/k:Icon/k:href", NS)  # the codes and captions
 
 
+OTHER_SITE = {"Origin": "https://viewer.example"}
+
+
+def test_every_earth_document_and_what_it_names_is_readable_from_any_site(
+    client: TestClient,
+) -> None:
+    """Issue 33: CesiumJS loads KML from its own page's site, so the documents, the
+    documents and images they name, and their errors answer to any site, and a preflight
+    is answered. That is safe: they are the same for everyone (an instructor's session
+    gets the very bytes an anonymous request does) and a browser sends no credentials
+    under ``*``."""
+    show_census(client)
+    base = services_of(client).base_url
+    answers, named = {}, set()
+    for path in every_earth_document():
+        response = client.get(path, headers=OTHER_SITE)
+        assert response.headers["access-control-allow-origin"] == "*", path
+        answers[path] = response.content
+        named |= {url.removeprefix(base) for url in urls_in(kml_of(response))}
+    for kind in ("/census.kmz", "/map.kmz", "/wall.kml", "/codes/", "/captions/"):
+        assert any(kind in url for url in named), kind
+    for path in named:
+        response = client.get(path, headers=OTHER_SITE)
+        assert response.status_code == 200, path
+        assert response.headers["access-control-allow-origin"] == "*", path
+    for path, status in (
+        ("/apps/census/earth/nope/map.kmz", 404),
+        ("/apps/census/earth/demo/r1c2.kml", 404),
+        ("/apps/census/earth/demo/r2c2/wall.kml?fov=0", 422),
+        ("/codes/NOSUCHCODE.png", 404),
+    ):
+        response = client.get(path, headers=OTHER_SITE)
+        assert response.status_code == status, path
+        assert response.headers["access-control-allow-origin"] == "*", path
+    preflight = client.options(
+        "/apps/census/earth/demo/r2c2/wall.kml",
+        headers={**OTHER_SITE, "Access-Control-Request-Method": "GET"},
+    )
+    assert preflight.status_code == 204
+    assert preflight.headers["access-control-allow-origin"] == "*"
+    sign_in(client, "instructor")
+    for path, body in answers.items():
+        assert client.get(path, headers=OTHER_SITE).content == body, path
+
+
 def test_a_base_url_the_operator_chose_is_signed_and_followed(client: TestClient) -> None:
     """`tagwall earth --base-url` names another base than the public one: its links carry
     it signed, and the server names the map there; a base not signed is refused."""
