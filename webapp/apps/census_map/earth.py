@@ -28,7 +28,11 @@ exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url
 the base URL the opener named for both links: the public base URL
 (``TAGWALL_PUBLIC_BASE_URL``), or the one ``tagwall earth --base-url`` gave, which the
 opener's links carry with the server's signature (:class:`EarthBase`); never on the
-Host header of a request, which whoever sends it chooses.
+Host header of a request, which whoever sends it chooses. Nothing rests on that match
+alone: CesiumJS adds the opener's query to every link in it, so the usual opener has
+none (:meth:`EarthOptions.query`), every route ignores a query it does not read, and the
+map's own refresh brings the whole current map (groups, colouring) to an Earth whose
+Update missed it.
 
 Views: Google Earth looks straight down (heading 0, tilt 0) at the middle of the
 display's rectangle of the map, from the height at which its horizontal field of view
@@ -44,7 +48,7 @@ from __future__ import annotations
 import io
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from urllib.parse import quote, urlencode
 from xml.etree.ElementTree import Element, SubElement, tostring
 
@@ -104,6 +108,15 @@ class EarthOptions:
             if not MIN_REFRESH_S <= value <= MAX_REFRESH_S:
                 raise ValueError(f"refresh intervals must be {MIN_REFRESH_S}-{MAX_REFRESH_S} s")
 
+    def query(self) -> dict[str, str]:
+        """The options that differ from the defaults, as the opener's query: the usual
+        opener has none, and CesiumJS adds an opener's query to every link in it."""
+        return {
+            name: f"{value:g}"
+            for name, value in asdict(self).items()
+            if value != getattr(EarthOptions, name)
+        }
+
 
 # --- where things are ----------------------------------------------------------------
 
@@ -157,20 +170,17 @@ def map_url(base_url: str, wall_id: str) -> str:
 
 
 def opener_url(base: EarthBase, wall_id: str, display_id: str, options: EarthOptions) -> str:
-    query = urlencode(
-        {
-            "fov": f"{options.fov:g}",
-            "refresh": options.refresh,
-            "map_refresh": options.map_refresh,
-            **base.query(),
-        }
-    )
-    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml?{query}"
+    path = f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml"
+    return _with_query(path, {**options.query(), **base.query()})
 
 
 def wall_document_url(base: EarthBase, wall_id: str, display_id: str, fov: float) -> str:
-    query = urlencode({"fov": f"{fov:g}", **base.query()})
-    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml?{query}"
+    path = f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml"
+    return _with_query(path, {**EarthOptions(fov=fov).query(), **base.query()})
+
+
+def _with_query(url: str, query: Mapping[str, str]) -> str:
+    return f"{url}?{urlencode(query)}" if query else url
 
 
 def code_image_url(base_url: str, code: PlacedCode) -> str:

@@ -11,7 +11,7 @@ import zipfile
 from functools import cache
 from itertools import pairwise
 from typing import Any, NamedTuple
-from urllib.parse import parse_qsl, urlsplit
+from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
 import numpy as np
 import pytest
@@ -658,6 +658,49 @@ def test_every_earth_document_and_what_it_names_is_readable_from_any_site(
     sign_in(client, "instructor")
     for path, body in answers.items():
         assert client.get(path, headers=OTHER_SITE).content == body, path
+
+
+def as_cesium_fetches(parent: str, href: str) -> str:
+    """``href`` as CesiumJS fetches it from a file it loaded from ``parent``: with the
+    parent's query parameters the link does not set added (its Resource.getDerivedResource
+    keeps the parent's query)."""
+    link = urlsplit(href)
+    own = dict(parse_qsl(link.query))
+    added = [(name, value) for name, value in parse_qsl(urlsplit(parent).query) if name not in own]
+    return urlunsplit(link._replace(query=urlencode([*own.items(), *added])))
+
+
+def test_a_document_fetched_with_the_openers_query_added_answers_the_same(
+    client: TestClient,
+) -> None:
+    """Issue 33: CesiumJS adds the opener's query to every link in it, so the map it
+    fetched was not the URL ``targetHref`` named. The usual opener has no query to add;
+    one with options has, and every document it links, and everything those name,
+    answers the same with it."""
+    show_census(client)
+    base = services_of(client).base_url
+    opener = f"{base}/apps/census/earth/demo/r2c2.kml"
+    the_map, wall = (link.text for link in kml_of(client.get(opener)).iterfind(".//k:href", NS))
+    assert "?" not in the_map + wall
+    assert [as_cesium_fetches(opener, href) for href in (the_map, wall)] == [the_map, wall]
+    target = kml_of(client.get(wall)).findtext(
+        "k:NetworkLinkControl/k:Update/k:targetHref", namespaces=NS
+    )
+    assert target == the_map  # the very URL the map was fetched from
+
+    opener = f"{opener}?fov=45&refresh=3&map_refresh=90"
+    checked = 0
+    for href in (link.text for link in kml_of(client.get(opener)).iterfind(".//k:href", NS)):
+        fetched = as_cesium_fetches(opener, href)
+        assert fetched != href
+        answer = client.get(href)
+        assert client.get(fetched).content == answer.content, fetched
+        for named in urls_in(kml_of(answer)):  # the map, the code images, the captions
+            again = as_cesium_fetches(fetched, named)
+            assert again != named
+            assert client.get(again).content == client.get(named).content, again
+            checked += 1
+    assert checked > 2
 
 
 def test_a_base_url_the_operator_chose_is_signed_and_followed(client: TestClient) -> None:
