@@ -9,7 +9,7 @@ import re
 import struct
 import zipfile
 from functools import cache
-from itertools import pairwise
+from itertools import pairwise, permutations
 from typing import Any, NamedTuple
 from urllib.parse import parse_qsl, urlencode, urlsplit, urlunsplit
 
@@ -150,6 +150,28 @@ def scene_of(geometry: MapGeometry, wall: Wall, view: View, lon: float, lat: flo
     return projection(geometry, wall, view).point(lon * math.cos(math.radians(geometry.lat0)), -lat)
 
 
+def seam_mm(
+    geometry: MapGeometry, wall: Wall, view: View, looks: dict[str, DisplayView | Look]
+) -> float:
+    """The strip of map between two neighbouring Earth displays' pictures, in the wall's
+    mm: from where Google Earth ends the first one's picture to where it begins the
+    second's, along their middle row (side by side: the first on the left) or column
+    (the first above). The wall's projection turns degrees into mm."""
+    (first, first_look), (second, second_look) = looks.items()
+    a, b = (wall.viewport(display).scene_rect for display in (first, second))
+    scale = projection(geometry, wall, view).scale
+    if a.y == b.y:
+        east, _ = seen(first_look, 1, 0, a.width / a.height)
+        west, _ = seen(second_look, -1, 0, b.width / b.height)
+        return (west - east) * scale * math.cos(math.radians(geometry.lat0))
+    _, south = seen(first_look, 0, -1, a.width / a.height)
+    _, north = seen(second_look, 0, 1, b.width / b.height)
+    return (south - north) * scale
+
+
+SEAM_WITHIN_MM = 0.01
+
+
 # --- views ---------------------------------------------------------------------------
 
 
@@ -230,6 +252,29 @@ def test_earth_sees_each_display_rect_from_its_range(
             x, y = scene_of(geometry, wall, view, *seen(seen_view, sx, sy, aspect))
             worst = max(worst, math.hypot(x - corner[0], y - corner[1]) / rect.width)
     assert worst < within
+
+
+@pytest.mark.parametrize(("wall_id", "pairs"), [("demo", (1, 0)), ("hiperwall", (37, 32))])
+def test_earth_views_meet_across_the_bezels(wall_id: str, pairs: tuple[int, int]) -> None:
+    """Side by side, neighbouring Earth views meet exactly across the bezel between
+    them: the ranges are computed on the ellipsoid Earth draws. One above another they
+    meet within 5 mm on HIPerWall at zoom 1 (of its displays 401 mm tall): the
+    wall's plane scales longitude by the cosine of the map's middle latitude, the
+    globe by each display's own."""
+    wall, geometry, view = wall_named(wall_id), shipped_geometry(), View()
+    rects = {d.id: wall.viewport(d.id).scene_rect for d in earth_displays(wall)}
+    views = {i: display_view(geometry, wall, view, i) for i in rects}
+    beside, above = [], []
+    for first, second in permutations(rects, 2):
+        a, b = rects[first], rects[second]
+        looks = {first: views[first], second: views[second]}
+        if a.y == b.y and 0 < b.x - a.right < a.width / 4:
+            beside.append(seam_mm(geometry, wall, view, looks) - (b.x - a.right))
+        if a.x == b.x and 0 < b.y - a.bottom < a.height / 4:
+            above.append(seam_mm(geometry, wall, view, looks) - (b.y - a.bottom))
+    assert (len(beside), len(above)) == pairs
+    assert all(abs(off) < SEAM_WITHIN_MM for off in beside)
+    assert all(abs(off) < 5.0 for off in above)
 
 
 def test_the_range_follows_the_field_of_view_and_the_zoom() -> None:
@@ -457,24 +502,6 @@ def look_at_of(root: Any, fov: float = DEFAULT_FOV) -> Look:
         for name in ("longitude", "latitude", "range")
     )
     return Look(longitude, latitude, range_m, fov)
-
-
-def seam_mm(geometry: MapGeometry, wall: Wall, view: View, looks: dict[str, Look]) -> float:
-    """The strip of map between two side-by-side Earth displays' pictures, in the wall's
-    mm: from where Google Earth ends the left one's middle row to where it begins the
-    right one's (the wall's projection turns longitudes into mm)."""
-    (left, left_look), (right, right_look) = looks.items()
-    rects = [wall.viewport(display).scene_rect for display in (left, right)]
-    east, _ = seen(left_look, 1, 0, rects[0].width / rects[0].height)
-    west, _ = seen(right_look, -1, 0, rects[1].width / rects[1].height)
-    return (
-        (west - east)
-        * projection(geometry, wall, view).scale
-        * math.cos(math.radians(geometry.lat0))
-    )
-
-
-SEAM_WITHIN_MM = 0.01
 
 
 def test_neighbouring_earth_displays_meet_across_the_bezel(client: TestClient) -> None:
