@@ -28,13 +28,19 @@ exact URL in ``targetHref``: the map's URL is built in one place (:func:`map_url
 the base URL the opener named for both links: the public base URL
 (``TAGWALL_PUBLIC_BASE_URL``), or the one ``tagwall earth --base-url`` gave, which the
 opener's links carry with the server's signature (:class:`EarthBase`); never on the
-Host header of a request, which whoever sends it chooses.
+Host header of a request, which whoever sends it chooses. Nothing rests on that match
+alone: CesiumJS adds the opener's query to every link in it, so the usual opener has
+none (:meth:`EarthOptions.query`), every route ignores a query it does not read, and the
+map's own refresh brings the whole current map (groups, colouring) to an Earth whose
+Update missed it.
 
 Views: Google Earth looks straight down (heading 0, tilt 0) at the middle of the
 display's rectangle of the map, from the height at which its horizontal field of view
-spans the rectangle's width on the globe. Earth's view is a perspective of the sphere,
-the wall's map an equirectangular plane: at county scale they differ by well under a
-percent of a display (the tests measure it).
+spans the rectangle's width on the WGS84 ellipsoid, the globe Earth draws
+(:func:`look_at_range`). Earth's view is a perspective of the ellipsoid, the wall's map
+an equirectangular plane: at county scale they differ by well under a percent of a
+display (the tests measure it), and neighbouring views meet across the bezel between
+them as the tiles do.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ from __future__ import annotations
 import io
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from urllib.parse import quote, urlencode
 from xml.etree.ElementTree import Element, SubElement, tostring
 
@@ -71,7 +77,10 @@ from webapp.people.security import derive_token, token_matches
 from webapp.tags.registry import get_layout
 from webapp.tags.schemas import PlacedCode
 
-EARTH_RADIUS_M = 6_371_008.8  # the mean radius (IUGG): Earth draws a sphere at this scale
+# The WGS84 ellipsoid, which Google Earth draws: its equatorial radius (m), its flattening.
+WGS84_A = 6_378_137.0
+WGS84_F = 1 / 298.257223563
+WGS84_E2 = WGS84_F * (2 - WGS84_F)  # its first eccentricity, squared
 DEFAULT_FOV = 60.0  # degrees across: Google Earth's horizontal field of view
 MIN_FOV, MAX_FOV = 1.0, 150.0
 DEFAULT_REFRESH_S = 2  # the wall document: view, groups, balloons, codes
@@ -98,6 +107,15 @@ class EarthOptions:
         for value in (self.refresh, self.map_refresh):
             if not MIN_REFRESH_S <= value <= MAX_REFRESH_S:
                 raise ValueError(f"refresh intervals must be {MIN_REFRESH_S}-{MAX_REFRESH_S} s")
+
+    def query(self) -> dict[str, str]:
+        """The options that differ from the defaults, as the opener's query: the usual
+        opener has none, and CesiumJS adds an opener's query to every link in it."""
+        return {
+            name: f"{value:g}"
+            for name, value in asdict(self).items()
+            if value != getattr(EarthOptions, name)
+        }
 
 
 # --- where things are ----------------------------------------------------------------
@@ -152,20 +170,17 @@ def map_url(base_url: str, wall_id: str) -> str:
 
 
 def opener_url(base: EarthBase, wall_id: str, display_id: str, options: EarthOptions) -> str:
-    query = urlencode(
-        {
-            "fov": f"{options.fov:g}",
-            "refresh": options.refresh,
-            "map_refresh": options.map_refresh,
-            **base.query(),
-        }
-    )
-    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml?{query}"
+    path = f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}.kml"
+    return _with_query(path, {**options.query(), **base.query()})
 
 
 def wall_document_url(base: EarthBase, wall_id: str, display_id: str, fov: float) -> str:
-    query = urlencode({"fov": f"{fov:g}", **base.query()})
-    return f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml?{query}"
+    path = f"{base.url}{PREFIX}/{quote(wall_id)}/{quote(display_id)}/wall.kml"
+    return _with_query(path, {**EarthOptions(fov=fov).query(), **base.query()})
+
+
+def _with_query(url: str, query: Mapping[str, str]) -> str:
+    return f"{url}?{urlencode(query)}" if query else url
 
 
 def code_image_url(base_url: str, code: PlacedCode) -> str:
@@ -266,22 +281,36 @@ def display_view(
     geometry: MapGeometry, wall: Wall, view: View, display_id: str, fov: float = DEFAULT_FOV
 ) -> DisplayView:
     """The display's scene rectangle taken back through the wall's projection of the
-    map to longitude/latitude, and the height from which a camera looking straight
-    down, ``fov`` degrees across, sees exactly its width at its middle latitude.
-
-    On a sphere of radius R a camera h above the ground sees, at angle a off straight
-    down, the point t = asin((R + h) / R · sin a) - a (radians of arc) away; solved
-    for h with a = fov / 2 and t the arc of the great circle heading east from the
-    middle to the display's east edge (tan t = tan(half the longitudes) · cos latitude)."""
+    map to longitude/latitude, and the range from which Google Earth, looking straight
+    down ``fov`` degrees across, sees exactly its width at its middle latitude."""
     project = projection(geometry, wall, view)
     rect = wall.viewport(display_id).scene_rect
     west, north = geometry.to_lonlat(*project.to_plane(rect.x, rect.y))
     east, south = geometry.to_lonlat(*project.to_plane(rect.right, rect.bottom))
     longitude, latitude = geometry.to_lonlat(*project.to_plane(*rect.center))
-    half_arc = math.atan(math.tan(math.radians(east - west) / 2) * math.cos(math.radians(latitude)))
-    half_fov = math.radians(fov) / 2
-    range_m = EARTH_RADIUS_M * (math.sin(half_fov + half_arc) / math.sin(half_fov) - 1)
+    range_m = look_at_range(latitude, (east - west) / 2, fov)
     return DisplayView(display_id, west, north, east, south, longitude, latitude, range_m, fov)
+
+
+def look_at_range(latitude: float, half_width: float, fov: float) -> float:
+    """The ``range`` of a LookAt straight down (tilt 0) at ``latitude`` from which a
+    horizontal field of view of ``fov`` degrees spans ``half_width`` degrees of longitude
+    either side of the middle, on the WGS84 ellipsoid Google Earth draws (a sphere of mean
+    radius, as before, left each demo display's view 3 mm short on the wall).
+
+    The camera stands ``range`` above the ground along the ellipsoid's normal; the plane
+    of the picture's middle row (the normal and east) cuts the ellipsoid in the prime
+    vertical, of radius of curvature N. The sphere of radius N centred where the normal
+    meets the axis touches the ellipsoid along the whole parallel, so on it (within a
+    micrometre on the wall at county scale): a camera h above the ground sees, at angle
+    a off straight down, the point t = asin((N + h) / N · sin a) - a away (radians about
+    that centre), and the great circle heading east meets the meridian ``half_width``
+    away at tan t = tan(half_width) · cos(latitude). Solved for h with a = fov / 2."""
+    phi = math.radians(latitude)
+    prime_vertical = WGS84_A / math.sqrt(1 - WGS84_E2 * math.sin(phi) ** 2)
+    half_arc = math.atan(math.tan(math.radians(half_width)) * math.cos(phi))
+    half_fov = math.radians(fov) / 2
+    return prime_vertical * (math.sin(half_fov + half_arc) / math.sin(half_fov) - 1)
 
 
 def display_balloon(

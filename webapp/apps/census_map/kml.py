@@ -289,7 +289,12 @@ def _tract_style(fill: str = FILL_COLOR, line: str = LINE_COLOR) -> simplekml.St
     style.linestyle.color = line
     style.linestyle.width = 1.5
     style.labelstyle.scale = 1
-    style.iconstyle.scale = 0  # no pin: the label alone marks the tract
+    # No pin, the label alone marks the tract: an Icon without href, so neither Google
+    # Earth nor CesiumJS draws one or fetches one (simplekml's default pushpin is on
+    # maps.google.com, out of reach offline and from a page of another site); scale 0
+    # for a client that would draw its own default anyway.
+    style.iconstyle.scale = 0
+    style.iconstyle.icon.href = None
     style.balloonstyle.text = "$[description]"
     return style
 

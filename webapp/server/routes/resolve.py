@@ -17,6 +17,7 @@ from webapp.people.visitors import Visitor, visitor_of
 from webapp.server.deps import ServicesDep
 from webapp.server.routes.classes import roll_call
 from webapp.tags.registry import find, payload_of
+from webapp.web.cors import AnyOriginRoute
 from webapp.web.deps import ClientAddressDep
 from webapp.web.templating import render
 
@@ -96,7 +97,6 @@ def _svg(payload: str, error: str) -> bytes:
     return render_svg(make_symbol(payload, "L" if error == "L" else "M"))
 
 
-@router.get("/codes/{name}")
 async def code_image(
     name: str,
     request: Request,
@@ -130,3 +130,10 @@ async def code_image(
         return Response(_svg(payload, error), media_type="image/svg+xml", headers=headers)
     png = await run_blocking(render_png, make_symbol(payload, error), scale)
     return Response(png, media_type="image/png", headers=headers)
+
+
+# KML clients draw the codes on pages of any site, and a page may draw an image into
+# a canvas or WebGL only where the image's server lets it.
+router.add_api_route(
+    "/codes/{name}", code_image, methods=["GET"], route_class_override=AnyOriginRoute
+)

@@ -228,9 +228,9 @@ def test_earth_prints_what_each_display_opens(env: dict[str, str]) -> None:
             "sig": base_signature(TEST_SECRET, "http://wall.example:8000"),
         }
     )
-    assert rows["r2c2"] == (
-        "http://wall.example:8000/apps/census/earth/demo/r2c2.kml?fov=45&refresh=2&map_refresh=60"
-        f"&{signed}"
+    # only the options that differ from the defaults
+    assert (
+        rows["r2c2"] == f"http://wall.example:8000/apps/census/earth/demo/r2c2.kml?fov=45&{signed}"
     )
     assert rows["r1c2"] == "(the public screen: a browser tile, see `tagwall tiles`)"
     assert len(rows) == 6
@@ -243,7 +243,7 @@ def test_earth_writes_one_kml_file_per_display(env: dict[str, str], tmp_path: Pa
     assert written == ["r1c1.kml", "r2c2.kml", "r2c3.kml"]
     text = (tmp_path / "earth" / "r2c3.kml").read_text()
     assert_valid_kml(text)
-    assert f"{env['TAGWALL_PORT']}/apps/census/earth/demo/r2c3/wall.kml?fov=60" in text
+    assert f"{env['TAGWALL_PORT']}/apps/census/earth/demo/r2c3/wall.kml</href>" in text
     assert str(tmp_path / "earth" / "r2c3.kml") in out
 
 

@@ -319,7 +319,11 @@ def test_one_shared_brown_style_with_visible_labels_and_description_balloons() -
     assert style.findtext("k:PolyStyle/k:color", namespaces=NS) == "9919457a"
     assert style.findtext("k:LineStyle/k:color", namespaces=NS) == "ff0f2a4a"
     assert style.findtext("k:LabelStyle/k:scale", namespaces=NS) == "1"
+    # no pin, and none fetched: an Icon without href (Google Earth and CesiumJS draw
+    # none), scale 0 for a client that would draw its own default anyway (issue 33)
     assert style.findtext("k:IconStyle/k:scale", namespaces=NS) == "0"
+    [icon] = style.findall("k:IconStyle/k:Icon", NS)
+    assert len(icon) == 0 and not (icon.text or "").strip()
     assert style.findtext("k:BalloonStyle/k:text", namespaces=NS) == "$[description]"
     assert root.find("k:Document/k:styleUrl", NS) is None
     urls = [p.findtext("k:styleUrl", namespaces=NS) for p in placemarks(root).values()]

@@ -1,5 +1,6 @@
 """KML for Google Earth: the census map as a document, and per-display network links for
-an Earth wall."""
+an Earth wall. A page of any site may read them (CesiumJS loads KML from its own page's
+site): they are the same for everyone and read no cookie."""
 
 from __future__ import annotations
 
@@ -42,13 +43,14 @@ from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState, now_ms, read_state
 from webapp.tags.schemas import PlacedCode
 from webapp.web.context import AppContext
+from webapp.web.cors import AnyOriginRoute
 from webapp.web.deps import (
     ContextDep,
     WallDep,
 )
 from webapp.web.problems import errors
 
-router = APIRouter(tags=["census"])
+router = APIRouter(tags=["census"], route_class=AnyOriginRoute)
 
 
 NETWORK_LINK_REFRESH_S = 10
