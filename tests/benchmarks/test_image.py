@@ -147,6 +147,8 @@ def test_a_tiny_run_builds_both_pyramids_and_fetches_every_share_from_both_serve
             "coarse_spread_ms": 3.0,
             "refine_ms": {"r2c2": 300.0, "r2c3": 1200.0},
             "refined": {"r2c2": "refined 11", "r2c3": "refined 11"},
+            "server_cpu_s": 0.5,
+            "browser_cpu_s": 1.0,
         },
         {
             "view": {"zoom": 1.0, "center": [0.4, 0.5]},
@@ -154,11 +156,20 @@ def test_a_tiny_run_builds_both_pyramids_and_fetches_every_share_from_both_serve
             "coarse_spread_ms": 9.0,
             "refine_ms": {"r2c2": 100.0, "r2c3": 200.0},
             "refined": {"r2c2": "refined 11", "r2c3": "refined 11"},
+            "server_cpu_s": 0.5,
+            "browser_cpu_s": 1.0,
         },
     ]
-    refine = refine_figures(image, load_wall(wall_files("demo")[0]), changes)
+    refine = refine_figures(image, load_wall(wall_files("demo")[0]), [1.0, 2.0, 5.0], changes)
     assert refine["tiles"] == ["r2c2", "r2c3"]
     assert refine["coarse_spread_ms"] == {"median": 6.0, "max": 9.0}
+    assert refine["light_change_spread_ms"] == {"median": 2.0, "max": 5.0}
+    assert refine["coarse_spread_over_light_ms"] == 4.0
+    fetched = sum(map(sum, refine["pyramid_tiles_per_change"].values()))
+    assert refine["cpu_ms_per_pyramid_tile"] == {
+        "server": round(1000 / fetched, 2),
+        "browser": round(2000 / fetched, 2),
+    }
     assert refine["refine_ms"] == {"median": 250.0, "p95": 1200.0, "max": 1200.0}
     assert refine["meets_target"] == {"coarse_spread_ms": True, "refine_ms": False}
     assert all(len(counts) == 2 for counts in refine["pyramid_tiles_per_change"].values())
