@@ -110,11 +110,12 @@ def test_a_tiny_run_builds_both_pyramids_and_fetches_every_share_from_both_serve
     client: TestClient, settings: Settings, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     source = tmp_path / "source.jpg"
-    synthesise(source, 1000)
+    synthesise(source, 512)
     build, image = build_pyramids(source, settings.var_dir / "images", tmp_path)
-    assert (image.width, image.height, image.format) == (1000, 1000, "JPEG")
+    assert (image.width, image.height, image.format) == (512, 512, "JPEG")
     every_tile = sum(cols * rows for cols, rows in map(image.tile_grid, range(image.levels)))
     assert build["store"]["tiles"] == build["dzsave_floor"]["tiles"] == every_tile
+    assert len(build["dzsave_floor"]["runs_wall_s"]) == 2  # before and after the store's
     assert set(build["ratio"]) == {"wall_s", "cpu_s", "peak_rss_mb"}
     assert set(build["meets"]) == {"build_s", "peak_rss_mb"}
 
@@ -175,7 +176,7 @@ def test_a_tiny_run_builds_both_pyramids_and_fetches_every_share_from_both_serve
     assert all(len(counts) == 2 for counts in refine["pyramid_tiles_per_change"].values())
     result = {
         "wall": "demo",
-        "size_px": 1000,
+        "size_px": 512,
         "targets": TARGETS,
         "build": build,
         "share": shares,
