@@ -552,6 +552,7 @@ def run(
     size: int = SIZE, rounds: int = ROUNDS, browser_tiles: int = BROWSER_TILES
 ) -> dict[str, Any]:
     wall = load_wall(CONTENT_DIR / "walls" / f"{WALL}.toml")
+    load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="tagwall-image-bench-") as tmp:
         work = Path(tmp)
         source = work / "source.jpg"
@@ -573,6 +574,8 @@ def run(
     return {
         "wall": WALL,
         "size_px": size,
+        # what else ran: absolute figures of a run at load 10 are not those of an idle machine
+        "load_average_1min": [round(load_before, 1), round(os.getloadavg()[0], 1)],
         "targets": TARGETS,
         "build": build,
         "share": shares,
@@ -602,5 +605,6 @@ def summary(result: dict[str, Any]) -> str:
             f"{refine['light_change_spread_ms']['max']} ms); "
             f"refined after median {refine['refine_ms']['median']} / p95 "
             f"{refine['refine_ms']['p95']} / max {refine['refine_ms']['max']} ms (target 1 s)",
+            f"   load average (1 min) {' then '.join(map(str, result['load_average_1min']))}",
         ]
     )

@@ -177,6 +177,7 @@ def test_a_tiny_run_builds_both_pyramids_and_fetches_every_share_from_both_serve
     result = {
         "wall": "demo",
         "size_px": 512,
+        "load_average_1min": [0.5, 1.0],
         "targets": TARGETS,
         "build": build,
         "share": shares,
