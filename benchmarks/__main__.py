@@ -27,6 +27,7 @@ BENCHMARKS = (
     "sync",
     "lecture_hall",
     "memory",
+    "image",
 )
 RESULTS = Path(__file__).parent / "results"
 

@@ -19,6 +19,12 @@ And one for ``benchmarks.phone_steps``, the least a phone's page costs:
   template of about 2 kB (autoescaped, a block of the template inherits a base, a loop),
   served as ``starlette_app`` is (``python -m uvicorn benchmarks.floors:fastapi_app``).
 
+And one for ``benchmarks.image``, the least a pyramid tile costs to serve:
+
+* ``static_app``: Starlette's ``StaticFiles`` over the folder ``FLOOR_STATIC_DIR`` names
+  (``python -m uvicorn --factory benchmarks.floors:static_app``): each file at its path
+  below it, as any static web server would send a stored image's tiles.
+
 Nothing of tagwall is imported: a floor is what any server pays.
 """
 
@@ -28,6 +34,7 @@ import argparse
 import asyncio
 import itertools
 import json
+import os
 import time
 from http import HTTPStatus
 from typing import Annotated
@@ -38,7 +45,8 @@ from jinja2 import DictLoader, Environment, select_autoescape
 from starlette.applications import Starlette
 from starlette.requests import Request
 from starlette.responses import PlainTextResponse
-from starlette.routing import Route, WebSocketRoute
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 from websockets.asyncio.server import ServerConnection, broadcast, serve
 from websockets.http11 import Request as HandshakeRequest
@@ -160,6 +168,20 @@ async def _page(who: Annotated[str, Depends(_visitor)]) -> HTMLResponse:
 @fastapi_app.get("/healthz")
 async def _fastapi_healthz() -> PlainTextResponse:
     return PlainTextResponse("ok\n")
+
+
+# --- static files ---------------------------------------------------------------------
+
+STATIC_DIR_ENV = "FLOOR_STATIC_DIR"
+
+
+def static_app() -> Starlette:
+    """The folder in ``FLOOR_STATIC_DIR`` as static files (a factory: uvicorn's process
+    gets the folder from its environment, as ``tagwall serve`` gets its var folder)."""
+    directory = os.environ[STATIC_DIR_ENV]
+    return Starlette(
+        routes=[Route("/healthz", _healthz), Mount("/", StaticFiles(directory=directory))]
+    )
 
 
 # --- the websockets library's own server ----------------------------------------------
