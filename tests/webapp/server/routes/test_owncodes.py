@@ -178,22 +178,20 @@ def test_a_code_at_a_hotspot_follows_it_and_leaves_and_comes_back_with_the_image
     assert [(c["active"], c["on_wall"]) for c in listed(client)] == [(False, False)]
 
 
-@pytest.mark.parametrize(
-    ("where", "says"),
-    [
-        ({}, "either a point of the wall (anchor) or a place"),
-        ({"anchor": [600, 500], "place": {"app": "image", "id": "x"}}, "either a point"),
-        ({"place": {"app": "image", "id": "0" * 12 + "/" + "0" * 12}}, "not on the wall now"),
-        ({"place": {"app": "image"}}, "Field required"),
-        ({"place": "image:x/y"}, "valid dictionary"),
-        ({"place": {"app": "image", "id": "x", "label": "Mine"}}, "Extra inputs"),
-    ],
-)
-def test_a_code_needs_exactly_one_place_of_the_wall_now(
-    client: TestClient, where: dict[str, Any], says: str
-) -> None:
-    """(The test pattern on the wall has no places: none is on the wall now.)"""
-    response = add(client, kind="text", label="Hint", text="Look closer", **where)
-    assert response.status_code == 422, response.text
-    assert says in response.text
+NOT_ONE_PLACE_NOW: list[tuple[dict[str, Any], str]] = [
+    ({}, "either a point of the wall (anchor) or a place"),
+    ({"anchor": [600, 500], "place": {"app": "image", "id": "x"}}, "either a point"),
+    ({"place": {"app": "image", "id": "0" * 12 + "/" + "0" * 12}}, "not on the wall now"),
+    ({"place": {"app": "image"}}, "Field required"),
+    ({"place": "image:x/y"}, "valid dictionary"),
+    ({"place": {"app": "image", "id": "x", "label": "Mine"}}, "Extra inputs"),
+]
+
+
+def test_a_code_needs_exactly_one_place_of_the_wall_now(client: TestClient) -> None:
+    """(The test pattern on the wall has no places: none is on the wall now.) One client
+    for every case: each is a request refused before anything is stored."""
+    for where, says in NOT_ONE_PLACE_NOW:
+        response = add(client, kind="text", label="Hint", text="Look closer", **where)
+        assert response.status_code == 422 and says in response.text, (where, response.text)
     assert listed(client) == []
