@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import httpx
 from playwright.sync_api import Browser, expect
 
 from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.test_codes import shown_payloads
+from tests.webapp.apps.image.test_routes import png_bytes
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token
@@ -183,3 +186,42 @@ def test_the_instructor_puts_a_link_of_their_own_on_the_wall(
     listed.get_by_role("button", name="Switch off").click()
     expect(listed).to_contain_text("(switched off)")
     page.close()
+
+
+def test_the_instructor_puts_a_text_of_their_own_at_a_hotspot(
+    browser: Browser, server: ServerProcess, tmp_path: Path
+) -> None:
+    """Where: a place on the wall now. The code stands beside the hotspot, on its pin,
+    read off a native tile of the stage; the list says where it stands."""
+    with httpx.Client(base_url=server.url, headers=server.operator(), timeout=60) as api:
+        upload = {"file": ("cells.png", png_bytes(), "image/png")}
+        image = api.post("/api/image/images", files=upload, data={"title": "Cells"}).json()["id"]
+        api.post("/api/image/walls/demo/show", json={"image": image}).raise_for_status()
+        middle = {"x": 300, "y": 200, "title": "Middle"}
+        api.post(f"/api/image/images/{image}/hotspots", json=middle).raise_for_status()
+        [place] = api.get("/api/walls/demo/places").json()
+    stage = ["r2c2", "r2c3"]  # the demo's stage, where the image and its hotspots are
+    tiles = dict(zip(stage, open_tiles(browser, server, "demo", stage, native=True), strict=True))
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
+    box = page.locator("#own-form")
+    box.get_by_label("Kind").select_option("text")
+    box.get_by_label("Caption on the wall").fill("Look here")
+    box.get_by_label("Text", exact=True).fill("The middle of the cells")
+    box.get_by_label("Where").select_option("place")
+    box.get_by_label("Which place").select_option(label="hotspot Middle")
+    box.get_by_role("button", name="Add the code").click()
+
+    listed = page.locator("#own-codes li").first
+    expect(listed).to_contain_text("Look here · text · The middle of the cells · at hotspot Middle")
+    expect(listed).to_contain_text("on the wall")
+    version = server.version("demo")
+    wait_until(lambda: all(version_of(t) == version for t in tiles.values()), what="the code")
+    layout = fetch_layout(server.url, "demo", operator_token(server.secret))[1]
+    [code] = [c for c in layout.placed if c.label == "Look here"]
+    assert code.anchor == tuple(place["anchor"]) and code.leader, "beside the hotspot, on a pin"
+    assert "The middle of the cells" in shown_payloads(tiles[code.display])
+    page.locator("#own-codes").screenshot(path=tmp_path / "own-codes.png")
+    page.close()
+    for tile in tiles.values():
+        tile.context.close()

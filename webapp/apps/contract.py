@@ -7,7 +7,8 @@ too, so a new app is a package of its own and touches no file of tagwall. An app
 all of its parts in its package and contributes them here: its slot of the wall state
 (``state``), its scene layers (``layers``), page templates (``templates``), browser
 modules (``static``), a dashboard panel (``dashboard_panel``), what its pages publish to
-the public screen (``publication``), its own pages and API (``router``) and its
+the public screen (``publication``), the places of its material where instructors may
+stand codes of their own (``places``), its own pages and API (``router``) and its
 ``tagwall`` commands (``commands``). It is handed an :class:`AppContext`, never the
 server itself. See docs/apps.md.
 """
@@ -28,7 +29,7 @@ from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS, AppStat
 from webapp.people.person import Person, person_of
 from webapp.people.visitors import Visitor
 from webapp.publishing.publication import Publication
-from webapp.tags.registry import TagSpec
+from webapp.tags.registry import Place, TagSpec
 from webapp.web.context import AppContext
 
 
@@ -76,6 +77,15 @@ class WithoutClassSteps:
         return []
 
 
+class WithoutPlaces:
+    """Mixed into an app whose material has no places where an instructor may stand a
+    code of their own (a map of tracts, a volume): such codes stand at points of the
+    wall while it is up."""
+
+    def places(self, context: AppContext, wall: Wall, state: WallState) -> list[Place]:
+        return []
+
+
 SHARED_LAYERS = ("/static/js/pointers.js", "/static/js/codes.js", "/static/js/balloons.js")
 """The scene's layers drawn over every app's: the balloons' pointers, the placed codes
 with their pins, and the balloons' boxes."""
@@ -111,6 +121,14 @@ class WallApp(Protocol):
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """The named tags the app needs on ``wall`` in ``state`` (declared at every
         start, and again whenever a placing key, the core's or an app's, changes)."""
+        ...
+
+    def places(self, context: AppContext, wall: Wall, state: WallState) -> list[Place]:
+        """The named points of the app's material that ``wall`` shows now in ``state``
+        (an image's hotspots in view), where an instructor may stand a code of their own:
+        such a code follows its place as the view moves and leaves the wall while the
+        place is not shown (none: an empty list, :class:`WithoutPlaces`). Asked of the
+        app on the wall at every placement, in a worker thread."""
         ...
 
     def screen_tags(self, wall: Wall) -> list[TagSpec]:
@@ -192,6 +210,15 @@ def heavy_keys(apps: dict[str, WallApp]) -> frozenset[str]:
 def placing_keys(apps: dict[str, WallApp]) -> frozenset[str]:
     """The state keys that move codes: the core's and every app's."""
     return CORE_PLACING_KEYS.union(*(app.state.keys()[1] for app in apps.values() if app.state))
+
+
+def places_shown(
+    apps: dict[str, WallApp], context: AppContext, wall: Wall, state: WallState
+) -> list[Place]:
+    """The places the wall shows now: those of the app on it (none when that app is not
+    installed)."""
+    app = apps.get(state.app)
+    return app.places(context, wall, state) if app is not None else []
 
 
 REGISTRATION = "core"

@@ -11,13 +11,15 @@ A change:
 2. lets an app leaving the wall take what only it shows (its volume) and an app
    coming on start from the default view, settle and bring its own tag set;
 3. when it moves what codes stand on (the core's placing keys and each app's), has
-   the apps on the wall declare their tags for the new state and places the set
-   shown, so the codes arrive in the same swap as the scene;
+   the apps on the wall declare their tags for the new state, stands the codes issued
+   at places of the app's material where those places are now (or nowhere, while the
+   wall does not show them) and places the set shown, so the codes arrive in the same
+   swap as the scene;
 4. drops the cached code look-ups when tags were declared or placed;
 5. commits (bumping the version) and publishes to the tiles, through the hub.
 
 The door stands above the engine, the tags and the apps' contract: it calls apps'
-``settle``, ``leave`` and ``declare_tags`` with the context apps are given.
+``settle``, ``leave``, ``declare_tags`` and ``places`` with the context apps are given.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from collections.abc import Callable
 from typing import Any
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp, placing_keys, wall_apps
+from webapp.apps.contract import WallApp, places_shown, placing_keys, wall_apps
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import (
     Change,
@@ -36,7 +38,7 @@ from webapp.engine.wall_state import (
     differing_keys,
     read_state,
 )
-from webapp.tags.registry import declare, layout_for
+from webapp.tags.registry import declare, layout_for, stand_at_places
 from webapp.web.context import AppContext, Plan, Update
 
 
@@ -151,11 +153,13 @@ class WallDoor:
     def _declare_and_place(
         self, wall: Wall, apps: list[WallApp], state: WallState, tag_set: str | None
     ) -> dict[str, Any]:
-        """Declare the tags of ``apps`` for ``state``, then place ``tag_set``; the scan
-        path's cached look-ups are dropped, since codes may have come or gone."""
+        """Declare the tags of ``apps`` for ``state``, stand the codes issued at places
+        where the places are in ``state``, then place ``tag_set``; the scan path's
+        cached look-ups are dropped, since codes may have come or gone."""
         db = self.context.db
         for app in apps:
             declare(db, wall.id, app.name, app.declare_tags(self.context, wall, state))
+        stand_at_places(db, wall.id, places_shown(self.apps, self.context, wall, state))
         layout_id = layout_for(db, wall, tag_set, self.base_url())
         self.context.codes.forget()
         return {"tag_set": tag_set, "tag_layout": layout_id}

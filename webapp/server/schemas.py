@@ -5,14 +5,14 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, HttpUrl, UrlConstraints
+from pydantic import BaseModel, ConfigDict, Field, HttpUrl, UrlConstraints, model_validator
 
 from wall_client.layout import Wall
 from webapp.classes.roll import NameMode
 from webapp.database.models import PublicationRecord
 from webapp.engine.hub import TileStatus
 from webapp.engine.wall_state import PublicItem, PublicPolicy, View, VolumeLayer
-from webapp.tags.registry import ContactSpec, TagSpec
+from webapp.tags.registry import PLACE, ContactSpec, Place, TagSpec
 from webapp.tags.schemas import UnplacedCode
 
 
@@ -249,11 +249,22 @@ OwnKind = Literal["link", "text", "contact", "phone"]
 WebAddress = Annotated[HttpUrl, UrlConstraints(max_length=500, allowed_schemes=["http", "https"])]
 
 
+class PlaceChoice(BaseModel):
+    """A place of the material on the wall, as ``GET /api/walls/{wall}/places`` names it."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    app: str = Field(min_length=1, max_length=64)
+    id: str = Field(min_length=1, max_length=100)
+
+
 class OwnCode(BaseModel):
-    """A code of the instructor's own at a point of the wall (wall mm): a web page to
-    open, a text to read, a contact to save or a number to call. A link goes through
-    the server (its scans are counted, and switching it off works on printed copies
-    too); the others carry their content in the symbol."""
+    """A code of the instructor's own at a point of the wall (``anchor``, wall mm) or at
+    a place of the material the wall shows now (``place``: a hotspot of the image, which
+    it follows as the view moves): a web page to open, a text to read, a contact to save
+    or a number to call. A link goes through the server (its scans are counted, and
+    switching it off works on printed copies too); the others carry their content in
+    the symbol."""
 
     model_config = ConfigDict(extra="forbid")
 
@@ -263,18 +274,38 @@ class OwnCode(BaseModel):
     text: str | None = Field(default=None, min_length=1, max_length=500)
     number: str | None = Field(default=None, min_length=1, max_length=40)
     contact: ContactSpec | None = None
-    anchor: tuple[float, float]
+    anchor: tuple[float, float] | None = None
+    place: PlaceChoice | None = None
 
-    def spec(self) -> TagSpec:
-        """The tag that stands for it (the tag's own checks apply: a text QR codes
-        cannot carry is refused)."""
+    @model_validator(mode="after")
+    def _one_point(self) -> OwnCode:
+        if (self.anchor is None) == (self.place is None):
+            raise ValueError("give the code either a point of the wall (anchor) or a place")
+        return self
+
+    def spec(self, place: Place | None = None) -> TagSpec:
+        """The tag that stands for it, at its anchor or at ``place`` (the one it names,
+        where the wall shows it now; the tag keeps it, to follow it); the tag's own
+        checks apply: a text QR codes cannot carry is refused."""
         common: dict[str, Any] = {"label": self.label, "app": OWN_APP, "anchor": self.anchor}
+        bound = {}
+        if place is not None:
+            common |= {"anchor": place.anchor, "clear_mm": place.clear_mm}
+            bound = {PLACE: place.binding()}
         if self.kind == "link":
             if self.url is None:
                 raise ValueError("a link needs its url")
-            return TagSpec(**common, action="link", params={"url": str(self.url)})
+            return TagSpec(**common, action="link", params={"url": str(self.url), **bound})
+        note: dict[str, Any] = {**common, "action": "note", "params": bound}
         if self.kind == "text":
-            return TagSpec(**common, action="note", kind="text", text=self.text)
+            return TagSpec(**note, kind="text", text=self.text)
         if self.kind == "phone":
-            return TagSpec(**common, action="note", kind="tel", number=self.number)
-        return TagSpec(**common, action="note", kind="vcard", contact=self.contact)
+            return TagSpec(**note, kind="tel", number=self.number)
+        return TagSpec(**note, kind="vcard", contact=self.contact)
+
+
+class OwnCodeInfo(TagInfo):
+    """An own code as the dashboard lists it: the tag, and whether the wall shows it
+    now (a code at a place not in view, or one switched off, is not on the wall)."""
+
+    on_wall: bool

@@ -111,6 +111,30 @@ class TagSpec(BaseModel):
         return {}
 
 
+PLACE = "place"
+"""The params key of a tag issued at a place (:class:`Place`): ``{"app", "id", "label"}``."""
+
+
+class Place(BaseModel):
+    """A named point of an app's material that the wall shows now (an image's hotspot),
+    where an instructor may stand a code of their own: the app's name, an id unique
+    within the app, a label for the dashboard, its point in scene mm, and the square kept
+    free around it (``clear_mm``, as for a tag: a code stands beside what it marks)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    app: str = Field(min_length=1, max_length=64, pattern=_SAFE_NAME)
+    id: str = Field(min_length=1, max_length=100)
+    label: str = Field(max_length=200)
+    anchor: tuple[float, float]
+    clear_mm: float = Field(default=0.0, ge=0, le=1_000)
+
+    def binding(self) -> dict[str, str]:
+        """What a tag standing at the place keeps under :data:`PLACE` (the label too, for
+        lists while the place is not shown)."""
+        return {"app": self.app, "id": self.id, "label": self.label}
+
+
 def content_payload(kind: str, content: dict[str, Any]) -> str | None:
     """The payload of a direct tag; None for URL tags (their payload names the server)."""
     if kind == "text":
@@ -265,12 +289,39 @@ def shown_in(tag: TagRecord, tag_set: str | None) -> bool:
     return tag.tag_set is None or tag.tag_set == tag_set
 
 
+def stand_at_places(db: Database, wall_id: str, places: Sequence[Place]) -> None:
+    """Anchor each issued tag bound to a place where that place stands now, with its
+    clearance; one whose place the wall does not show now stands nowhere (no anchor, so
+    it is not placed) until the place is shown again. The one rule for codes that follow
+    an app's material as the view moves. Declared tags are left to their apps, which
+    anchor them at every declaration."""
+    shown: dict[tuple[object, object], Place] = {(p.app, p.id): p for p in places}
+    with db.session() as session:
+        issued = session.scalars(
+            select(TagRecord).where(TagRecord.wall_id == wall_id, TagRecord.name.is_(None))
+        )
+        for tag in issued:
+            bound = tag.params.get(PLACE)
+            if not isinstance(bound, dict):
+                continue
+            place = shown.get((bound.get("app"), bound.get("id")))
+            if place is None:
+                tag.anchor_x = tag.anchor_y = None
+                continue
+            tag.anchor_x, tag.anchor_y = place.anchor
+            tag.clear_mm = place.clear_mm
+            if bound != place.binding():  # relabelled (a hotspot's new title)
+                tag.params = {**tag.params, PLACE: place.binding()}
+
+
 def _tags_to_place(session: Session, wall_id: str, tag_set: str | None) -> list[TagRecord]:
     rows = session.scalars(
         select(TagRecord)
         .where(
             TagRecord.wall_id == wall_id,
             or_(TagRecord.tag_set.is_(None), TagRecord.tag_set == tag_set),
+            # a tag at a place the wall does not show now stands nowhere
+            or_(TagRecord.anchor_x.is_not(None), TagRecord.screen.is_not(None)),
         )
         .order_by(TagRecord.priority.desc(), TagRecord.created_at, TagRecord.code)
     )

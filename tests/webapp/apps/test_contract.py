@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import re
+from importlib.metadata import EntryPoint
 
 import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import services_of
 from webapp.apps.contract import WallApp, heavy_keys, placing_keys, static_url
-from webapp.apps.discovery import installed_apps
-from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS
+from webapp.apps.discovery import GROUP, installed_apps, load_app
+from webapp.core.settings import PROJECT_ROOT
+from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS, WallState
 from webapp.web.templating import IMPORT_MAP_HASH
 
 APPS = installed_apps()
@@ -74,3 +76,17 @@ def test_a_panel_template_is_found_from_its_app(client: TestClient) -> None:
         panel = app.dashboard_panel(wall)
         if panel is not None:
             assert templates.get_template(panel).filename.startswith(str(app.templates)), panel
+
+
+def test_apps_without_places_offer_none_the_hello_app_too(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An app written on the contract alone (``tests/plugins/hello_app``) loads with every
+    member, ``places`` among them; it and the built-in apps but the image app (no
+    image up yet) offer no places while they are on the wall."""
+    monkeypatch.syspath_prepend(str(PROJECT_ROOT / "tests" / "plugins" / "hello_app"))
+    hello = load_app(EntryPoint(name="hello", value="hello_app.app:HelloApp", group=GROUP))
+    services = services_of(client)
+    wall = services.walls["demo"]
+    for app in [*APPS.values(), hello]:
+        assert app.places(services, wall, WallState(app=app.name)) == [], app.name

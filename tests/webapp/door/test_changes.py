@@ -17,6 +17,7 @@ import pytest
 from fastapi import FastAPI
 
 from wall_client.layout import Wall
+from webapp.apps.contract import WithoutPlaces
 from webapp.core.settings import CONTENT_DIR, PROJECT_ROOT, Settings
 from webapp.door.changes import unchanged
 from webapp.engine.wall_state import View, WallState, read_state
@@ -28,7 +29,7 @@ WALL = "demo"
 MARKERS = "markers"
 
 
-class MarkerApp:
+class MarkerApp(WithoutPlaces):
     state = None  # it keeps nothing in the wall state
     """One code where the view's centre lies on the wall; settling sets its mode."""
 

@@ -19,7 +19,7 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.contract import Export, Scan
+from webapp.apps.contract import Export, Scan, WithoutPlaces
 from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
@@ -30,7 +30,7 @@ from webapp.web.context import AppContext
 FOLDER = Path(__file__).parent
 
 
-class BrainApp(Atlases):
+class BrainApp(WithoutPlaces, Atlases):
     """The brain atlas's :class:`~webapp.apps.contract.WallApp`: the atlas of the content
     folder in use with what the core calls."""
 

@@ -22,7 +22,7 @@ from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
 from webapp.apps.census_map.theme import kept_theme
-from webapp.apps.contract import Scan, WithoutClassSteps, static_url
+from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import (
@@ -55,7 +55,7 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
     return f"{CLUSTER_PREFIX}{digest}"
 
 
-class CensusApp(WithoutClassSteps, CensusMaps):
+class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
     """The census map's :class:`~webapp.apps.contract.WallApp`: its maps (data sets, their
     geometry and colouring) with what the core calls."""
 

@@ -1,5 +1,6 @@
 """The image app as a wall app: an instructor's image filling the wall's stage, panned
-and zoomed with the core's view, with a code on a pin at each of its hotspots."""
+and zoomed with the core's view, with a code on a pin at each of its hotspots; its
+hotspots are the places where instructors may stand codes of their own."""
 
 from __future__ import annotations
 
@@ -25,13 +26,18 @@ from webapp.apps.image.state import APP, ImageState
 from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import AppState, WallState
 from webapp.publishing.publication import Publication
-from webapp.tags.registry import TagSpec, anchored_code_side_mm
+from webapp.tags.registry import Place, TagSpec, anchored_code_side_mm
 from webapp.web.context import AppContext
 
 FOLDER = Path(__file__).parent
 PIN_CLEARANCE_OF_CODE = 0.75
 """The square kept free around a hotspot, in codes' sides: its code stands beside the
 point, on a pin, never over it (as the brain's pins)."""
+
+
+def pin_clearance(context: AppContext, wall: Wall) -> float:
+    """The half-side of the square kept free around a hotspot on ``wall``, in mm."""
+    return PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(context.base_url, wall)
 
 
 class ImageApp(ImageLibrary):
@@ -67,20 +73,30 @@ class ImageApp(ImageLibrary):
         except KeyError:
             return None
 
+    def _in_view(
+        self, context: AppContext, wall: Wall, state: WallState
+    ) -> tuple[str, list[Hotspot], dict[str, tuple[float, float]]] | None:
+        """The image on the wall, its hotspots and where those the wall shows stand in
+        the current view (None: the app or an image is not up, or it has no hotspots)."""
+        shown = self._shown(context, state)
+        if shown is None or not shown[1]:
+            return None
+        image_id, spots = shown
+        manifest = self.store(context.settings).get(image_id)
+        return image_id, spots, wall_points(manifest, spots, wall, state.view)
+
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """One code per hotspot the wall shows in the current view, anchored at its
         point, kept clear of it so it stands beside it on a pin; named by the round
         on the wall (a new round: new codes) and, in it, numbered by the round."""
-        shown = self._shown(context, state)
-        if shown is None or not shown[1]:
+        in_view = self._in_view(context, wall, state)
+        if in_view is None:
             return []
-        image_id, spots = shown
-        manifest = self.store(context.settings).get(image_id)
-        points = wall_points(manifest, spots, wall, state.view)
+        image_id, spots, points = in_view
         quiz_round = round_on_wall(context, wall.id, state)
         numbered = numbers(quiz_round, image_id, spots) if quiz_round is not None else {}
         round_number = quiz_round.number if quiz_round is not None else None
-        clear = PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(context.base_url, wall)
+        clear = pin_clearance(context, wall)
         return [
             TagSpec(
                 name=hotspot_tag(spot.id, round_number),
@@ -94,6 +110,27 @@ class ImageApp(ImageLibrary):
                 priority=-1 - rank,  # placed in the order they were added
             )
             for rank, spot in enumerate(spots)
+            if spot.id in points
+        ]
+
+    def places(self, context: AppContext, wall: Wall, state: WallState) -> list[Place]:
+        """The hotspots in view (of this image: another image's are other places), kept
+        clear as their own codes keep them: a code of one's own stands beside the point
+        too, never over it."""
+        in_view = self._in_view(context, wall, state)
+        if in_view is None:
+            return []
+        image_id, spots, points = in_view
+        clear = pin_clearance(context, wall)
+        return [
+            Place(
+                app=APP,
+                id=f"{image_id}/{spot.id}",
+                label=f"hotspot {spot.title}",
+                anchor=points[spot.id],
+                clear_mm=clear,
+            )
+            for spot in spots
             if spot.id in points
         ]
 

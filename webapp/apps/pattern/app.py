@@ -17,7 +17,7 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps.contract import Scan, WithoutClassSteps, static_url
+from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import AppState, WallState, read_state
 from webapp.publishing.publication import Block, Publication
@@ -29,7 +29,7 @@ FOLDER = Path(__file__).parent
 SETUP_SET = "setup"
 
 
-class PatternApp(WithoutClassSteps):
+class PatternApp(WithoutClassSteps, WithoutPlaces):
     name: str = "pattern"
     state: type[AppState] | None = None  # it keeps nothing in the wall state
     default_tag_set: str | None = SETUP_SET

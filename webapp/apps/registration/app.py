@@ -11,7 +11,7 @@ from fastapi import APIRouter, Response, status
 from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Scan, WithoutClassSteps
+from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces
 from webapp.core.roles import Role
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import AppState, WallState
@@ -24,7 +24,7 @@ from webapp.web.templating import render
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 
 
-class RegistrationApp(WithoutClassSteps):
+class RegistrationApp(WithoutClassSteps, WithoutPlaces):
     """The registration codes every wall carries whatever app it shows (the app named
     ``core``: its codes are the core's, on the registration screen)."""
 

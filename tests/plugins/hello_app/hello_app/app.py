@@ -14,7 +14,7 @@ import click
 from fastapi import APIRouter, Body, Response
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Scan, WithoutClassSteps, static_url
+from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
 from webapp.engine.wall_state import AppState, WallState, read_state
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
@@ -50,7 +50,7 @@ def hello() -> None:
     click.echo("hello from an installed app")
 
 
-class HelloApp(WithoutClassSteps):
+class HelloApp(WithoutClassSteps, WithoutPlaces):
     name: str = APP
     default_tag_set: str | None = None
     state: type[AppState] | None = HelloState

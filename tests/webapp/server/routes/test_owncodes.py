@@ -1,5 +1,6 @@
-"""An instructor's own codes over HTTP: added at a point of the wall, placed, scanned,
-listed and switched off."""
+"""An instructor's own codes over HTTP: added at a point of the wall or at a place of the
+material the wall shows (a hotspot of the image, which the code follows), placed,
+scanned, listed and switched off."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import operator_headers, services_of
+from tests.webapp.apps.image.test_hotspot_routes import NUCLEUS, shown_image
 from webapp.engine.wall_state import read_state
 from webapp.tags.registry import get_layout
 
@@ -109,3 +111,87 @@ def test_a_link_issued_raw_with_another_scheme_never_redirects(client: TestClien
     tag = client.post("/api/walls/demo/tags", json=raw, headers=operator_headers(client)).json()
     scanned = client.get(f"/t/{tag['code']}", follow_redirects=False)
     assert scanned.status_code == 404 and "not a web address" in scanned.text
+
+
+def hotspot_place(client: TestClient) -> dict[str, Any]:
+    """The image app on the wall with one hotspot (Nucleus); its place on the wall."""
+    image = shown_image(client)
+    operator = operator_headers(client)
+    spot = client.post(f"/api/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
+    [place] = client.get("/api/walls/demo/places", headers=operator).json()
+    assert place["app"] == "image" and place["id"] == f"{image}/{spot.json()['id']}"
+    return dict(place)
+
+
+def listed(client: TestClient) -> list[dict[str, Any]]:
+    return list(client.get("/api/walls/demo/own-codes", headers=operator_headers(client)).json())
+
+
+def test_the_places_are_those_of_the_app_on_the_wall_for_instructors_only(
+    client: TestClient,
+) -> None:
+    operator = operator_headers(client)
+    assert client.get("/api/walls/demo/places", headers=operator).json() == []  # the pattern
+    place = hotspot_place(client)
+    assert place["label"] == "hotspot Nucleus" and place["clear_mm"] > 0
+    assert client.get("/api/walls/demo/places").status_code == 401
+    assert client.get("/api/walls/nowhere/places", headers=operator).status_code == 404
+
+
+def test_a_code_at_a_hotspot_follows_it_and_leaves_and_comes_back_with_the_image(
+    client: TestClient,
+) -> None:
+    place = hotspot_place(client)
+    choice = {"app": place["app"], "id": place["id"]}
+    added = add(client, kind="text", label="Hint", text="Look closer", place=choice)
+    assert added.status_code == 201, added.text
+    code = added.json()
+    assert code["params"]["place"] == {**choice, "label": "hotspot Nucleus"}
+    assert code["on_wall"] and listed(client)[0]["on_wall"]
+    before = placed(client)[code["code"]]
+    assert before["anchor"] == place["anchor"] and before["leader"], "beside it, on a pin"
+
+    operator = operator_headers(client)
+    panned = {"view": {"center": [0.45, 0.5], "zoom": 1.5}}
+    assert client.post("/api/walls/demo/state", json=panned, headers=operator).status_code == 200
+    [moved_place] = client.get("/api/walls/demo/places", headers=operator).json()
+    after = placed(client)[code["code"]]
+    assert after["anchor"] == moved_place["anchor"] != place["anchor"]
+    assert after["rect"] != before["rect"]
+    image, spot = place["id"].split("/")
+    renamed = {**NUCLEUS, "title": "Core"}
+    client.put(f"/api/image/images/{image}/hotspots/{spot}", json=renamed, headers=operator)
+    assert listed(client)[0]["params"]["place"]["label"] == "hotspot Core"
+
+    away = {"view": {"center": [0.9, 0.9], "zoom": 4}}  # the hotspot out of view
+    client.post("/api/walls/demo/state", json=away, headers=operator)
+    assert client.get("/api/walls/demo/places", headers=operator).json() == []
+    assert code["code"] not in placed(client)
+    client.post("/api/walls/demo/state", json={"app": "pattern"}, headers=operator)
+    assert code["code"] not in placed(client)
+    assert listed(client)[0]["on_wall"] is False and listed(client)[0]["anchor"] is None
+    client.post("/api/walls/demo/state", json={"app": "image"}, headers=operator)
+    assert placed(client)[code["code"]]["anchor"] == place["anchor"], "back at the whole image"
+
+    client.patch(f"/api/tags/{code['code']}", json={"active": False}, headers=operator)
+    assert code["code"] not in placed(client)
+    assert [(c["active"], c["on_wall"]) for c in listed(client)] == [(False, False)]
+
+
+NOT_ONE_PLACE_NOW: list[tuple[dict[str, Any], str]] = [
+    ({}, "either a point of the wall (anchor) or a place"),
+    ({"anchor": [600, 500], "place": {"app": "image", "id": "x"}}, "either a point"),
+    ({"place": {"app": "image", "id": "0" * 12 + "/" + "0" * 12}}, "not on the wall now"),
+    ({"place": {"app": "image"}}, "Field required"),
+    ({"place": "image:x/y"}, "valid dictionary"),
+    ({"place": {"app": "image", "id": "x", "label": "Mine"}}, "Extra inputs"),
+]
+
+
+def test_a_code_needs_exactly_one_place_of_the_wall_now(client: TestClient) -> None:
+    """(The test pattern on the wall has no places: none is on the wall now.) One client
+    for every case: each is a request refused before anything is stored."""
+    for where, says in NOT_ONE_PLACE_NOW:
+        response = add(client, kind="text", label="Hint", text="Look closer", **where)
+        assert response.status_code == 422 and says in response.text, (where, response.text)
+    assert listed(client) == []

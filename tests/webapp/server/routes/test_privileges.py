@@ -385,6 +385,7 @@ def matrix(client: TestClient) -> list[Row]:
             STAFF_API,
         ),
         Row("GET", "/api/walls/{wall_id}/own-codes", "/api/walls/irregular/own-codes", STAFF_API),
+        Row("GET", "/api/walls/{wall_id}/places", "/api/walls/irregular/places", STAFF_API),
         Row(
             "POST",
             "/api/walls/{wall_id}/own-codes",
