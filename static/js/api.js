@@ -8,6 +8,21 @@ export async function api(path, options = {}) {
     credentials: "same-origin",
     headers: {"X-CSRF-Token": csrf, "Content-Type": "application/json"},
   });
+  return answer(path, response);
+}
+
+/** Send a form with its files (multipart), as `api` sends JSON. */
+export async function sendForm(path, form) {
+  const response = await fetch(path, {
+    method: "POST",
+    body: new FormData(form),
+    credentials: "same-origin",
+    headers: {"X-CSRF-Token": csrf},
+  });
+  return answer(path, response);
+}
+
+async function answer(path, response) {
   if (!response.ok) {
     // The server says why in its problem's detail; say that, not just the status.
     const detail = await response.json().then((body) => body.detail, () => null);

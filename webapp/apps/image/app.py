@@ -53,12 +53,14 @@ class ImageApp(ImageLibrary):
     class_modes: tuple[str, ...] = ()
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        """Coming on a wall that never chose an image, it shows the newest one (the
-        one just added, as a rule)."""
-        if ImageState.of(state).image is not None:
+        """Coming on a wall that never chose an image, or whose image was removed while
+        another app was up, it shows the newest one (the one just added, as a rule)."""
+        store = self.store(context.settings)
+        slot = ImageState.of(state)
+        if slot.image is not None and store.holds(slot.image):
             return state
-        newest = self.store(context.settings).images()
-        return ImageState(image=newest[0].id).put(state) if newest else state
+        newest = store.images()
+        return slot.model_copy(update={"image": newest[0].id if newest else None}).put(state)
 
     def leave(self, state: WallState) -> WallState:
         return state  # its slot stays for its return

@@ -1,5 +1,5 @@
-"""The image app's commands: ``tagwall image add``, ``list``, and a lesson's ``export``,
-``import`` and ``check``."""
+"""The image app's commands: ``tagwall image add``, ``list``, ``remove``, and a lesson's
+``export``, ``import`` and ``check``."""
 
 from __future__ import annotations
 
@@ -12,9 +12,15 @@ from typing import NoReturn
 import click
 
 from webapp.apps.image.lesson import LessonRefused, export, import_lesson, inspect
-from webapp.apps.image.library import ImageLibrary
+from webapp.apps.image.library import ImageLibrary, ImageShown, remove_image
 from webapp.apps.image.store import ImageRefused, NoLibvips
-from webapp.cli.console import EXIT_USAGE, fail, load_settings
+from webapp.cli.console import (
+    EXIT_USAGE,
+    fail,
+    load_configured_walls,
+    load_settings,
+    open_database,
+)
 
 
 @click.group()
@@ -45,6 +51,25 @@ def image_list() -> None:
     """The stored images, newest first: id, size and title."""
     for stored in ImageLibrary().store(load_settings()).images():
         click.echo(f"{stored.id}  {stored.width} x {stored.height} px  {stored.title}")
+
+
+@image.command("remove")
+@click.argument("image_id", metavar="ID")
+def image_remove(image_id: str) -> None:
+    """Remove image ID with its pyramid and hotspots, all or nothing; exit 2 for no such
+    image or one a wall shows (show another there first)."""
+    settings = load_settings()
+    walls = load_configured_walls(settings)
+    database = open_database(settings)
+    try:
+        removed = remove_image(ImageLibrary().store(settings), database, walls.values(), image_id)
+    except KeyError:
+        fail(f"There is no image {image_id}.")
+    except ImageShown as error:
+        fail(str(error))
+    finally:
+        database.dispose()
+    click.echo(f"removed {removed.id}: {removed.title!r}")
 
 
 @image.command("export")

@@ -10,23 +10,18 @@ holds for good; where it stands on the wall follows the view (:func:`placement`)
 
 from __future__ import annotations
 
-import fcntl
-import os
 import uuid
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
-from pathlib import Path
+from collections.abc import Callable
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, field_validator
 
 from wall_client.layout import Rect, Wall
-from webapp.apps.image.store import ImageManifest, ImageStore
+from webapp.apps.image.store import ImageManifest, ImageStore, write_whole
 from webapp.core.roles import UserGroup
 from webapp.engine.wall_state import View
 
 HOTSPOTS = "hotspots.json"
-LOCK = ".hotspots.lock"
 MAX_TITLE = 120
 MAX_TEXT = 5_000
 MAX_QUESTION = 500
@@ -114,31 +109,15 @@ def hotspots(store: ImageStore, image_id: str) -> list[Hotspot]:
 def change(
     store: ImageStore, image_id: str, edit: Callable[[list[Hotspot]], list[Hotspot]]
 ) -> list[Hotspot]:
-    """Apply ``edit`` to the image's hotspots and store the result atomically; what
-    ``edit`` raises leaves the file untouched."""
-    store.get(image_id)
-    folder = store.root / image_id
-    with _locked(folder):
+    """Apply ``edit`` to the image's hotspots and store the result atomically, one
+    change at a time (read, change, write: two instructors never lose each other's);
+    what ``edit`` raises leaves the file untouched."""
+    with store.locked(image_id):
         changed = edit(hotspots(store, image_id))
         if len(changed) > MAX_HOTSPOTS:
             raise HotspotRefused(f"An image has at most {MAX_HOTSPOTS} hotspots.")
-        temporary = folder / f".{HOTSPOTS}.{uuid.uuid4().hex}"
-        try:
-            temporary.write_bytes(encoded(changed))
-            os.replace(temporary, folder / HOTSPOTS)
-        finally:
-            temporary.unlink(missing_ok=True)
+        write_whole(store.root / image_id / HOTSPOTS, encoded(changed))
         return changed
-
-
-@contextmanager
-def _locked(folder: Path) -> Iterator[None]:
-    """One change of an image's hotspots at a time (read, change, write), across
-    threads and a server's worker processes alike: an exclusive lock on a file of the
-    image's folder, released as it closes."""
-    with (folder / LOCK).open("a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        yield
 
 
 def add(store: ImageStore, image_id: str, fields: HotspotFields) -> Hotspot:

@@ -39,6 +39,7 @@ from webapp.apps.image.hotspots import (
     hotspots,
 )
 from webapp.apps.image.store import (
+    MAX_IMAGE_TITLE,
     UPLOADING,
     ImageManifest,
     ImageRefused,
@@ -79,7 +80,7 @@ class Lesson(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     version: int
-    title: str = Field(min_length=1, max_length=200)
+    title: str = Field(min_length=1, max_length=MAX_IMAGE_TITLE)
     image: LessonImage
     hotspots: list[HotspotFields] = Field(default_factory=list, max_length=MAX_HOTSPOTS)
 

@@ -1,10 +1,15 @@
-"""The image app's object as its routes and commands find it: its limits and its store."""
+"""The image app's object as its routes and commands find it: its limits and its store;
+and what its routes and commands both do with the walls (removing an image)."""
 
 from __future__ import annotations
 
-from webapp.apps.image.state import APP
-from webapp.apps.image.store import MAX_PIXELS, MAX_UPLOAD_BYTES, ImageStore
+from collections.abc import Iterable
+
+from wall_client.layout import Wall
+from webapp.apps.image.state import APP, walls_showing
+from webapp.apps.image.store import MAX_PIXELS, MAX_UPLOAD_BYTES, ImageManifest, ImageStore
 from webapp.core.settings import Settings
+from webapp.database.connection import Database
 from webapp.web.context import AppContext
 
 
@@ -25,3 +30,22 @@ def image_library(context: AppContext) -> ImageLibrary:
     if not isinstance(library, ImageLibrary):
         raise TypeError(f"the app {APP!r} is not the image app")
     return library
+
+
+class ImageShown(RuntimeError):
+    """An image a wall shows is not removed (its tiles would lose their picture mid
+    lesson); the message names the walls."""
+
+
+def remove_image(
+    store: ImageStore, db: Database, walls: Iterable[Wall], image_id: str
+) -> ImageManifest:
+    """Remove the image, its pyramid and hotspots unless a wall shows it
+    (:class:`ImageShown`; KeyError: no such image). Blocking: a large pyramid is
+    thousands of files."""
+    manifest = store.get(image_id)
+    showing = walls_showing(db, walls, image_id)
+    if showing:
+        names = ", ".join(wall.name for wall in showing)
+        raise ImageShown(f"{manifest.title!r} is shown on {names}: show another image there first.")
+    return store.remove(image_id)

@@ -1,5 +1,6 @@
-"""The image app's API: instructors upload, list and show images, mark their hotspots
-and run quiz rounds on their questions; tiles and the overview fetch each image's
+"""The image app's API: instructors upload, list, show, retitle and remove images,
+share them as lessons, mark their hotspots and run quiz rounds on their questions;
+tiles and the overview fetch each image's
 manifest and the pyramid tiles their displays show; phones open a hotspot's page and
 answer its question."""
 
@@ -20,10 +21,11 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from webapp.apps.image import hotspots, lesson, pages
 from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
-from webapp.apps.image.library import image_library
+from webapp.apps.image.library import ImageShown, image_library, remove_image
 from webapp.apps.image.questions import asked, fresh_orders, numbers, quiz_of, round_on_wall
-from webapp.apps.image.state import APP, ImageState
+from webapp.apps.image.state import APP, ImageState, walls_showing
 from webapp.apps.image.store import (
+    MAX_IMAGE_TITLE,
     UPLOADING,
     ImageManifest,
     ImageRefused,
@@ -50,6 +52,10 @@ FOREVER = "public, max-age=31536000, immutable"  # a stored image never changes
 
 def store_of(context: AppContext) -> ImageStore:
     return image_library(context).store(context.settings)
+
+
+def _no_image(image_id: str) -> HTTPException:
+    return HTTPException(status.HTTP_404_NOT_FOUND, f"There is no image {image_id}.")
 
 
 def _too_large(store: ImageStore) -> HTTPException:
@@ -188,7 +194,7 @@ async def export_lesson(image_id: str, context: ContextDep) -> FileResponse:
     try:
         exported = await run_blocking(lesson.export, store, image_id, target)
     except KeyError:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no image {image_id}.") from None
+        raise _no_image(image_id) from None
     except NoLibvips as error:
         raise HTTPException(status.HTTP_503_SERVICE_UNAVAILABLE, str(error)) from None
     return FileResponse(
@@ -205,6 +211,40 @@ async def list_images(context: ContextDep) -> list[ImageManifest]:
     return await run_blocking(store_of(context).images)
 
 
+class ImageTitle(BaseModel):
+    model_config = ConfigDict(extra="forbid", str_strip_whitespace=True)
+
+    title: str = Field(min_length=1, max_length=MAX_IMAGE_TITLE)
+
+
+@router.patch("/api/image/images/{image_id}", dependencies=[StaffOnly], responses=errors(404))
+async def retitle(image_id: str, change: ImageTitle, context: ContextDep) -> ImageManifest:
+    """Give the image another title (what the dashboard and its lesson file call it);
+    422 for an empty one or one longer than an upload's."""
+    try:
+        return await run_blocking(store_of(context).retitle, image_id, change.title)
+    except KeyError:
+        raise _no_image(image_id) from None
+
+
+@router.delete(
+    "/api/image/images/{image_id}",
+    dependencies=[StaffOnly],
+    responses={**errors(404), 409: {"description": "A wall shows the image."}},
+)
+async def remove(image_id: str, context: ContextDep) -> list[ImageManifest]:
+    """Remove the image with its pyramid and hotspots, all or nothing: 409 while a wall
+    shows it. The images left, newest first."""
+    store = store_of(context)
+    try:
+        await run_blocking(remove_image, store, context.db, context.walls.values(), image_id)
+    except KeyError:
+        raise _no_image(image_id) from None
+    except ImageShown as error:
+        raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from None
+    return await run_blocking(store.images)
+
+
 class ShowImage(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
@@ -218,9 +258,7 @@ async def show(wall: WallDep, choice: ShowImage, context: ContextDep) -> ShowIma
     try:
         await run_blocking(store_of(context).get, choice.image)
     except KeyError:
-        raise HTTPException(
-            status.HTTP_404_NOT_FOUND, f"There is no image {choice.image}."
-        ) from None
+        raise _no_image(choice.image) from None
 
     def showing(state: WallState) -> WallState:
         return ImageState(image=choice.image).put(state.model_copy(update={"app": APP}))
@@ -233,7 +271,7 @@ def _manifest(context: AppContext, image_id: str) -> ImageManifest:
     try:
         return store_of(context).get(image_id)
     except KeyError:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no image {image_id}.") from None
+        raise _no_image(image_id) from None
 
 
 @router.get("/apps/image/images/{image_id}/info.json", responses=errors(404))
@@ -278,10 +316,9 @@ async def _hotspot_step(step: Callable[..., T], *args: object) -> T:
 async def _replace_codes(context: AppContext, image_id: str) -> None:
     """The walls showing ``image_id`` place their codes again (a hotspot came, moved or
     went); the others have nothing of it up."""
-    for wall in context.walls.values():
-        _, state = await context.db.read(read_state, context.db, wall.id)
-        if state.app == APP and ImageState.of(state).image == image_id:
-            await context.change_wall(wall, lambda current: current, replace_codes=True)
+    walls = context.walls.values()
+    for wall in await context.db.read(walls_showing, context.db, walls, image_id):
+        await context.change_wall(wall, lambda current: current, replace_codes=True)
 
 
 @router.get(

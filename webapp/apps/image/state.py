@@ -3,10 +3,12 @@ quiz round whose hotspot codes stand on it."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import ClassVar
 
-from webapp.database.connection import RowId
-from webapp.engine.wall_state import AppState
+from wall_client.layout import Wall
+from webapp.database.connection import Database, RowId
+from webapp.engine.wall_state import AppState, read_state
 
 APP = "image"
 
@@ -25,3 +27,14 @@ class ImageState(AppState):
         """The slot showing round ``number`` unless a later one is already up (two
         instructors starting rounds at once: the wall keeps the newest)."""
         return self.model_copy(update={"quiz_round": max(number, self.quiz_round or 0)})
+
+
+def walls_showing(db: Database, walls: Iterable[Wall], image_id: str) -> list[Wall]:
+    """The walls whose scene shows ``image_id`` now: the image app up, that image chosen
+    (a wall on another app keeps the choice in its slot, but shows nothing of it)."""
+    showing = []
+    for wall in walls:
+        _, state = read_state(db, wall.id)
+        if state.app == APP and ImageState.of(state).image == image_id:
+            showing.append(wall)
+    return showing

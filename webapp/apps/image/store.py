@@ -11,19 +11,23 @@ One folder per image under ``var/images/{id}``: ``manifest.json`` (what the wall
 know of it) and ``pyramid_files/``. A folder is built under a hidden temporary name and
 renamed into place only when complete, so a failed or interrupted build leaves nothing a
 reader can take for an image, and an image never changes once stored (its tiles are
-cached for good).
+cached for good; only its title may). A removal is the same in reverse: the folder
+leaves its place under a hidden name in one rename, then goes.
 """
 
 from __future__ import annotations
 
+import fcntl
 import importlib
 import json
 import math
+import os
 import re
 import shutil
 import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -35,6 +39,7 @@ if TYPE_CHECKING:
     import pyvips
 
 TILE_SIZE = 256
+MAX_IMAGE_TITLE = 200
 MAX_PIXELS = 1_200_000_000
 """Refused before decoding: a 30,000 x 30,000 px scan is 9e8 pixels; a file declaring
 more is a mistake or a decompression bomb."""
@@ -48,7 +53,9 @@ PYRAMID = "pyramid"  # dzsave's base name: pyramid.dzi and pyramid_files/
 MANIFEST = "manifest.json"
 BUILDING = ".building-"  # the prefix of a folder being built (never listed)
 UPLOADING = ".upload-"  # the prefix of an upload's copy, removed once stored or refused
-STALE_S = 6 * 3600  # a build or copy this old was cut short (a killed server): swept
+REMOVING = ".removing-"  # the prefix of a removed image's folder, deleted right after
+STALE_S = 6 * 3600  # a build, copy or removal this old was cut short (a killed server): swept
+LOCK = ".lock"  # in an image's folder: its changes go one at a time
 _ID = re.compile(r"^[0-9a-f]{12}$")
 
 
@@ -73,7 +80,7 @@ class ImageManifest(BaseModel):
     """What the wall and the dashboard know of a stored image."""
 
     id: str
-    title: str = Field(max_length=200)
+    title: str = Field(max_length=MAX_IMAGE_TITLE)
     width: int
     height: int
     tile_size: int
@@ -129,7 +136,7 @@ class ImageStore:
             _pyramid(image, building / PYRAMID, name)
             manifest = ImageManifest(
                 id=image_id,
-                title=(title or Path(name).stem).strip()[:200] or image_id,
+                title=(title or Path(name).stem).strip()[:MAX_IMAGE_TITLE] or image_id,
                 width=image.width,
                 height=image.height,
                 tile_size=TILE_SIZE,
@@ -177,13 +184,14 @@ class ImageStore:
         return image, kind
 
     def sweep(self, now: float | None = None) -> list[Path]:
-        """Remove what a build or upload cut short by a killed server left (hidden, never
-        listed, but taking disk), once it is :data:`STALE_S` old: a build still running
-        is younger. Returns what was removed."""
+        """Remove what a build, upload or removal cut short by a killed server left
+        (hidden, never listed, but taking disk), once it is :data:`STALE_S` old: a build
+        still running is younger. Returns what was removed."""
         cutoff = (time.time() if now is None else now) - STALE_S
         removed = []
         for left in self.root.glob(".*"):
-            if left.name.startswith((BUILDING, UPLOADING)) and left.stat().st_mtime < cutoff:
+            hidden = left.name.startswith((BUILDING, UPLOADING, REMOVING))
+            if hidden and left.stat().st_mtime < cutoff:
                 if left.is_dir():
                     shutil.rmtree(left, ignore_errors=True)
                 else:
@@ -197,16 +205,67 @@ class ImageStore:
         stored in it)."""
         found = []
         for folder in self.root.glob("*/"):
-            if _ID.match(folder.name) and (folder / MANIFEST).is_file():
+            if not _ID.match(folder.name):
+                continue
+            try:
                 found.append(((folder / MANIFEST).stat().st_mtime, self.get(folder.name)))
+            except (FileNotFoundError, KeyError):  # removed as this listed
+                continue
         return [manifest for _, manifest in sorted(found, key=lambda f: -f[0])]
 
     def get(self, image_id: str) -> ImageManifest:
         """The manifest of ``image_id``; KeyError when there is no such image."""
-        path = self.root / image_id / MANIFEST if _ID.match(image_id) else None
-        if path is None or not path.is_file():
+        if not _ID.match(image_id):
             raise KeyError(image_id)
-        return ImageManifest.model_validate(json.loads(path.read_text()))
+        try:
+            text = (self.root / image_id / MANIFEST).read_text()
+        except (FileNotFoundError, NotADirectoryError):
+            raise KeyError(image_id) from None
+        return ImageManifest.model_validate(json.loads(text))
+
+    def holds(self, image_id: str) -> bool:
+        """Whether ``image_id`` is a stored image (not one removed since it was chosen)."""
+        try:
+            self.get(image_id)
+        except KeyError:
+            return False
+        return True
+
+    @contextmanager
+    def locked(self, image_id: str) -> Iterator[ImageManifest]:
+        """One change of an image's folder at a time (its hotspots, its title, its
+        removal), across threads and a server's worker processes alike: an exclusive
+        lock on a file of the folder, released as it closes. Yields the manifest as it
+        is once the lock is held; KeyError when there is no such image, or it was
+        removed while this waited."""
+        self.get(image_id)  # a known id before any path is made of it
+        try:
+            handle = (self.root / image_id / LOCK).open("a")
+        except FileNotFoundError:  # removed since
+            raise KeyError(image_id) from None
+        with handle:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+            yield self.get(image_id)
+
+    def retitle(self, image_id: str, title: str) -> ImageManifest:
+        """Give the image another title (KeyError: no such image); its manifest keeps
+        its time, so the list keeps its order."""
+        with self.locked(image_id) as manifest:
+            path = self.root / image_id / MANIFEST
+            renamed = ImageManifest.model_validate({**manifest.model_dump(), "title": title})
+            write_whole(path, renamed.model_dump_json(indent=2).encode(), path.stat().st_mtime_ns)
+        return renamed
+
+    def remove(self, image_id: str) -> ImageManifest:
+        """Remove the image, its pyramid and hotspots (KeyError: no such image), never
+        half: one rename takes the folder out of the list and off the tile routes, then
+        it is deleted; what a killed server leaves of it is swept like a cut-short
+        build. Whether a wall still shows it is the caller's question."""
+        with self.locked(image_id) as manifest:
+            leaving = self.root / f"{REMOVING}{image_id}-{uuid.uuid4().hex[:8]}"
+            (self.root / image_id).rename(leaving)
+        shutil.rmtree(leaving, ignore_errors=True)
+        return manifest
 
     def tile(self, image_id: str, level: int, col: int, row: int) -> Path:
         """The file of one pyramid tile; KeyError when there is none."""
@@ -234,6 +293,19 @@ class ImageStore:
             0, 0, manifest.width, manifest.height
         )
         joined.tiffsave(str(target), compression="jpeg", Q=90, tile=True, bigtiff=True)
+
+
+def write_whole(path: Path, data: bytes, mtime_ns: int | None = None) -> None:
+    """Write ``path`` whole or not at all: to a hidden file beside it, renamed over it,
+    so a reader never sees half of it (``mtime_ns``: the time it is to keep)."""
+    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex}")
+    try:
+        temporary.write_bytes(data)
+        if mtime_ns is not None:
+            os.utime(temporary, ns=(mtime_ns, mtime_ns))
+        os.replace(temporary, path)
+    finally:
+        temporary.unlink(missing_ok=True)
 
 
 def _pyramid(image: pyvips.Image, base: Path, name: str) -> None:

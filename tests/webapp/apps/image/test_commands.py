@@ -1,4 +1,4 @@
-"""`tagwall image add` and `tagwall image list`, as a person at a shell would use them."""
+"""`tagwall image add`, `list` and `remove`, as a person at a shell would use them."""
 
 from __future__ import annotations
 
@@ -8,9 +8,13 @@ from types import ModuleType
 import pytest
 from click.testing import CliRunner
 
+from tests.conftest import migrate, wall_files
 from tests.webapp.apps.image.samples import png_declaring, quadrants, save
 from webapp.apps.image import store
+from webapp.apps.image.state import ImageState
 from webapp.cli.commands import main
+from webapp.database.connection import Database
+from webapp.engine.wall_state import commit_change
 
 
 def test_add_then_list_and_bad_files_exit_2_with_one_line(tmp_path: Path) -> None:
@@ -51,3 +55,40 @@ def test_without_libvips_adding_says_what_to_install(
         "error: libvips is not installed (cannot load library 'libvips.so.42'): "
         "apt-get install libvips42"
     )
+
+
+def test_remove_takes_an_image_off_the_disk_unless_a_wall_shows_it(tmp_path: Path) -> None:
+    var = tmp_path / "var"
+    env = {
+        "TAGWALL_VAR_DIR": str(var),
+        "TAGWALL_WALL_CONFIGS": str(wall_files("demo")[0]),
+    }
+    runner = CliRunner()
+    source = save(tmp_path / "slide.png", quadrants(30, 20))
+    added = [
+        runner.invoke(main, ["image", "add", str(source), "--title", title], env=env)
+        for title in ("Shown", "Kept")
+    ]
+    shown, kept = (result.stdout.split()[1].rstrip(":") for result in added)  # "added ID: ..."
+    url = f"sqlite:///{var / 'tagwall.db'}"
+    migrate(url)
+    db = Database(url)
+    commit_change(
+        db,
+        "demo",
+        lambda state: ImageState(image=shown).put(state.model_copy(update={"app": "image"})),
+        keep_events=10,
+    )
+    db.dispose()
+
+    refused = runner.invoke(main, ["image", "remove", shown], env=env)
+    assert refused.exit_code == 2
+    assert refused.stderr == (
+        "error: 'Shown' is shown on Demo wall (3 x 2, 55-inch): show another image there first.\n"
+    )
+    removed = runner.invoke(main, ["image", "remove", kept], env=env)
+    assert removed.exit_code == 0, removed.output
+    assert removed.stdout == f"removed {kept}: 'Kept'\n"
+    assert sorted(p.name for p in (var / "images").iterdir()) == [shown]
+    again = runner.invoke(main, ["image", "remove", kept], env=env)
+    assert again.exit_code == 2 and again.stderr == f"error: There is no image {kept}.\n"

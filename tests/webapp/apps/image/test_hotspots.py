@@ -14,8 +14,8 @@ from tests.conftest import wall_files
 from wall_client.config import load_wall
 from wall_client.layout import Rect
 from webapp.apps.image import hotspots
-from webapp.apps.image.hotspots import HOTSPOTS, LOCK, HotspotFields, HotspotRefused, placement
-from webapp.apps.image.store import ImageManifest, ImageStore
+from webapp.apps.image.hotspots import HOTSPOTS, HotspotFields, HotspotRefused, placement
+from webapp.apps.image.store import LOCK, ImageManifest, ImageStore
 from webapp.engine.wall_state import View
 
 LAYER = Path(__file__).parents[4] / "webapp" / "apps" / "image" / "static" / "image.js"

@@ -1,4 +1,5 @@
-"""The image app's API: upload (instructors, CSRF), list, show, manifest and tiles."""
+"""The image app's API: upload (instructors, CSRF), list, show, retitle, remove, manifest
+and tiles."""
 
 from __future__ import annotations
 
@@ -131,3 +132,66 @@ def test_an_upload_without_a_file_or_a_length_is_refused(client: TestClient) -> 
         headers={**operator, "Content-Type": "multipart/form-data; boundary=x"},
     )
     assert chunked.status_code == 411, chunked.text
+
+
+def test_an_instructor_retitles_and_removes_an_image_but_not_one_on_a_wall(
+    client: TestClient,
+) -> None:
+    operator = operator_headers(client)
+    older = upload(client, png_bytes(), **operator).json()["id"]
+    newer = upload(client, png_bytes(), **operator).json()["id"]
+    client.post(
+        f"/api/image/images/{older}/hotspots",
+        json={"x": 10, "y": 10, "title": "Corner"},
+        headers=operator,
+    )
+    client.post("/api/image/walls/demo/show", json={"image": older}, headers=operator)
+    url = f"/api/image/images/{older}"
+    assert client.patch(url, json={"title": "Kidney"}).status_code == 401
+    assert client.delete(url).status_code == 401
+    sign_in(client, "instructor")
+    assert client.patch(url, json={"title": "Kidney"}).status_code == 403  # no CSRF token
+    assert client.delete(url).status_code == 403
+    csrf = {"X-CSRF-Token": csrf_of(client)}
+
+    renamed = client.patch(url, json={"title": "  Kidney, H&E "}, headers=csrf)
+    assert renamed.status_code == 200 and renamed.json()["title"] == "Kidney, H&E"
+    listed = client.get("/api/image/images").json()
+    assert [(i["id"], i["title"]) for i in listed] == [(newer, "Scan"), (older, "Kidney, H&E")]
+    for title in ("", "   ", "x" * 201):
+        assert client.patch(url, json={"title": title}, headers=csrf).status_code == 422, title
+    assert client.get(f"/apps/image/images/{older}/info.json").json()["title"] == "Kidney, H&E"
+    assert client.patch(f"/api/image/images/{'f' * 12}", json={"title": "x"}, headers=csrf)\
+        .status_code == 404  # fmt: skip
+
+    shown = client.delete(url, headers=csrf)
+    assert shown.status_code == 409
+    assert shown.json()["detail"] == (
+        "'Kidney, H&E' is shown on Demo wall (3 x 2, 55-inch): show another image there first."
+    )
+    assert client.delete(f"/api/image/images/{'f' * 12}", headers=csrf).status_code == 404
+    client.post("/api/image/walls/demo/show", json={"image": newer}, headers=csrf)
+    removed = client.delete(url, headers=csrf)
+    assert removed.status_code == 200, removed.text
+    assert [i["id"] for i in removed.json()] == [newer]
+    assert [p.name for p in stored_folders(client)] == [newer]  # nothing left, nothing hidden
+    assert client.get(f"{url}/hotspots").status_code == 404
+    assert client.get(f"/apps/image/images/{older}/info.json").status_code == 404
+    assert client.delete(url, headers=csrf).status_code == 404
+
+
+def test_a_wall_back_on_the_image_app_shows_the_newest_when_its_image_was_removed(
+    client: TestClient,
+) -> None:
+    operator = operator_headers(client)
+    older = upload(client, png_bytes(), **operator).json()["id"]
+    newer = upload(client, png_bytes(), **operator).json()["id"]
+    client.post("/api/image/walls/demo/show", json={"image": older}, headers=operator)
+    away = client.post("/api/walls/demo/state", json={"app": "pattern"}, headers=operator)
+    assert away.status_code == 200, away.text
+    # the demo wall keeps its choice in the slot but shows nothing of it: removable
+    assert client.delete(f"/api/image/images/{older}", headers=operator).status_code == 200
+    back = client.post("/api/walls/demo/state", json={"app": "image"}, headers=operator)
+    assert back.status_code == 200, back.text
+    _, state = read_state(services_of(client).db, "demo")
+    assert ImageState.of(state).image == newer

@@ -11,6 +11,7 @@ from PIL import Image
 
 from tests.webapp.apps.image.samples import png_declaring, quadrants, save
 from webapp.apps.image.store import (
+    LOCK,
     STALE_S,
     TILE_SIZE,
     ImageRefused,
@@ -106,8 +107,36 @@ def test_what_a_killed_build_left_is_swept_once_stale(store: ImageStore, tmp_pat
     kept = store.add(save(tmp_path / "kept.png", quadrants(40, 30)))
     (store.root / ".building-0123456789ab" / "pyramid_files").mkdir(parents=True)
     (store.root / ".upload-feed").write_bytes(b"half an upload")
+    (store.root / ".removing-0123456789ab-1f2e3d4c" / "pyramid_files").mkdir(parents=True)
     assert store.sweep() == []  # young: perhaps still running
     later = time.time() + STALE_S + 1
     swept = sorted(p.name for p in store.sweep(now=later))
-    assert swept == [".building-0123456789ab", ".upload-feed"]
+    assert swept == [".building-0123456789ab", ".removing-0123456789ab-1f2e3d4c", ".upload-feed"]
     assert [p.name for p in store.root.iterdir()] == [kept.id]
+
+
+def test_a_retitled_image_keeps_its_place_and_a_removed_one_leaves_nothing(
+    store: ImageStore, tmp_path: Path
+) -> None:
+    older = store.add(save(tmp_path / "older.png", quadrants(40, 30)))
+    newer = store.add(save(tmp_path / "newer.png", quadrants(40, 30)))
+    assert [i.id for i in store.images()] == [newer.id, older.id]
+    renamed = store.retitle(older.id, "Kidney, H&E")
+    assert renamed == older.model_copy(update={"title": "Kidney, H&E"})
+    assert store.get(older.id) == renamed
+    assert [i.id for i in store.images()] == [newer.id, older.id]  # its time kept
+    assert {p.name for p in (store.root / older.id).iterdir()} == {
+        "manifest.json",
+        "pyramid_files",
+        "pyramid.dzi",
+        LOCK,
+    }  # no temporary manifest left behind
+
+    assert store.remove(older.id) == renamed
+    assert [p.name for p in store.root.iterdir()] == [newer.id]  # nothing hidden left
+    assert not store.holds(older.id) and store.holds(newer.id)
+    for missing in (older.id, "../../etc"):
+        with pytest.raises(KeyError):
+            store.remove(missing)
+        with pytest.raises(KeyError):
+            store.retitle(missing, "x")

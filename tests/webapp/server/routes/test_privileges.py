@@ -421,6 +421,20 @@ def matrix(client: TestClient) -> list[Row]:
             files={"file": ("picture.png", picture.read_bytes(), "image/png")},
         ),
         Row(
+            "PATCH",
+            "/api/image/images/{image_id}",
+            f"/api/image/images/{image}",
+            STAFF_API,
+            json={"title": "Picture"},
+        ),
+        Row(
+            "DELETE",
+            "/api/image/images/{image_id}",
+            f"/api/image/images/{'f' * 12}",
+            (401, 401, 404, 404),
+            json={},
+        ),
+        Row(
             "GET",
             "/api/image/images/{image_id}/lesson",
             f"/api/image/images/{image}/lesson",

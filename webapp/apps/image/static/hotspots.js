@@ -1,6 +1,7 @@
 // The image panel's hotspots: the coarse picture of the image on the wall on a canvas,
-// a click places a hotspot there (the form says the rest), the list with delete, and
-// the quiz round's controls with its live statistics.
+// a click places a hotspot there (the form says the rest), the list with edit (the form
+// takes the hotspot; a click moves it) and delete, and the quiz round's controls with
+// its live statistics.
 import {api, wallId} from "tagwall/api.js";
 import {Pyramid} from "./image.js";
 
@@ -10,10 +11,13 @@ const form = document.getElementById("hotspot-form");
 const said = document.getElementById("hotspot-status");
 const quizSaid = document.getElementById("image-quiz-status");
 const csv = document.getElementById("image-quiz-csv");
+const submit = form.querySelector("button[type=submit]");
+const cancel = document.getElementById("hotspot-cancel");
 const GROUPS = ["k5", "undergraduate", "medical", "research"];
 let pyramid = null;
 let picture = null;
 let spots = [];
+let editing = null;  // the hotspot the form changes (null: it adds one)
 
 /** A field of the form by its name (``form.title`` would be the form's own title). */
 function field(name) {
@@ -28,7 +32,7 @@ function draw() {
   if (picture) ctx.drawImage(picture, 0, 0, canvas.width, canvas.height);
   const scale = canvas.width / pyramid.width;
   const chosen = [field("x").value, field("y").value].map(Number);
-  const marks = spots.map((s) => [s.x, s.y, "#ff0"]);
+  const marks = spots.filter((s) => s.id !== editing?.id).map((s) => [s.x, s.y, "#ff0"]);
   if (field("x").value) marks.push([...chosen, "#f0f"]);
   for (const [x, y, colour] of marks) {
     ctx.beginPath();
@@ -40,27 +44,57 @@ function draw() {
   }
 }
 
-/** An empty form, no place chosen (hidden inputs keep their value through reset()). */
+function choosePlace(x, y) {
+  field("x").value = x;
+  field("y").value = y;
+  document.getElementById("hotspot-place").textContent = `At (${Math.round(x)}, ${Math.round(y)}) px`;
+}
+
+/** An empty form adding a hotspot, no place chosen (hidden inputs keep their value
+ * through reset()). */
 function clearForm() {
   form.reset();
+  editing = null;
+  submit.textContent = "Add hotspot";
+  cancel.hidden = true;
   field("x").value = "";
   field("y").value = "";
   document.getElementById("hotspot-place").textContent = "No place chosen yet.";
 }
 
+/** The form takes ``spot`` to change it: its place (a click moves it), title, texts,
+ * question and accepted answers. */
+function edit(spot) {
+  clearForm();
+  editing = spot;
+  choosePlace(spot.x, spot.y);
+  field("title").value = spot.title;
+  for (const group of GROUPS) field(`text-${group}`).value = spot.texts[group] ?? "";
+  field("question").value = spot.question ?? "";
+  field("accepted").value = spot.accepted.join("\n");
+  submit.textContent = "Save hotspot";
+  cancel.hidden = false;
+  said.textContent = `editing ${spot.title}`;
+  draw();
+  field("title").focus();
+}
+
 function listSpots() {
   document.getElementById("hotspot-list").replaceChildren(...spots.map((spot) => {
     const li = document.createElement("li");
+    const change = document.createElement("button");
+    change.textContent = "edit";
+    change.addEventListener("click", () => edit(spot));
     const remove = document.createElement("button");
     remove.textContent = "delete";
-    remove.dataset.hotspotDelete = spot.id;
     remove.addEventListener("click", async () => {
       spots = await api(`/api/image/images/${pyramid.id}/hotspots/${spot.id}`, {method: "DELETE"});
+      if (editing?.id === spot.id) clearForm();
       listSpots();
       draw();
     });
     const question = spot.question ? ` · asks: ${spot.question}` : "";
-    li.append(`${spot.title} (${Math.round(spot.x)}, ${Math.round(spot.y)})${question} `, remove);
+    li.append(`${spot.title} (${Math.round(spot.x)}, ${Math.round(spot.y)})${question} `, change, remove);
     return li;
   }));
 }
@@ -85,9 +119,13 @@ canvas.addEventListener("click", (event) => {
   const rect = canvas.getBoundingClientRect();
   const x = ((event.clientX - rect.left) / rect.width) * pyramid.width;
   const y = ((event.clientY - rect.top) / rect.height) * pyramid.height;
-  field("x").value = x.toFixed(1);
-  field("y").value = y.toFixed(1);
-  document.getElementById("hotspot-place").textContent = `At (${Math.round(x)}, ${Math.round(y)}) px`;
+  choosePlace(x.toFixed(1), y.toFixed(1));
+  draw();
+});
+
+cancel.addEventListener("click", () => {
+  clearForm();
+  said.textContent = "";
   draw();
 });
 
@@ -108,10 +146,16 @@ form.addEventListener("submit", async (event) => {
     accepted: field("accepted").value.split("\n").map((a) => a.trim()).filter(Boolean),
   };
   try {
-    const added = await api(`/api/image/images/${pyramid.id}/hotspots`,
-      {method: "POST", body: JSON.stringify(body)});
-    spots.push(added);
-    said.textContent = `added ${added.title}`;
+    const url = `/api/image/images/${pyramid.id}/hotspots`;
+    if (editing) {
+      const saved = await api(`${url}/${editing.id}`, {method: "PUT", body: JSON.stringify(body)});
+      spots = spots.map((spot) => (spot.id === saved.id ? saved : spot));
+      said.textContent = `saved ${saved.title}`;
+    } else {
+      const added = await api(url, {method: "POST", body: JSON.stringify(body)});
+      spots.push(added);
+      said.textContent = `added ${added.title}`;
+    }
     clearForm();
     listSpots();
     draw();
