@@ -38,7 +38,7 @@ def manifest(width: int, height: int) -> ImageManifest:
         title="t",
         width=width,
         height=height,
-        tile_size=256,
+        tile_size=512,
         levels=deep_zoom_levels(width, height),
         source="s.jpg",
         format="JPEG",
@@ -47,14 +47,14 @@ def manifest(width: int, height: int) -> ImageManifest:
 
 def test_a_display_fetches_what_the_browser_test_saw_it_fetch() -> None:
     # tests/browser/test_image.py: a 4000 x 1120 px image at zoom 1 on the demo wall;
-    # the left stage display fetched level 12's columns 0-7, the right one 7-15, all 5
-    # rows (and the coarse level 8's one tile), the other displays nothing
+    # the left stage display fetched level 12's columns 0-3, the right one 3-7, all 3
+    # rows (and the coarse level 9's one tile), the other displays nothing
     wall = load_wall(wall_files("demo")[0])
     image = manifest(4000, 1120)
     shares = {d.id: share(image, wall, d.id, View()) for d in wall.displays}
-    for display, columns in [("r2c2", range(8)), ("r2c3", range(7, 16))]:
-        assert shares[display][0] == (8, 0, 0)
-        assert sorted(shares[display][1:]) == [(12, c, r) for c in columns for r in range(5)]
+    for display, columns in [("r2c2", range(4)), ("r2c3", range(3, 8))]:
+        assert shares[display][0] == (9, 0, 0)
+        assert sorted(shares[display][1:]) == [(12, c, r) for c in columns for r in range(3)]
     assert not any(tiles for display, tiles in shares.items() if display not in {"r2c2", "r2c3"})
 
 

@@ -216,15 +216,15 @@ def test_an_instructor_gives_a_whole_lesson_from_the_dashboard_and_takes_it_else
             shot, expected_tile(pixels, displays[other], wall["stage"], state["view"])
         )
         assert own < 8 < theirs, (name, own, theirs)
-    # Each display fetched only the pyramid tiles it shows, each once: of level 12's 16
-    # columns (256 px each), the left display columns 0-7 (up to image x 1994), the right
-    # one 7-15 (from x 2006: column 7 straddles the bezel), all 5 rows; the other
+    # Each display fetched only the pyramid tiles it shows, each once: of level 12's 8
+    # columns (512 px each), the left display columns 0-3 (up to image x 1994), the right
+    # one 3-7 (from x 2006: column 3 straddles the bezel), all 3 rows; the other
     # displays none at all.
     pyramid = re.compile(rf"/apps/image/images/{image}/(\d+)/(\d+)_(\d+)\.jpg$")
-    for name, columns in [("r2c2", range(8)), ("r2c3", range(7, 16))]:
+    for name, columns in [("r2c2", range(4)), ("r2c3", range(3, 8))]:
         found = [m.groups() for url in fetched[name] if (m := pyramid.search(url))]
         level_12 = sorted((int(col), int(row)) for level, col, row in found if level == "12")
-        assert level_12 == [(col, row) for col in columns for row in range(5)], (name, found)
+        assert level_12 == [(col, row) for col in columns for row in range(3)], (name, found)
     assert not any(
         pyramid.search(url) for name in DEMO if name not in STAGE for url in fetched[name]
     )
