@@ -44,6 +44,8 @@ from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, Orientation, PlanePin
+from webapp.apps.census_map import importer
+from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY
 from webapp.cli.testing import fresh_database, wait_until
 from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
@@ -225,11 +227,35 @@ class _ShippedAtlas:
 _SHIPPED_ATLAS = _ShippedAtlas()
 
 
+class _ShippedCensus:
+    """The shipped census data set read from its files once per test process (a second
+    or more of parsing and repairing outlines for every test that puts the map on the
+    wall); each test's database still stores it for itself. Anything else is read for
+    real."""
+
+    def __init__(self) -> None:
+        self._read = importer.read_files  # the real one, saved before it is patched
+        self._files: importer.DataSetFiles | None = None
+        self._guard = threading.Lock()
+
+    def read_files(self, *, shapes: Path, key: str, **options: Any) -> importer.DataSetFiles:
+        if any(options.values()) or key != SHIPPED_KEY or shapes.resolve() != SHIPPED.resolve():
+            return self._read(shapes=shapes, key=key, **options)
+        with self._guard:
+            if self._files is None:
+                self._files = self._read(shapes=shapes, key=key)
+            return self._files
+
+
+_SHIPPED_CENSUS = _ShippedCensus()
+
+
 @pytest.fixture(autouse=True)
-def _brain_volume_built_once(monkeypatch: pytest.MonkeyPatch) -> None:
+def _shipped_content_read_once(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(brain_app, "build_store", _mni152_once)
     monkeypatch.setattr(AtlasVolumes, "load", _SHIPPED_ATLAS.load)
     monkeypatch.setattr(pins, "visible_regions", _SHIPPED_ATLAS.visible_regions)
+    monkeypatch.setattr(importer, "read_files", _SHIPPED_CENSUS.read_files)
 
 
 @pytest.fixture(scope="session")
