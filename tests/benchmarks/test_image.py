@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
@@ -24,6 +23,7 @@ from benchmarks.image import (
     synthesise,
 )
 from tests.conftest import operator_headers, wall_files
+from tests.webapp.apps.image.samples import node_answer
 from wall_client.config import load_wall
 from webapp.apps.image.store import ImageManifest, deep_zoom_levels
 from webapp.core.settings import Settings
@@ -93,14 +93,7 @@ def test_the_share_rule_is_the_layers() -> None:
             pyramid.tilesIn(shown, placed, rect).map(([col, row]) => [shown, col, row]));
         }})));
     """
-    out = subprocess.run(
-        ["node", "--input-type=module", "-e", script],
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=30,
-    )
-    layer = json.loads(out.stdout)
+    layer = node_answer(script)
     assert len(layer) == len(ours) == 50 * 3 + 6
     assert sum(len(tiles) for tiles in ours) > 1000
     assert layer == ours

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import struct
+import subprocess
 import zlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -41,3 +44,16 @@ def png_declaring(path: Path, width: int, height: int) -> Path:
         + _chunk(b"IEND", b"")
     )
     return path
+
+
+def node_answer(script: str) -> Any:
+    """What an ES module ``script`` prints as JSON under Node: the image layer's own
+    answers, to hold a Python copy of one of its rules to them."""
+    out = subprocess.run(
+        ["node", "--input-type=module", "-e", script],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=30,
+    )
+    return json.loads(out.stdout)

@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
 
 from tests.conftest import wall_files
+from tests.webapp.apps.image.samples import node_answer
 from wall_client.config import load_wall
 from wall_client.layout import Rect
 from webapp.apps.image import hotspots
@@ -52,14 +52,7 @@ def test_the_framing_rule_is_the_layers() -> None:
           new Pyramid({{id: "x", width, height, tile_size: 256, levels: 15}})
             .placement(stage, view))));
     """
-    out = subprocess.run(
-        ["node", "--input-type=module", "-e", script],
-        capture_output=True,
-        text=True,
-        check=True,
-        timeout=30,
-    )
-    layer = json.loads(out.stdout)
+    layer = node_answer(script)
     ours = [placement(w, h, Rect(*stage), view) for w, h, stage, view in CASES]
     assert len(layer) == len(CASES)
     for mine, theirs in zip(ours, layer, strict=True):
