@@ -9,7 +9,8 @@ redis-server, with a key prefix of their own.
 their worker's block (``server_port``), and tests marked ``alone`` run with nothing
 beside them. Apps open the demo wall only, unless a test's ``walls`` marker names
 others. What is costly and only read is made once per worker: the migrated SQLite
-file each test's database starts as (``migrate``) and the brain atlas's volume store.
+file each test's database starts as (``migrate``), the brain atlas's volume store, and
+the shipped atlas's volumes and the pictures of them per view (``_ShippedAtlas``).
 """
 
 from __future__ import annotations
@@ -44,8 +45,6 @@ from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME, AtlasVolumes, Orientation, PlanePin
-from webapp.apps.census_map import importer
-from webapp.apps.census_map.store import SHIPPED, SHIPPED_KEY
 from webapp.cli.testing import fresh_database, wait_until
 from webapp.core.settings import CONTENT_DIR, Settings
 from webapp.database.connection import Database
@@ -227,35 +226,11 @@ class _ShippedAtlas:
 _SHIPPED_ATLAS = _ShippedAtlas()
 
 
-class _ShippedCensus:
-    """The shipped census data set read from its files once per test process (a second
-    or more of parsing and repairing outlines for every test that puts the map on the
-    wall); each test's database still stores it for itself. Anything else is read for
-    real."""
-
-    def __init__(self) -> None:
-        self._read = importer.read_files  # the real one, saved before it is patched
-        self._files: importer.DataSetFiles | None = None
-        self._guard = threading.Lock()
-
-    def read_files(self, *, shapes: Path, key: str, **options: Any) -> importer.DataSetFiles:
-        if any(options.values()) or key != SHIPPED_KEY or shapes.resolve() != SHIPPED.resolve():
-            return self._read(shapes=shapes, key=key, **options)
-        with self._guard:
-            if self._files is None:
-                self._files = self._read(shapes=shapes, key=key)
-            return self._files
-
-
-_SHIPPED_CENSUS = _ShippedCensus()
-
-
 @pytest.fixture(autouse=True)
 def _shipped_content_read_once(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(brain_app, "build_store", _mni152_once)
     monkeypatch.setattr(AtlasVolumes, "load", _SHIPPED_ATLAS.load)
     monkeypatch.setattr(pins, "visible_regions", _SHIPPED_ATLAS.visible_regions)
-    monkeypatch.setattr(importer, "read_files", _SHIPPED_CENSUS.read_files)
 
 
 @pytest.fixture(scope="session")
