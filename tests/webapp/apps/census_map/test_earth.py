@@ -66,6 +66,7 @@ from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Theme
 from webapp.choropleth.palettes import MAX_CLASSES
 from webapp.core.settings import CONTENT_DIR
+from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import Balloon, View
 from webapp.tags.schemas import PlacedCode
 
@@ -581,6 +582,18 @@ def test_each_earth_opens_its_display_and_follows_the_wall(client: TestClient) -
     assert overlays[1].findtext("k:name", namespaces=NS) == codes[0].label
     other = f"/apps/census/earth/demo/captions/{state.tag_layout}/NOSUCHCODE.png"
     assert client.get(other).status_code == 404
+    # a stored caption wider than its display (placement never makes one) is no image
+    # of millions of pixels but a 404
+    wide = dict(codes[0].model_dump(mode="json"), caption=[0.0, 0.0, 1e7, 20.0])
+    with services_of(client).db.session() as session:
+        record = TagLayoutRecord(
+            wall_id="demo", tag_set=None, inputs_hash="wide", placed=[wide], unplaced=[]
+        )
+        session.add(record)
+        session.flush()
+        wide_layout = record.id
+    wide_caption = f"/apps/census/earth/demo/captions/{wide_layout}/{codes[0].code}.png"
+    assert client.get(wide_caption).status_code == 404
     assert client.get("/apps/census/earth/demo/captions/0/X.png").status_code == 422
 
 
