@@ -19,7 +19,7 @@ import tomllib
 import zipfile
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any
 
@@ -122,18 +122,6 @@ class _Feature:
     properties: Mapping[str, Any]
 
 
-@dataclass(frozen=True)
-class DataSetFiles:
-    """A data set read from its files and checked, not stored yet: what an import
-    stores, and its report (``dataset_id`` 0 until stored)."""
-
-    name: str
-    settings: DataSetSettings
-    rows: tuple[store.TractRow, ...]
-    source: str
-    report: ImportReport
-
-
 def import_files(
     db: Database,
     *,
@@ -146,23 +134,6 @@ def import_files(
 ) -> ImportReport:
     """Import ``shapes`` (joined to ``tables`` by ``key`` when given) as a new data set
     and make it current; :class:`CensusImportError` says why when it cannot."""
-    read = read_files(
-        shapes=shapes, key=key, tables=tables, settings=settings, name=name, strict=strict
-    )
-    dataset_id = store.save(db, read.name, read.settings, read.rows, source=read.source)
-    return replace(read.report, dataset_id=dataset_id)
-
-
-def read_files(
-    *,
-    shapes: Path,
-    key: str,
-    tables: Sequence[Path] = (),
-    settings: Path | None = None,
-    name: str | None = None,
-    strict: bool = False,
-) -> DataSetFiles:
-    """Read and check what :func:`import_files` stores, writing nothing."""
     name = name or shapes.stem
     if not 1 <= len(name) <= NAME_LENGTH:
         raise CensusImportError(f"a data set name has 1 to {NAME_LENGTH} characters: {name!r}")
@@ -204,8 +175,9 @@ def read_files(
     if name_column:
         chosen = chosen.model_copy(update={"name_column": name_column, "names": names})
     source = " + ".join(p.name for p in (shapes, *tables))
-    report = ImportReport(
-        dataset_id=0,
+    dataset_id = store.save(db, name, chosen, rows, source=source)
+    return ImportReport(
+        dataset_id=dataset_id,
         name=name,
         tracts=len(rows),
         attributes=tuple(attributes),
@@ -227,7 +199,6 @@ def read_files(
         ),
         named=len(names),
     )
-    return DataSetFiles(name, chosen, tuple(rows), source, report)
 
 
 def _name_column(
