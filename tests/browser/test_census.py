@@ -16,7 +16,12 @@ from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image, module_boxes, symbol_damage
-from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.conftest import (
+    assert_applied_at_one_instant,
+    open_tiles,
+    serve,
+    version_of,
+)
 from tests.conftest import walls_of
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine
@@ -118,8 +123,7 @@ def test_a_scanned_toggle_hides_its_group_on_every_tile_at_once(
     assert group.startswith("tracts-0001-") and all(
         shown(t, "hiddenGroups") == group for t in tiles.values()
     )
-    applied = [t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == changed]
-    assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+    assert_applied_at_one_instant(census, "demo", changed, 6)
     after = {tile: brown_share(page) for tile, page in tiles.items()}
     assert sum(after.values()) < sum(before.values()), "its tracts are gone from the wall"
 
@@ -202,8 +206,7 @@ def test_the_instructor_zooms_from_the_dashboard_and_codes_follow(
     assert census.status("demo")["state"]["view"]["zoom"] == 2.25
     zoomed = census.version("demo")
     wait_until(lambda: all(version_of(t) == zoomed for t in tiles.values()), what="tiles to follow")
-    applied = [t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == zoomed]
-    assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+    assert_applied_at_one_instant(census, "demo", zoomed, 6)
     _, after = fetch_layout(census.url, "demo", operator_token(census.secret))
     assert len(tract_codes(after)) > len(tract_codes(before)), "more tracts carry codes"
     dashboard.close()
@@ -528,10 +531,7 @@ def test_colouring_the_wall_by_a_value_reaches_every_tile_in_the_same_frame(
             what="every tile to apply the colouring",
         )
         assert all(shown(t, "censusTheme") == mark for t in tiles.values())
-        applied = [
-            t["applied_at"] for t in census.status("demo")["tiles"] if t["version"] == changed
-        ]
-        assert len(applied) == 6 and max(applied) - min(applied) < 50.0, applied
+        assert_applied_at_one_instant(census, "demo", changed, 6)
         map_tiles = [screenshot(tiles[t]) for t in ("r2c2", "r2c3")]
         assert colour_share(map_tiles[0], COLOURS["fill"], 8) < 0.0005, "no tract is left brown"
         for hex_colour in colours[:on_map]:

@@ -12,7 +12,12 @@ from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
 from tag_service.verify import decode_image
-from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.conftest import (
+    assert_applied_at_one_instant,
+    open_tiles,
+    serve,
+    version_of,
+)
 from wall_client.config import load_wall
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
@@ -108,10 +113,7 @@ def test_switching_the_tag_set_changes_the_codes_on_every_tile_at_once(
     version, after = current_layout(server)
     assert version > before_version and after.tag_set == "quiz"
     wait_until(lambda: all(version_of(p) == version for p in pages), what="tiles to switch sets")
-    applied = [t["applied_at"] for t in server.status("demo")["tiles"] if t["version"] == version]
-    # One scheduled swap: without it each tile would switch when its layout arrived,
-    # hundreds of ms apart. (The tighter bound is test_tiles' job.)
-    assert len(applied) == len(DEMO_TILES) and max(applied) - min(applied) < 50.0, applied
+    assert_applied_at_one_instant(server, "demo", version, len(DEMO_TILES))  # one swap
 
     quiz = {code.payload for code in after.placed if code.label.startswith("Quiz")}
     assert len(quiz) == 3

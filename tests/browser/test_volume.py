@@ -9,7 +9,7 @@ import numpy as np
 from PIL import Image
 from playwright.sync_api import Browser, Page, expect
 
-from tests.browser.conftest import open_tiles, version_of
+from tests.browser.conftest import assert_applied_at_one_instant, open_tiles, version_of
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
@@ -80,10 +80,8 @@ def test_the_dashboard_puts_the_brain_on_every_tile_and_turns_it(
         what="every tile to swap to the turned view",
     )
     # One swap for the whole wall: the tiles applied the new view at the same instant.
+    assert_applied_at_one_instant(server, "demo", shown + 1, len(DEMO))
     status = server.status("demo")
-    applied = [t["applied_at"] for t in status["tiles"] if t["version"] == shown + 1]
-    assert len(applied) == len(DEMO)
-    assert max(applied) - min(applied) < 100, applied
     assert status["state"]["view"]["yaw"] == 30
     wait_until(
         lambda: all(shows(t) == "refined 0" for t in tiles.values()),

@@ -253,10 +253,17 @@ def caption_png(text: str, size: tuple[int, int]) -> bytes:
 
 
 def _font(size: int) -> ImageFont.FreeTypeFont | ImageFont.ImageFont:
+    """The caption font, laid out by FreeType alone: Pillow's HarfBuzz layout (raqm)
+    draws nothing, or a glyph run millions of pixels wide, once libvips (the image app)
+    has put the system's FreeType in the process before Pillow's text engine loaded."""
+    basic = ImageFont.Layout.BASIC
     try:
-        return ImageFont.truetype(CAPTION_FONT, size)
+        return ImageFont.truetype(CAPTION_FONT, size, layout_engine=basic)
     except OSError:  # no DejaVu: Pillow's own sans-serif
-        return ImageFont.load_default(size)
+        default = ImageFont.load_default(size)
+        if isinstance(default, ImageFont.FreeTypeFont):
+            return default.font_variant(layout_engine=basic)
+        return default
 
 
 # --- views ---------------------------------------------------------------------------

@@ -562,15 +562,19 @@ def test_the_privilege_matrix(app: FastAPI) -> None:
                     if row.form is not None
                     else None
                 )
-                response = client.request(
-                    row.method,
-                    row.url,
-                    data=form,
-                    json=row.json,
-                    files=row.files,
-                    headers={"X-CSRF-Token": csrf} if row.json is not None else {},
-                    follow_redirects=False,
-                )
+                try:
+                    response = client.request(
+                        row.method,
+                        row.url,
+                        data=form,
+                        json=row.json,
+                        files=row.files,
+                        headers={"X-CSRF-Token": csrf} if row.json is not None else {},
+                        follow_redirects=False,
+                    )
+                except Exception as error:  # the server raised: say which request
+                    error.add_note(f"{role} {row.method} {row.url}")
+                    raise
                 got = outcome(response)
                 if got != expected:
                     failures.append(f"{role} {row.method} {row.url}: {got}, expected {expected}")

@@ -331,9 +331,5 @@ async def earth_caption(
     if placed is None or not placed.label or placed.caption is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
     _, _, width, height = mounted_box(wall, placed.display, placed.caption)
-    most_width, most_height = wall.display(placed.display).mounted_resolution
-    if not (0 < width <= most_width and 0 < height <= most_height):
-        # placement keeps a caption on its display: one that is not is no caption to draw
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "No such caption.")
     body = await run_blocking(caption_png, placed.label, (width, height))
     return Response(body, media_type="image/png", headers={"Cache-Control": IMMUTABLE})
