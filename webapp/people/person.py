@@ -185,8 +185,11 @@ def _store(
     values = {"session_id": visitor.session_id, **fields}
     change, add = _writes(tuple(sorted(values)))
     given = {"visitor_id": visitor.id, **{f"new_{name}": value for name, value in values.items()}}
+    # A visitor made by this request (no cookie, or one a rotation outdated) has a new
+    # random id no row can hold yet: one INSERT, not an UPDATE that finds nothing first.
+    new = not person.stored and not person.visitor.brought_cookie
     with db.engine.begin() as connection:
-        record = connection.execute(change, given).first()
+        record = None if new else connection.execute(change, given).first()
         if record is None:
             record = connection.execute(add, given).one()
         if action:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 from sqlalchemy import event, select
 
@@ -107,17 +109,34 @@ def test_a_registration_writes_the_row_and_reads_it_back_in_one_statement(
     finally:
         event.remove(db.engine, "before_cursor_execute", executed)
     # the SELECTs: the newcomer's row (none yet) and the address rules, then the write
-    # (an UPDATE of no row, then the INSERT) and the rules the person is made with
+    # (the INSERT alone: a visitor this request made has an id no row holds) and the
+    # rules the person is made with
     assert registered == [
         "SELECT VISITORS.ID, VISITORS.SESSION_ID,",
         "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,",
-        "UPDATE VISITORS SET",
         "INSERT INTO VISITORS",
         "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,",
     ]
     assert statements == ["UPDATE VISITORS SET", "SELECT ADDRESS_RULES.ID, ADDRESS_RULES.NETWORK,"]
     assert changed.display_name == "Ann" and changed.user_group == "medical"
     assert load_person(db, first.visitor, HERE, settings) == changed
+
+
+def test_a_cookie_without_a_row_is_stored_by_an_update_or_an_insert(
+    db: Database, settings: Settings
+) -> None:
+    """A phone that brought a cookie may have its row already (written by another of its
+    requests meanwhile): its write tries the UPDATE first and never fails on the key."""
+    brought = replace(Visitor.fresh(), brought_cookie=True)
+    first = load_person(db, brought, HERE, settings)
+    second = load_person(db, brought, HERE, settings)
+    assert not first.stored and not second.stored
+    assume(db, first, "student", settings, HERE)
+    stored = update_profile(
+        db, second, settings, user_group="medical", info_class=2, display_name=""
+    )
+    assert stored.stored and stored.user_group == "medical"
+    assert visitor_row(db, brought.id).user_group == "medical"
 
 
 def test_grant_rotates_the_session_and_is_audited(db: Database, settings: Settings) -> None:
