@@ -66,22 +66,22 @@ def settle(server: ServerProcess, tiles: dict[str, Page]) -> None:
 
 
 def control(server: ServerProcess, **choice: Any) -> None:
-    response = httpx.post(
-        f"{server.url}/api/walls/demo/brain", json=choice, headers=server.operator(), timeout=60
+    response = server.http.post(
+        "/api/walls/demo/brain", json=choice, headers=server.operator(), timeout=60
     )
     response.raise_for_status()
 
 
 def brain_status(server: ServerProcess) -> dict[str, Any]:
-    response = httpx.get(f"{server.url}/api/walls/demo/brain", headers=server.operator())
+    response = server.http.get("/api/walls/demo/brain", headers=server.operator())
     response.raise_for_status()
     result: dict[str, Any] = response.json()
     return result
 
 
 def quiz_post(server: ServerProcess, action: str, **body: Any) -> None:
-    response = httpx.post(
-        f"{server.url}/api/walls/demo/brain/quiz/{action}",
+    response = server.http.post(
+        f"/api/walls/demo/brain/quiz/{action}",
         json=body,
         headers=server.operator(),
         timeout=60,
@@ -95,33 +95,34 @@ def caption_reads(
     """The pin number the caption under a code shows, read off the screenshot: the
     caption's strip is compared with every candidate drawn by the tile's own caption
     function; the one that matches best is what a person reads there."""
-    candidates = tile.evaluate(
+    # each candidate's green channel comes back as one Latin-1 string: a list of numbers
+    # per pixel costs Playwright's message checks more than the rest of the test
+    (px, py, pw, ph), candidates = tile.evaluate(
         """async ([caption, texts]) => {
           const {drawCaption, pixelBox} = await import("/static/js/codes.js");
           const viewport = JSON.parse(document.body.dataset.viewport);
           const [a, b] = viewport.to_pixels;
           const box = pixelBox(viewport.to_pixels, ...caption);
-          return texts.map((text) => {
-            const canvas = new OffscreenCanvas(1920, 1080);
-            const ctx = canvas.getContext("2d");
+          const canvas = new OffscreenCanvas(1920, 1080);
+          const ctx = canvas.getContext("2d");
+          return [box, texts.map((text) => {
+            ctx.clearRect(0, 0, canvas.width, canvas.height);
             drawCaption(ctx, text, box, Math.atan2(b, a));
             const data = ctx.getImageData(...box).data;
-            const grey = [];
-            for (let i = 0; i < data.length; i += 4) grey.push(data[i + 1]);
-            return [box, grey];
-          });
+            let green = "";
+            for (let i = 0; i < data.length; i += 4) green += String.fromCharCode(data[i + 1]);
+            return green;
+          })];
         }""",
         [list(caption), [f"Pin {n}" for n in range(1, total + 1)]],
     )
-    green = np.asarray(image.convert("RGB"))[:, :, 1]
+    seen = np.asarray(image.convert("RGB"))[py : py + ph, px : px + pw, 1].astype(int).ravel()
     scores = []
-    for number, ((px, py, pw, ph), expected) in enumerate(candidates, start=1):
-        seen = green[py : py + ph, px : px + pw].ravel().tolist()
+    for number, green in enumerate(candidates, start=1):
+        expected = np.frombuffer(green.encode("latin-1"), dtype=np.uint8).astype(int)
         if len(seen) != len(expected):  # the strip would leave the display
             continue
-        scores.append(
-            (sum(abs(a - b) for a, b in zip(seen, expected, strict=True)) / len(seen), number)
-        )
+        scores.append((float(np.abs(seen - expected).mean()), number))
     best, number = min(scores)
     assert best < 8, f"no caption reads as a pin number in the strip at {caption}"
     return number
@@ -132,6 +133,7 @@ def pins_seen(server: ServerProcess, tiles: dict[str, Page]) -> dict[int, str]:
     number read off the caption under its code."""
     layout = layout_of(server)
     placed = {c.payload: c for c in layout.placed}
+    total = len(load_content().in_set("k5" if layout.tag_set == "brain-k5" else "full"))
     found: dict[int, str] = {}
     for tile in FREE:
         image = Image.open(io.BytesIO(tiles[tile].screenshot(type="png")))
@@ -140,7 +142,6 @@ def pins_seen(server: ServerProcess, tiles: dict[str, Page]) -> dict[int, str]:
             if entry is None or not entry.label.startswith("Pin "):
                 continue
             number = int(entry.label.removeprefix("Pin "))
-            total = len(load_content().in_set("k5" if layout.tag_set == "brain-k5" else "full"))
             assert entry.caption is not None, f"pin {number} has no caption"
             assert caption_reads(tiles[tile], image, entry.caption, total) == number
             found[number] = code.payload

@@ -54,10 +54,19 @@ class ServerProcess:
     extra_env: dict[str, str] = field(default_factory=dict)
     command: list[str] | None = None  # default: `tagwall serve`
     process: subprocess.Popen[bytes] | None = None
+    _http: httpx.Client | None = field(default=None, init=False, repr=False)
 
     @property
     def url(self) -> str:
         return f"http://127.0.0.1:{self.port}"
+
+    @property
+    def http(self) -> httpx.Client:
+        """One client while the server runs: a new client loads the CA bundle (about
+        10 ms of CPU), and tests poll the server many times a second."""
+        if self._http is None:
+            self._http = httpx.Client(base_url=self.url, timeout=10)
+        return self._http
 
     @property
     def log(self) -> Path:
@@ -81,6 +90,7 @@ class ServerProcess:
         }
 
     def start(self) -> None:
+        self._close_http()  # a process killed outside stop() left its connections behind
         self.var_dir.mkdir(parents=True, exist_ok=True)
         tagwall = Path(sys.executable).with_name("tagwall")
         with self.log.open("ab") as log:
@@ -99,7 +109,7 @@ class ServerProcess:
         if self.process.poll() is not None:
             raise RuntimeError(f"the server exited:\n{self.log.read_text()[-3000:]}")
         try:
-            return httpx.get(f"{self.url}/healthz", timeout=1).status_code == 200
+            return self.http.get("/healthz", timeout=1).status_code == 200
         except httpx.HTTPError:
             return False
 
@@ -112,6 +122,13 @@ class ServerProcess:
                 self.process.kill()
                 self.process.wait()
         self.process = None
+        self._close_http()
+
+    def _close_http(self) -> None:
+        """Drop the client: its connections were to a process that is gone."""
+        if self._http is not None:
+            self._http.close()
+            self._http = None
 
     def tile_url(self, wall: str, tile: str, *, scheme: str = "http") -> str:
         base = self.url.replace("http", scheme, 1) + ("/ws" if scheme == "ws" else "")
@@ -122,7 +139,7 @@ class ServerProcess:
 
     def change(self, wall: str, patch: dict[str, Any], client: httpx.Client | None = None) -> int:
         """Change a wall's state as the operator does; returns the new version."""
-        post = client.post if client is not None else httpx.post
+        post = (client or self.http).post
         # a heavy change (the census map's first import, placing codes) takes seconds
         # on a loaded machine: slow, not wrong
         response = post(
@@ -132,7 +149,7 @@ class ServerProcess:
         return int(response.json()["version"])
 
     def status(self, wall: str) -> dict[str, Any]:
-        response = httpx.get(f"{self.url}/api/walls/{wall}/status", headers=self.operator())
+        response = self.http.get(f"/api/walls/{wall}/status", headers=self.operator())
         response.raise_for_status()
         result: dict[str, Any] = response.json()
         return result
