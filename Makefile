@@ -43,9 +43,19 @@ $(DEMO_VOLUME)/volume.json: $(MNI) $(STAMP)
 # from its own origin at /static/cesium (the census map's globe), and axe-core, the
 # accessibility audit the browser tests inject into pages (never served to users). npm
 # comes with Node.js; Debian's npm package where it does not.
+#
+# One string of CesiumJS is replaced: the knockout it bundles (for widgets tagwall does
+# not use) finds the global object with (0,eval)("this") as the module is imported,
+# which the Content-Security-Policy of every page (no 'unsafe-eval') refuses, and the
+# import fails. globalThis is what it finds; the recipe fails when the string is still
+# there, or no longer there to replace (another CesiumJS: look again).
+CESIUM_MODULE := node_modules/cesium/Build/Cesium/index.js
 $(NODE_MODULES): package.json package-lock.json
 	@command -v npm >/dev/null || $(MAKE) --no-print-directory system SYSTEM_PACKAGES=npm
 	npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
+	grep -qF '(0,eval)("this")' $(CESIUM_MODULE)
+	sed -i 's/(0,eval)("this")/globalThis/' $(CESIUM_MODULE)
+	! grep -qF '(0,eval)("this")' $(CESIUM_MODULE)
 	touch $@
 
 # Debian packages: the browser for tests and kiosks, zbar for decoding QR codes, libvips

@@ -63,7 +63,8 @@ log = logging.getLogger(__name__)
 OUTAGE_RETRY_S = 5
 STATIC_DIR = PROJECT_ROOT / "static"
 # CesiumJS from the npm registry (package.json; `make run` installs it with `npm ci`),
-# served from our own origin: its modules, workers and bundled Natural Earth imagery.
+# served from our own origin: its module, workers and bundled Natural Earth imagery
+# (the Makefile replaces one string in it, see there).
 CESIUM_DIR = PROJECT_ROOT / "node_modules" / "cesium" / "Build" / "Cesium"
 CESIUM_URL = "/static/cesium"
 
@@ -120,7 +121,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for wall_app in services.apps.values():  # before /static, which would take their paths
         if wall_app.static:
             app.mount(static_url(wall_app.name), StaticFiles(directory=wall_app.static))
-    # Not installed (no `npm ci`): a 404, and tiles asked for the globe keep the flat map.
+    # Not installed (no `npm ci`): a 404 for each of its files.
     app.mount(CESIUM_URL, StaticFiles(directory=CESIUM_DIR, check_dir=False))
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     # Routes are tried in order, each at a cost: what phones ask for most (scans and

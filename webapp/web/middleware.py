@@ -12,23 +12,14 @@ from webapp.people.addresses import Network, client_address, is_trusted_peer
 from webapp.people.visitors import Visitor, cookie_header
 from webapp.web.templating import IMPORT_MAP_HASH
 
-# Scripts and styles only from our own static files, nothing foreign; the one inline
-# script is the import map, allowed by its hash.
-CONTENT_SECURITY_POLICY = (
-    f"default-src 'self'; script-src 'self' '{IMPORT_MAP_HASH}'; style-src 'self'; "
-    "img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; "
-    "base-uri 'none'; form-action 'self'"
-)
-TILE_CONTENT_SECURITY_POLICY = CONTENT_SECURITY_POLICY.replace(
-    "script-src 'self'", "script-src 'self' blob: 'unsafe-eval' 'wasm-unsafe-eval'"
-).replace("default-src 'self';", "default-src 'self'; worker-src 'self' blob:;")
-"""A tile page's: still only our own scripts, which may evaluate code (CesiumJS, the
-census globe, evaluates a string as it loads, compiles WebAssembly and starts its
-workers from blobs). Tiles show
-what the server sends them and take no input of their own."""
-
 HEADERS = {
-    "content-security-policy": CONTENT_SECURITY_POLICY,
+    # Scripts and styles only from our own static files, nothing foreign; the one inline
+    # script is the import map, allowed by its hash.
+    "content-security-policy": (
+        f"default-src 'self'; script-src 'self' '{IMPORT_MAP_HASH}'; style-src 'self'; "
+        "img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; "
+        "base-uri 'none'; form-action 'self'"
+    ),
     "x-frame-options": "DENY",
     "x-content-type-options": "nosniff",
     "referrer-policy": "same-origin",

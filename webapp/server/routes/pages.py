@@ -13,7 +13,6 @@ from webapp.publishing.screen import screen_layout
 from webapp.server.deps import ServicesDep
 from webapp.server.schemas import WallInfo
 from webapp.web.deps import TileDep, TileTokenDep, WallDep
-from webapp.web.middleware import TILE_CONTENT_SECURITY_POLICY
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)
@@ -38,7 +37,7 @@ def tile_page(
     viewport = ViewportInfo.of(wall.viewport(tile.id))
     public = tile in wall.screen("public")
     layout = screen_layout(wall, services.settings) if public else None
-    page = render(
+    return render(
         request,
         "tile.html",
         wall=wall,
@@ -49,8 +48,6 @@ def tile_page(
         public_screen_json=layout.model_dump_json() if layout else "",
         layers_json=json.dumps(layer_stacks(services.apps)),
     )
-    page.headers["content-security-policy"] = TILE_CONTENT_SECURITY_POLICY
-    return page
 
 
 @router.get("/wall/{wall_id}/overview")

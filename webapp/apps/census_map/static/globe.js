@@ -19,19 +19,16 @@ export function globeMissing() {
   return gl ? "" : "no WebGL";
 }
 
-// Cesium's classic build (window.Cesium), as a script of our own origin: its module
-// build evaluates a string at import (knockout, for widgets we do not use), which the
-// content security policy forbids.
+// Cesium's module build, from our own origin, under the pages' usual Content-Security-
+// Policy (no 'unsafe-eval', no blob: scripts): its workers start from
+// /static/cesium/Workers as modules of our origin (its classic build, Cesium.js, starts
+// them from blobs), and the one string it evaluated at import is replaced when it is
+// installed (the Makefile). What it still tries is refused and not needed here: a
+// WebAssembly probe for meshopt (glTF models) and protobuf's optional require.
 let cesiumLoading = null;
 function cesium() {
   window.CESIUM_BASE_URL = CESIUM_URL;
-  cesiumLoading ??= new Promise((resolve, reject) => {
-    const script = document.createElement("script");
-    script.src = `${CESIUM_URL}Cesium.js`;
-    script.onload = () => resolve(window.Cesium);
-    script.onerror = () => reject(new Error("CesiumJS is not installed (npm ci)"));
-    document.head.append(script);
-  });
+  cesiumLoading ??= import(`${CESIUM_URL}index.js`);
   return cesiumLoading;
 }
 
