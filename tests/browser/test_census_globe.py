@@ -1,6 +1,7 @@
 """The census map on a globe (CesiumJS under Chromium's software GL): two neighbouring
 tiles of the demo wall, screenshot at native size, show one continuous globe across the
-bezel between them, with their codes still decoding."""
+bezel between them, with their codes still decoding; the dashboard switches the globe on
+and off and names a tile that cannot show it."""
 
 from __future__ import annotations
 
@@ -13,10 +14,11 @@ import httpx
 import numpy as np
 import pytest
 from PIL import Image
-from playwright.sync_api import Browser
+from playwright.sync_api import Browser, expect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.test_census import brown_share
 from webapp.apps.census_map.mapview import COLOURS
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
@@ -89,3 +91,55 @@ def test_the_globe_runs_on_across_the_bezel_and_its_codes_scan(
     print(f"first globe frame on both tiles after {first_frame_s:.1f} s")
     for page in pages:
         page.context.close()
+
+
+# A kiosk whose browser has no WebGL: every WebGL context it asks for is refused.
+NO_WEBGL = """
+const getContext = HTMLCanvasElement.prototype.getContext;
+HTMLCanvasElement.prototype.getContext = function (kind, ...rest) {
+  return String(kind).startsWith("webgl") || kind === "experimental-webgl"
+    ? null : getContext.call(this, kind, ...rest);
+};
+"""
+
+
+def test_the_dashboard_switches_to_the_globe_and_names_a_tile_without_webgl(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    process = serve(tmp_path, database_url, ("demo",))
+    try:
+        process.change("demo", {"app": "census"})
+        context = browser.new_context(viewport={"width": 480, "height": 270})
+        context.add_init_script(NO_WEBGL)
+        tile = context.new_page()
+        tile.goto(process.tile_url("demo", "r2c2"))
+        dashboard = browser.new_page()
+        dashboard.goto(f"{process.url}/login/operator?token={operator_token(process.secret)}")
+        flat = dashboard.locator('#census-surface [data-surface="flat"]')
+        on_globe = dashboard.locator('#census-surface [data-surface="globe"]')
+        expect(flat).to_have_attribute("aria-pressed", "true")
+        wait_until(
+            lambda: tile.evaluate("document.body.dataset.censusSurface") == "flat",
+            what="the tile to show the flat map",
+        )
+        notes = dashboard.locator("#tiles tr", has_text="r2c2").locator("td").last
+        expect(notes).to_have_text("")
+
+        on_globe.click()
+        expect(on_globe).to_have_attribute("aria-pressed", "true")
+        assert process.status("demo")["state"]["apps"]["census"]["surface"] == "globe"
+        wait_until(
+            lambda: tile.evaluate("document.body.dataset.censusSurface") == "flat: no WebGL",
+            what="the tile without WebGL to keep the flat map",
+        )
+        expect(notes).to_have_text("r2c2 shows the flat map: no WebGL")
+        assert brown_share(tile) > 0.02  # the flat map, drawn
+
+        flat.click()
+        expect(flat).to_have_attribute("aria-pressed", "true")
+        expect(notes).to_have_text("")
+        assert tile.evaluate("document.body.dataset.censusSurface") == "flat"
+        context.close()
+        dashboard.close()
+    finally:
+        process.stop()

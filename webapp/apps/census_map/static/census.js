@@ -369,6 +369,10 @@ export function createLayer({wall, displays}) {
       }
     },
     codes: (layout, {state, display}) => codesShown(layout, views.get(display.id), state),
+    notes(state) {
+      const why = CensusViews.globeKeyOf(state) != null ? globe?.missing : "";
+      return why ? [`shows the flat map: ${why}`] : [];
+    },
     marks(state) {
       const loaded = displays.length === 1 ? views.get(displays[0].id) : null;
       const view = loaded?.get(state);
@@ -377,7 +381,7 @@ export function createLayer({wall, displays}) {
       return {
         census: view ? `${view.dataset} ${view.tracts.length}` : "",
         censusTheme: theme ? `${censusOf(state).theme.attribute} ${theme.classes.length}` : "",
-        // "globe" when it shows, "flat: <why>" when a tile asked for it cannot
+        // "globe" when it shows, "flat: <why>" when a tile asked for it cannot (its note)
         censusSurface: !onGlobe ? "flat"
           : (globe?.missing ? `flat: ${globe.missing}` : (globe?.look(state, loaded) ? "globe" : "")),
       };
