@@ -35,6 +35,14 @@ def wall_middle(wall: Wall) -> tuple[float, float]:
     return ((x0 + x1) / 2, (y0 + y1) / 2)
 
 
+def wall_eye(wall: Wall) -> dict[str, float]:
+    """Where the wall's one eye stands: ``seat_distance_m`` in front of the middle of
+    the scene (scene mm). Each display's frustum is its rectangle seen from here
+    (``static/frustum.js``)."""
+    x, y = wall_middle(wall)
+    return {"x": x, "y": y, "distance_mm": wall.seat_distance_m * 1000}
+
+
 def ground_m_per_unit(latitude: float) -> float:
     """Metres of ground east-west per unit of the map's plane (a degree of longitude
     times cos(lat0)) on the WGS84 ellipsoid: its prime vertical radius, per radian."""
@@ -46,15 +54,14 @@ def globe_camera(geometry: MapGeometry, wall: Wall, view: View) -> dict[str, Any
     """The wall's one camera: the eye (scene mm of the middle and its distance), and
     where it stands over the Earth (longitude, latitude, height in metres)."""
     project = projection(geometry, wall, view)
-    middle = wall_middle(wall)
-    longitude, latitude = geometry.to_lonlat(*project.to_plane(*middle))
+    eye = wall_eye(wall)
+    longitude, latitude = geometry.to_lonlat(*project.to_plane(eye["x"], eye["y"]))
     metres_per_mm = ground_m_per_unit(geometry.lat0) / project.scale
-    distance_mm = wall.seat_distance_m * 1000
     return {
-        "eye": {"x": middle[0], "y": middle[1], "distance_mm": distance_mm},
+        "eye": eye,
         "longitude": longitude,
         "latitude": latitude,
-        "height_m": distance_mm * metres_per_mm,
+        "height_m": eye["distance_mm"] * metres_per_mm,
     }
 
 
