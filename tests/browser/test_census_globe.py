@@ -42,6 +42,36 @@ def globe(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
     process.stop()
 
 
+def edge_width(picture: np.ndarray) -> float:
+    """The median number of rows, down the columns, that a crossing from the fill to
+    the imagery around the county takes (half-way colours in between): 1 to 2 when
+    sharp. Outlines, codes and captions are not the imagery."""
+    fill, line = ([int(COLOURS[k][i : i + 2], 16) for i in (1, 3, 5)] for k in ("fill", "outline"))
+    distance = np.abs(picture.astype(int) - fill).max(axis=2)
+    far = (
+        (distance >= 60)
+        & (np.abs(picture.astype(int) - line).max(axis=2) > 40)
+        & (picture.max(axis=2) < 200)
+    )
+    widths = []
+    for column in picture.shape[1] // 16 * np.arange(1, 16):
+        d = distance[:, column]
+        inside, outside = d <= 12, far[:, column]
+        row = 0
+        while row < len(d) - 1:
+            if inside[row] and not inside[row + 1]:
+                end = row + 1
+                while end < len(d) and not inside[end] and not outside[end]:
+                    end += 1
+                if end < len(d) and outside[end]:
+                    widths.append(end - row)
+                row = end
+            else:
+                row += 1
+    assert widths, "the fill meets something"
+    return float(np.median(widths))
+
+
 def fill_mask(picture: np.ndarray) -> np.ndarray:
     r, g, b = (int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5))
     return np.abs(picture.astype(int) - [r, g, b]).max(axis=2) <= 12
@@ -69,6 +99,10 @@ def test_the_globe_runs_on_across_the_bezel_and_its_codes_scan(
     # Not blank: Natural Earth around the county, the county's tracts on it.
     for shot in shots:
         assert shot.std() > 20 and fill_mask(shot).mean() > 0.02
+    # At the display's own pixels: the county's fill meets the imagery within a few
+    # pixels (a picture drawn smaller and scaled up blurs it over a dozen and more).
+    for shot in shots:
+        assert edge_width(shot) <= 3, edge_width(shot)
     # The codes decode from the screenshots, every one placed on these tiles.
     _, layout = fetch_layout(globe.url, "demo", operator_token(globe.secret))
     for tile, shot in zip(TILES, shots, strict=True):

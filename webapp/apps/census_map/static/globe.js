@@ -101,6 +101,11 @@ export class Globe {
       contextOptions: {webgl: {preserveDrawingBuffer: true, alpha: false}},
     });
     this.widget.resolutionScale = 1;
+    // Cesium sizes its canvas by its stylesheet (widgets.css, not loaded here): without
+    // these the canvas keeps the default 300 x 150 and the picture is that, scaled up.
+    for (const element of [this.widget.canvas.parentElement, this.widget.canvas]) {
+      Object.assign(element.style, {width: "100%", height: "100%"});
+    }
     const scene = this.widget.scene;
     scene.backgroundColor = Cesium.Color.fromCssColorString("#05070a");
     scene.fog.enabled = false;
