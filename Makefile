@@ -9,17 +9,17 @@ SYSTEM_STAMP := var/.system-packages
 SYSTEM_PACKAGES := chromium libzbar0 redis-server libvips42
 MNI := content/brain_atlas/mni_icbm152_t1_tal_nlin_sym_09a.nii.gz
 DEMO_VOLUME := var/volumes/mni152
-AXE := node_modules/axe-core/axe.min.js
+NODE_MODULES := node_modules/.installed
 
 .PHONY: run test lint bench system clean
 
-run: $(STAMP) $(DEMO_VOLUME)/volume.json
+run: $(STAMP) $(DEMO_VOLUME)/volume.json $(NODE_MODULES)
 	$(BIN)/tagwall serve
 
 # Tests run in a worker per core (pytest-xdist); PYTEST_WORKERS=1 runs them in one.
 PYTEST_WORKERS ?= $(shell nproc 2>/dev/null || echo 2)
 
-test: $(STAMP) $(SYSTEM_STAMP) $(AXE) lint
+test: $(STAMP) $(SYSTEM_STAMP) $(NODE_MODULES) lint
 	$(BIN)/pytest -q -n $(PYTEST_WORKERS) --dist loadgroup
 
 lint: $(STAMP)
@@ -39,12 +39,23 @@ $(STAMP): pyproject.toml $(SYSTEM_STAMP)
 $(DEMO_VOLUME)/volume.json: $(MNI) $(STAMP)
 	$(BIN)/tagwall volume build $(MNI) $(DEMO_VOLUME)
 
-# axe-core from the npm registry, pinned by package-lock.json: the accessibility audit
-# the browser tests inject into pages (never served to users). npm comes with Node.js;
-# Debian's npm package where it does not.
-$(AXE): package.json package-lock.json
+# From the npm registry, pinned by package-lock.json: CesiumJS, which the server serves
+# from its own origin at /static/cesium (the census map's globe), and axe-core, the
+# accessibility audit the browser tests inject into pages (never served to users). npm
+# comes with Node.js; Debian's npm package where it does not.
+#
+# One string of CesiumJS is replaced: the knockout it bundles (for widgets tagwall does
+# not use) finds the global object with (0,eval)("this") as the module is imported,
+# which the Content-Security-Policy of every page (no 'unsafe-eval') refuses, and the
+# import fails. globalThis is what it finds; the recipe fails when the string is still
+# there, or no longer there to replace (another CesiumJS: look again).
+CESIUM_MODULE := node_modules/cesium/Build/Cesium/index.js
+$(NODE_MODULES): package.json package-lock.json
 	@command -v npm >/dev/null || $(MAKE) --no-print-directory system SYSTEM_PACKAGES=npm
 	npm ci --no-audit --no-fund --ignore-scripts --loglevel=error
+	grep -qF '(0,eval)("this")' $(CESIUM_MODULE)
+	sed -i 's/(0,eval)("this")/globalThis/' $(CESIUM_MODULE)
+	! grep -qF '(0,eval)("this")' $(CESIUM_MODULE)
 	touch $@
 
 # Debian packages: the browser for tests and kiosks, zbar for decoding QR codes, libvips

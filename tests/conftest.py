@@ -528,13 +528,16 @@ def build_test_volume(settings: Settings, name: str = "blobs") -> str:
 
 
 def routes_of(app: FastAPI) -> set[tuple[str, str]]:
-    """Every (method, path) the app answers, websockets as ``WS``."""
+    """Every (method, path) the app answers, websockets as ``WS``: the routes of
+    included routers too, however deeply nested (an app's router includes its rooms')."""
     found = set()
-    for included in app.routes:
-        router = getattr(included, "original_router", None)
-        for route in router.routes if router else [included]:
-            if isinstance(route, APIRoute):
-                found |= {(method, route.path) for method in route.methods}
-            elif isinstance(route, APIWebSocketRoute):
-                found.add(("WS", route.path))
+    pending: list[Any] = list(app.routes)
+    while pending:
+        route = pending.pop()
+        if (router := getattr(route, "original_router", None)) is not None:
+            pending.extend(router.routes)
+        elif isinstance(route, APIRoute):
+            found |= {(method, route.path) for method in route.methods}
+        elif isinstance(route, APIWebSocketRoute):
+            found.add(("WS", route.path))
     return found

@@ -15,6 +15,8 @@
 //   shown(state, redraw)         optional: after a frame is shown (refine an image)
 //   due(state, now)              optional: server ms when the picture changes by itself
 //   marks(state)                 optional: {key: text} a tile shows in its data-* marks
+//   notes(state)                 optional: [text] what it shows otherwise than asked
+//                                (a fallback), for the dashboard ("shows ... : why")
 import {inverse, multiply} from "./matrix.js";
 
 export class LayerStack {
@@ -51,6 +53,11 @@ export class LayerStack {
   due(state, now) {
     const times = this.of(state).map((layer) => layer.due?.(state, now)).filter((t) => t != null);
     return times.length ? Math.min(...times) : null;
+  }
+
+  /** What the layers shown draw otherwise than the state asks, in words. */
+  notes(state) {
+    return this.of(state).flatMap((layer) => layer.notes?.(state) ?? []);
   }
 
   /** Every layer's marks; a layer the state's app does not show marks nothing. */

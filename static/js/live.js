@@ -17,6 +17,7 @@ import {WallSocket, socketUrl} from "./wallsocket.js";
  */
 export function showLive(path, drawer, {
   reports = false, prepare = () => undefined, overlay = () => () => {}, shown = () => {},
+  notes = () => [],
 } = {}) {
   const body = document.body;
   const frames = new Frames(document.getElementById("scene"));
@@ -25,6 +26,7 @@ export function showLive(path, drawer, {
   const clock = () => socket.serverNow();
   const socket = new WallSocket(socketUrl(path), {
     reports,
+    notes,
     render(state, version) {
       const show = frames.prepare(drawer(state, clock));
       const showOverlay = overlay(state, clock);

@@ -14,7 +14,8 @@ export class WallSocket {
    *   now and return the function that shows it at the scheduled instant;
    *   onPrepare(changes, state) -> Promise: load what a heavy change (or a snapshot)
    *   needs; state is the whole state that change leads to;
-   *   onOnline(bool, reason); reports: whether to send ready/applied (tiles only)
+   *   onOnline(bool, reason); reports: whether to send ready/applied (tiles only);
+   *   notes(state) -> [text]: what the tile shows otherwise than asked, sent with applied
    */
   constructor(url, hooks) {
     this.url = url;
@@ -187,7 +188,10 @@ export class WallSocket {
     show();
     this.state = state;
     this.version = version;
-    if (this.hooks.reports) this.send({type: "applied", version, server_time: appliedAt});
+    if (this.hooks.reports) {
+      const notes = this.hooks.notes?.(state) ?? [];
+      this.send({type: "applied", version, server_time: appliedAt, notes});
+    }
   }
 
   // Drop everything scheduled: the next snapshot or replay is the truth.

@@ -18,7 +18,7 @@ import asyncio
 import json
 import logging
 import uuid
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
@@ -243,12 +243,18 @@ class WallHub:
             await self._report(wall_id, [status], ready=version)
 
     async def tile_applied(
-        self, wall_id: str, tile_id: str, version: int, server_time: float
+        self,
+        wall_id: str,
+        tile_id: str,
+        version: int,
+        server_time: float,
+        notes: Sequence[str] = (),
     ) -> None:
         status = self._tiles.get(wall_id, {}).get(tile_id)
         if status is not None:
             status.version = version
             status.applied_at = server_time
+            status.notes = list(notes)
             status.last_seen = now_ms()
             await self._report(wall_id, [status])
 

@@ -29,6 +29,7 @@ class TileStatus(BaseModel):
     version: int | None = None
     applied_at: float | None = None
     address: str | None = None
+    notes: list[str] = []  # what it shows otherwise than asked, as of its last applied
 
 
 class TilesHeard(BaseModel):

@@ -8,9 +8,18 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter
 
 from wall_client.layout import Viewport
+
+NOTE_CHARS = 200  # a note on the dashboard: one line
+MAX_NOTES = 8
+
+
+def _cut(limit: int) -> BeforeValidator:
+    """Longer than ``limit`` (a text, a list): cut, not refused (a tile's words about
+    itself never cost it its socket)."""
+    return BeforeValidator(lambda value: value[:limit] if isinstance(value, str | list) else value)
 
 
 class Message(BaseModel):
@@ -41,12 +50,18 @@ class Ready(Message):
     version: int = Field(ge=1)
 
 
+Note = Annotated[str, _cut(NOTE_CHARS)]
+
+
 class Applied(Message):
-    """Report: the tile drew ``version`` at ``server_time`` (its estimate, ms)."""
+    """Report: the tile drew ``version`` at ``server_time`` (its estimate, ms); ``notes``
+    say in words what it shows otherwise than asked (a layer's fallback), for the
+    dashboard."""
 
     type: Literal["applied"] = "applied"
     version: int = Field(ge=0)
     server_time: float
+    notes: Annotated[list[Note], _cut(MAX_NOTES)] = Field(default_factory=list)
 
 
 ClientMessage = Annotated[Hello | Ping | Ready | Applied, Field(discriminator="type")]

@@ -62,6 +62,11 @@ from webapp.web.templating import make_templates
 log = logging.getLogger(__name__)
 OUTAGE_RETRY_S = 5
 STATIC_DIR = PROJECT_ROOT / "static"
+# CesiumJS from the npm registry (package.json; `make run` installs it with `npm ci`),
+# served from our own origin: its module, workers and bundled Natural Earth imagery
+# (the Makefile replaces one string in it, see there).
+CESIUM_DIR = PROJECT_ROOT / "node_modules" / "cesium" / "Build" / "Cesium"
+CESIUM_URL = "/static/cesium"
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -116,6 +121,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     for wall_app in services.apps.values():  # before /static, which would take their paths
         if wall_app.static:
             app.mount(static_url(wall_app.name), StaticFiles(directory=wall_app.static))
+    # Not installed (no `npm ci`): a 404 for each of its files.
+    app.mount(CESIUM_URL, StaticFiles(directory=CESIUM_DIR, check_dir=False))
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     # Routes are tried in order, each at a cost: what phones ask for most (scans and
     # their app's pages) is tried first.

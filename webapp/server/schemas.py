@@ -85,6 +85,7 @@ class TileStatusInfo(BaseModel):
     version: int | None
     applied_at: float | None
     address: str | None
+    notes: list[str]  # what it shows otherwise than asked ("shows the flat map: no WebGL")
 
     @classmethod
     def of(cls, status: TileStatus) -> TileStatusInfo:

@@ -108,6 +108,7 @@ function showTiles(status) {
       cell(current.includes(tile) ? `+${(tile.applied_at - first).toFixed(1)} ms` : "–"),
       cell(seen),
       cell(tile.address ?? ""),
+      cell((tile.notes ?? []).map((note) => `${tile.tile_id} ${note}`).join("; ")),
     );
     return tr;
   }));

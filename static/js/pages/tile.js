@@ -39,6 +39,7 @@ showLive(
   {
     reports: true,
     prepare: (changes, state) => stack.load(state),
+    notes: (state) => stack.notes(state),
     overlay: (state, clock) => (publicScreen ? publicScreen.prepare(state.public, clock) : () => {}),
     shown: (state, redraw, clock) => {
       mark(state, clock);

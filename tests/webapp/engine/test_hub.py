@@ -144,14 +144,17 @@ async def test_a_change_does_not_queue_behind_a_full_shared_thread_pool(hub: Wal
 async def test_tile_status_tracks_connections_and_reports(hub: WallHub) -> None:
     await hub.tile_connected("demo", "r1c1", "10.0.0.5")
     await hub.tile_connected("demo", "r1c1", "10.0.0.5")
-    await hub.tile_applied("demo", "r1c1", 4, 123.0)
-    await hub.tile_disconnected("demo", "r1c1")
+    await hub.tile_applied("demo", "r1c1", 3, 100.0, ["shows the flat map: no WebGL"])
 
     def status() -> TileStatus:
         return hub.tile_statuses("demo").get("r1c1") or TileStatus(tile_id="r1c1")
 
+    await soon(lambda: status().version == 3)
+    assert status().notes == ["shows the flat map: no WebGL"]
+    await hub.tile_applied("demo", "r1c1", 4, 123.0)  # shows what was asked again
+    await hub.tile_disconnected("demo", "r1c1")
     await soon(lambda: status().version == 4 and status().connections == 1)
-    assert status().address == "10.0.0.5"
+    assert status().address == "10.0.0.5" and status().notes == []
     await hub.tile_disconnected("demo", "r1c1")
     await soon(lambda: hub.connected_tiles("demo") == [])
 

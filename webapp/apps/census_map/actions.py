@@ -14,7 +14,7 @@ from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
 from webapp.apps.census_map.rules import APP
-from webapp.apps.census_map.state import CensusState
+from webapp.apps.census_map.state import CensusState, Surface
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Theme
 from webapp.core.threads import run_blocking
@@ -80,6 +80,19 @@ async def colour_wall(
         )
 
     await context.plan_change(wall, colour)
+
+
+async def choose_surface(context: AppContext, wall: Wall, surface: Surface) -> None:
+    """Draw the map flat or on a globe, on every tile in the same frame (a heavy change:
+    tiles load the globe first). Raises :class:`MapChanged` when the census map is not
+    on the wall."""
+
+    def switch(state: WallState) -> WallState:
+        if state.app != APP:
+            raise MapChanged
+        return CensusState.of(state).model_copy(update={"surface": surface}).put(state)
+
+    await context.change_wall(wall, switch)
 
 
 async def toggle_group(context: AppContext, wall: Wall, group_id: str) -> bool:

@@ -185,7 +185,7 @@ class Connection:
                 await self.hub.tile_ready(self.wall.id, self.tile_id, message.version)
             elif isinstance(message, Applied):
                 await self.hub.tile_applied(
-                    self.wall.id, self.tile_id, message.version, message.server_time
+                    self.wall.id, self.tile_id, message.version, message.server_time, message.notes
                 )
 
     async def watch_token(self) -> None:

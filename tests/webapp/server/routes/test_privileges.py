@@ -237,6 +237,12 @@ def matrix(client: TestClient) -> list[Row]:
             PUBLIC,
         ),
         Row("GET", "/api/walls/{wall_id}/tiles/{tile_id}/census/theme", tile_theme, PUBLIC),
+        Row(
+            "GET",
+            "/api/walls/{wall_id}/census/globe",
+            f"/api/walls/kl-3x3/census/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1",
+            PUBLIC,
+        ),
         Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),
@@ -270,6 +276,13 @@ def matrix(client: TestClient) -> list[Row]:
             "/api/census/walls/kl-3x3/theme",
             STAFF_API,
             json={"theme": theme},
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/surface",
+            "/api/census/walls/kl-3x3/surface",
+            STAFF_API,
+            json={"surface": "flat"},
         ),
         Row("GET", "/api/census/schemes", "/api/census/schemes", STAFF_API),
         Row(

@@ -7,10 +7,13 @@ from pydantic import BaseModel, ConfigDict
 
 from webapp.apps.census_map import pages
 from webapp.apps.census_map.actions import (
+    MapChanged,
+    choose_surface,
     switch_dataset,
 )
 from webapp.apps.census_map.maps import census_maps
 from webapp.apps.census_map.routes.common import colour_or_refuse
+from webapp.apps.census_map.state import Surface
 from webapp.apps.census_map.store import list_datasets, make_current
 from webapp.choropleth.classes import Theme
 from webapp.choropleth.palettes import SCHEMES, colours, kind
@@ -86,6 +89,30 @@ async def choose_theme(wall: WallDep, choice: ThemeChoice, context: ContextDep) 
     tile changes in the same frame. 409 when the census map is not on the wall."""
     _, dataset = await pages.shown_dataset(census_maps(context), context, wall)
     await colour_or_refuse(context, wall, dataset, choice.theme)
+    return choice
+
+
+class SurfaceChoice(BaseModel):
+    """Where the tiles draw the map: ``flat`` or on a ``globe``."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    surface: Surface
+
+
+@router.post("/api/census/walls/{wall_id}/surface", dependencies=[StaffOnly], responses=errors(409))
+async def choose_wall_surface(
+    wall: WallDep, choice: SurfaceChoice, context: ContextDep
+) -> SurfaceChoice:
+    """Draw the map flat or on a globe (the dashboard); every tile changes in the same
+    frame, a tile without WebGL keeps the flat map. 409 when the census map is not on
+    the wall."""
+    try:
+        await choose_surface(context, wall, choice.surface)
+    except MapChanged:
+        raise HTTPException(
+            status.HTTP_409_CONFLICT, f"{wall.name} does not show the census map."
+        ) from None
     return choice
 
 

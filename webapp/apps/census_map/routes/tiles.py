@@ -11,6 +11,7 @@ from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.globe import globe_view
 from webapp.apps.census_map.legend import theme_view
 from webapp.apps.census_map.maps import CensusMaps, census_maps
 from webapp.apps.census_map.mapview import tile_view, tract_boxes
@@ -167,3 +168,29 @@ def _theme_body(
     on_map = tract_boxes(app.geometry(dataset), wall, view)
     body = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes, on_map)
     return body.model_dump_json().encode()
+
+
+@router.get("/api/walls/{wall_id}/census/globe", responses=errors(404))
+async def wall_globe(
+    wall: WallDep, context: ContextDep, dataset: RowId, view: MapViewDep
+) -> Response:
+    """The map on the globe for a data set and view, the same for every tile of the
+    wall: the wall's one camera and every tract in longitude/latitude (tiles colour them
+    with the theme's classes, ``.../census/theme``)."""
+    app = census_maps(context)
+    key = ("globe", wall.id, dataset, view.center, view.zoom)
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_blocking(app.dataset, context, dataset)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
+            )
+        body = await run_blocking(_globe_body, app, wall, found, view)
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
+
+
+def _globe_body(app: CensusMaps, wall: Wall, dataset: DataSet, view: View) -> bytes:
+    body = globe_view(dataset, app.geometry(dataset), wall, view)
+    return json.dumps(body, separators=(",", ":")).encode()

@@ -6,10 +6,12 @@
 
 import {fitText} from "tagwall/balloons.js";
 import {angleOf, upright} from "tagwall/matrix.js";
+import {Globe, globeMissing} from "./globe.js";
 
-/** The census map's slot of the wall state: {dataset, theme} (both null: not set up). */
+/** The census map's slot of the wall state: {dataset, theme} (both null: not set up),
+ * surface "flat" or "globe". */
 export function censusOf(state) {
-  return {dataset: null, theme: null, ...state?.apps?.census};
+  return {dataset: null, theme: null, surface: "flat", ...state?.apps?.census};
 }
 
 const KEEP = 4;
@@ -39,6 +41,14 @@ export class CensusViews {
       attribute: theme.attribute, scheme: theme.scheme, method: theme.method,
       classes: theme.classes,
     }).toString();
+  }
+
+  /** The query of the map on the globe: the same for every tile (null: flat). */
+  static globeKeyOf(state) {
+    const {dataset, surface} = censusOf(state);
+    if (state?.app !== "census" || !dataset || surface !== "globe") return null;
+    const [cx, cy] = state.view?.center ?? [0.5, 0.5];
+    return new URLSearchParams({dataset, cx, cy, zoom: state.view?.zoom ?? 1}).toString();
   }
 
   static keyOf(state) {
@@ -240,20 +250,118 @@ export function drawCaption(ctx, view, display) {
   ctx.restore();
 }
 
+/** How a tract looks on the globe: the flat map's colours, `shown` as its group is. */
+function globeStyle(view, theme, state) {
+  return (tract) => {
+    const shown = groupShown(state, tract.group);
+    if (!theme) return {fill: view.colours.fill, line: view.colours.outline, shown};
+    const style = styleOf(theme, tract.id);
+    return {fill: style.fill, line: style.line, shown};
+  };
+}
+
+/** The globe's part of a tile: the wall's map on CesiumJS, its last pictures kept, so a
+ * prepared change costs the frame only a copy. Where the browser has no WebGL, or
+ * Cesium fails, `missing` says why and the tile draws the flat map. */
+class GlobeLayer {
+  constructor(wallId, display) {
+    this.base = `/api/walls/${wallId}/census/globe`;
+    this.display = display;
+    this.maps = new Map();
+    this.globe = null;
+    this.missing = "";
+    this.picture = null;  // {key, canvas}: the last picture, ready to copy
+  }
+
+  async load(state, views) {
+    const key = CensusViews.globeKeyOf(state);
+    if (!key || this.missing) return;
+    try {
+      if (!this.globe) {
+        this.missing = globeMissing();
+        if (this.missing) return;
+        this.globe = await Globe.create(this.display);
+      }
+      if (!this.maps.has(key)) {
+        const response = await fetch(`${this.base}?${key}`);
+        if (!response.ok) throw new Error(`census globe: ${response.status}`);
+        this.maps.set(key, await response.json());
+        while (this.maps.size > KEEP) this.maps.delete(this.maps.keys().next().value);
+      }
+      const look = this.look(state, views);
+      if (!look) return;
+      this.globe.show(look.map, look.style);
+      this.globe.restyle(look.styleKey, look.style);
+      await this.globe.settle();
+      this.keep(look.key);
+    } catch (error) {
+      this.missing = `globe failed: ${error.message ?? error}`;
+      console.error(error, error?.stack);
+    }
+  }
+
+  /** What the state shows on the globe, or null (flat, or not loaded). */
+  look(state, views) {
+    const key = CensusViews.globeKeyOf(state);
+    const map = key && this.maps.get(key);
+    const view = views.get(state);
+    if (!map || !view || !this.globe || this.missing) return null;
+    const theme = views.theme(state);
+    const styleKey = JSON.stringify([
+      CensusViews.themeKeyOf(state), state.layers ?? {}, map.dataset,
+    ]);
+    return {map, key: `${key}|${styleKey}`, styleKey, style: globeStyle(view, theme, state)};
+  }
+
+  keep(key) {
+    const source = this.globe.canvas;
+    const canvas = this.picture?.canvas ?? document.createElement("canvas");
+    canvas.width = source.width;
+    canvas.height = source.height;
+    canvas.getContext("2d").drawImage(source, 0, 0);
+    this.picture = {key, canvas};
+  }
+
+  /** The picture for `state` (rendered now unless prepared), or null: draw flat. */
+  pictureOf(state, views) {
+    const look = this.look(state, views);
+    if (!look) return null;
+    if (this.picture?.key !== look.key) {
+      this.globe.show(look.map, look.style);
+      this.globe.restyle(look.styleKey, look.style);
+      this.globe.render();
+      this.keep(look.key);
+    }
+    return this.picture.canvas;
+  }
+}
+
 /** The census app's layer: each display's share of the map (and on the menu screen,
- * the caption), its codes as the groups shown say. */
+ * the caption), its codes as the groups shown say. On the globe (the state's
+ * `surface`), a tile shows its part of the wall's one camera instead of its share of
+ * the flat map; the caption, legend and codes stay where they are. */
 export function createLayer({wall, displays}) {
   const views = new Map(displays.map((d) => [d.id, new CensusViews(wall.id, d.id)]));
+  // The overview draws the flat map; a tile (one display) draws the globe when asked.
+  const globe = displays.length === 1 ? new GlobeLayer(wall.id, displays[0]) : null;
   return {
     name: "census",
-    load: (state) => Promise.all([...views.values()].map((view) => view.load(state))),
+    async load(state) {
+      await Promise.all([...views.values()].map((view) => view.load(state)));
+      if (globe) await globe.load(state, views.get(displays[0].id));
+    },
     draw(ctx, {state, display, native, matrix}) {
       const loaded = views.get(display.id);
       const view = loaded.get(state);
       if (!view) return;
       const theme = loaded.theme(state);
       ctx.setTransform(...native);
-      drawCensus(ctx, view, state, display, theme);
+      const picture = globe?.pictureOf(state, loaded);
+      if (picture) {
+        ctx.drawImage(picture, 0, 0, ...display.resolution);
+      } else {
+        drawCensus(ctx, view, state, display, theme);
+      }
       if (display.roles.includes("menu")) drawCaption(ctx, view, display);
       if (theme) {
         ctx.setTransform(...matrix);
@@ -261,13 +369,21 @@ export function createLayer({wall, displays}) {
       }
     },
     codes: (layout, {state, display}) => codesShown(layout, views.get(display.id), state),
+    notes(state) {
+      const why = CensusViews.globeKeyOf(state) != null ? globe?.missing : "";
+      return why ? [`shows the flat map: ${why}`] : [];
+    },
     marks(state) {
       const loaded = displays.length === 1 ? views.get(displays[0].id) : null;
       const view = loaded?.get(state);
       const theme = loaded?.theme(state);
+      const onGlobe = CensusViews.globeKeyOf(state) != null;
       return {
         census: view ? `${view.dataset} ${view.tracts.length}` : "",
         censusTheme: theme ? `${censusOf(state).theme.attribute} ${theme.classes.length}` : "",
+        // "globe" when it shows, "flat: <why>" when a tile asked for it cannot (its note)
+        censusSurface: !onGlobe ? "flat"
+          : (globe?.missing ? `flat: ${globe.missing}` : (globe?.look(state, loaded) ? "globe" : "")),
       };
     },
   };

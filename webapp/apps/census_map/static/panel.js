@@ -1,5 +1,5 @@
-// The census map's dashboard panel: the data set, pan and zoom, the colouring, groups,
-// open balloons.
+// The census map's dashboard panel: the data set, pan and zoom, flat or on a globe, the
+// colouring, groups, open balloons.
 import {api, changeState, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 import {censusOf} from "./census.js";
@@ -68,6 +68,20 @@ function showTheme() {
   }
 }
 
+// Flat or on a globe, as the status says; tiles that cannot show the globe say so in
+// the Tiles table.
+const SURFACES = {
+  flat: "Flat, on the wall's plane.",
+  globe: "On a globe: each display its part of one camera (tiles without WebGL: flat).",
+};
+function showSurface() {
+  const {surface} = censusOf(state);
+  for (const button of $("census-surface").querySelectorAll("[data-surface]")) {
+    button.setAttribute("aria-pressed", String(button.dataset.surface === surface));
+  }
+  $("census-surface-shown").textContent = SURFACES[surface] ?? surface;
+}
+
 function item(text, buttonText, onClick) {
   const li = document.createElement("li");
   li.textContent = `${text} `;
@@ -105,6 +119,7 @@ onStatus(async (detail) => {
     if (dataset !== listedCurrent) await loadDatasets();
   }
   await loadGroups(state.app === "census" ? dataset : null);
+  showSurface();
   showTheme();
   showGroups();
   showBalloons();
@@ -117,6 +132,11 @@ $("census-use").addEventListener("click", async () => {
   });
   await loadDatasets();
 });
+for (const button of $("census-surface").querySelectorAll("[data-surface]")) {
+  button.addEventListener("click", () => api(`/api/census/walls/${wallId}/surface`, {
+    method: "POST", body: JSON.stringify({surface: button.dataset.surface}),
+  }));
+}
 $("census-colour").addEventListener("click", async () => {
   const attribute = $("census-attribute").value;
   const theme = attribute ? {

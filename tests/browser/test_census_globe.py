@@ -1,0 +1,179 @@
+"""The census map on a globe (CesiumJS under Chromium's software GL): two neighbouring
+tiles of the demo wall, screenshot at native size, show one continuous globe across the
+bezel between them, with their codes still decoding; the dashboard switches the globe on
+and off and names a tile that cannot show it."""
+
+from __future__ import annotations
+
+import io
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import numpy as np
+import pytest
+from PIL import Image
+from playwright.sync_api import Browser, expect
+
+from tag_service.verify import decode_image
+from tests.browser.conftest import open_tiles, serve, version_of
+from tests.browser.test_census import brown_share
+from webapp.apps.census_map.mapview import COLOURS
+from webapp.cli.check import fetch_layout
+from webapp.cli.testing import ServerProcess, wait_until
+from webapp.people.security import operator_token
+
+TILES = ["r2c2", "r2c3"]  # side by side, a 7 mm bezel between them, both on the map
+
+
+@pytest.fixture
+def globe(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+    process = serve(tmp_path, database_url, ("demo",))
+    process.change("demo", {"app": "census"})
+    answer = httpx.post(
+        f"{process.url}/api/census/walls/demo/surface",
+        json={"surface": "globe"},
+        headers=process.operator(),
+        timeout=60,
+    )
+    assert answer.status_code == 200, answer.text
+    yield process
+    process.stop()
+
+
+def edge_width(picture: np.ndarray) -> float:
+    """The median number of rows, down the columns, that a crossing from the fill to
+    the imagery around the county takes (half-way colours in between): 1 to 2 when
+    sharp. Outlines, codes and captions are not the imagery."""
+    fill, line = ([int(COLOURS[k][i : i + 2], 16) for i in (1, 3, 5)] for k in ("fill", "outline"))
+    distance = np.abs(picture.astype(int) - fill).max(axis=2)
+    far = (
+        (distance >= 60)
+        & (np.abs(picture.astype(int) - line).max(axis=2) > 40)
+        & (picture.max(axis=2) < 200)
+    )
+    widths = []
+    for column in picture.shape[1] // 16 * np.arange(1, 16):
+        d = distance[:, column]
+        inside, outside = d <= 12, far[:, column]
+        row = 0
+        while row < len(d) - 1:
+            if inside[row] and not inside[row + 1]:
+                end = row + 1
+                while end < len(d) and not inside[end] and not outside[end]:
+                    end += 1
+                if end < len(d) and outside[end]:
+                    widths.append(end - row)
+                row = end
+            else:
+                row += 1
+    assert widths, "the fill meets something"
+    return float(np.median(widths))
+
+
+def fill_mask(picture: np.ndarray) -> np.ndarray:
+    r, g, b = (int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5))
+    return np.abs(picture.astype(int) - [r, g, b]).max(axis=2) <= 12
+
+
+def test_the_globe_runs_on_across_the_bezel_and_its_codes_scan(
+    browser: Browser, globe: ServerProcess
+) -> None:
+    started = time.monotonic()
+    pages = open_tiles(browser, globe, "demo", TILES, native=True)
+    version = globe.version("demo")
+    wait_until(
+        lambda: all(
+            version_of(p) == version
+            and p.evaluate("document.body.dataset.censusSurface") == "globe"
+            for p in pages
+        ),
+        timeout=120,
+        what="both tiles to show the globe",
+    )
+    first_frame_s = time.monotonic() - started
+    shots = [
+        np.asarray(Image.open(io.BytesIO(p.screenshot(type="png"))).convert("RGB")) for p in pages
+    ]
+    # Not blank: Natural Earth around the county, the county's tracts on it.
+    for shot in shots:
+        assert shot.std() > 20 and fill_mask(shot).mean() > 0.02
+    # At the display's own pixels: the county's fill meets the imagery within a few
+    # pixels (a picture drawn smaller and scaled up blurs it over a dozen and more).
+    for shot in shots:
+        assert edge_width(shot) <= 3, edge_width(shot)
+    # The codes decode from the screenshots, every one placed on these tiles.
+    _, layout = fetch_layout(globe.url, "demo", operator_token(globe.secret))
+    for tile, shot in zip(TILES, shots, strict=True):
+        placed = {c.code for c in layout.placed if c.display == tile}
+        found = {d.payload.rsplit("/", 1)[-1] for d in decode_image(Image.fromarray(shot))}
+        assert placed and placed <= found, (tile, placed - found)
+    # Across the bezel: the county's fill meets the seam at about the same rows on both
+    # sides (rows under a code or caption left out). A coarse bound: tract outlines and
+    # sloped edges move across the 11 px the bezel hides; a display seeing the wrong part
+    # of the camera (the bezel ignored, a centred frustum) misses by far more.
+    left, right = shots[0][:, -1], shots[1][:, 0]
+    plain = (left.max(axis=1) < 200) & (right.max(axis=1) < 200)
+    plain &= np.abs(left.astype(int) - [16, 22, 31]).max(axis=1) > 6  # captions' backing
+    plain &= np.abs(right.astype(int) - [16, 22, 31]).max(axis=1) > 6
+    on_left = fill_mask(left[None])[0] & plain
+    on_right = fill_mask(right[None])[0] & plain
+    assert on_left.sum() > 50, "the county reaches the seam"
+    differ = np.flatnonzero(on_left != on_right)
+    assert len(differ) <= 0.12 * plain.sum(), (len(differ), plain.sum())
+    print(f"first globe frame on both tiles after {first_frame_s:.1f} s")
+    for page in pages:
+        page.context.close()
+
+
+# A kiosk whose browser has no WebGL: every WebGL context it asks for is refused.
+NO_WEBGL = """
+const getContext = HTMLCanvasElement.prototype.getContext;
+HTMLCanvasElement.prototype.getContext = function (kind, ...rest) {
+  return String(kind).startsWith("webgl") || kind === "experimental-webgl"
+    ? null : getContext.call(this, kind, ...rest);
+};
+"""
+
+
+def test_the_dashboard_switches_to_the_globe_and_names_a_tile_without_webgl(
+    browser: Browser, tmp_path: Path, database_url: str
+) -> None:
+    process = serve(tmp_path, database_url, ("demo",))
+    try:
+        process.change("demo", {"app": "census"})
+        context = browser.new_context(viewport={"width": 480, "height": 270})
+        context.add_init_script(NO_WEBGL)
+        tile = context.new_page()
+        tile.goto(process.tile_url("demo", "r2c2"))
+        dashboard = browser.new_page()
+        dashboard.goto(f"{process.url}/login/operator?token={operator_token(process.secret)}")
+        flat = dashboard.locator('#census-surface [data-surface="flat"]')
+        on_globe = dashboard.locator('#census-surface [data-surface="globe"]')
+        expect(flat).to_have_attribute("aria-pressed", "true")
+        wait_until(
+            lambda: tile.evaluate("document.body.dataset.censusSurface") == "flat",
+            what="the tile to show the flat map",
+        )
+        notes = dashboard.locator("#tiles tr", has_text="r2c2").locator("td").last
+        expect(notes).to_have_text("")
+
+        on_globe.click()
+        expect(on_globe).to_have_attribute("aria-pressed", "true")
+        assert process.status("demo")["state"]["apps"]["census"]["surface"] == "globe"
+        wait_until(
+            lambda: tile.evaluate("document.body.dataset.censusSurface") == "flat: no WebGL",
+            what="the tile without WebGL to keep the flat map",
+        )
+        expect(notes).to_have_text("r2c2 shows the flat map: no WebGL")
+        assert brown_share(tile) > 0.02  # the flat map, drawn
+
+        flat.click()
+        expect(flat).to_have_attribute("aria-pressed", "true")
+        expect(notes).to_have_text("")
+        assert tile.evaluate("document.body.dataset.censusSurface") == "flat"
+        context.close()
+        dashboard.close()
+    finally:
+        process.stop()
