@@ -99,7 +99,7 @@ async def limit_action(
 
 
 async def get_person(request: Request, context: ContextDep, address: ClientAddressDep) -> Person:
-    return await person_of(request, context.db, context.settings, address)
+    return await person_of(request, context.db, context.settings, address, context.address_rules)
 
 
 PersonDep = Annotated[Person, Depends(get_person)]
