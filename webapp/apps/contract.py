@@ -48,7 +48,9 @@ class Scan:
     async def person(self) -> Person:
         """Who scanned: role, user group, information class (loaded when an app asks)."""
         context = self.context
-        return await person_of(self.request, context.db, context.settings, self.address)
+        return await person_of(
+            self.request, context.db, context.settings, self.address, context.address_rules
+        )
 
 
 @dataclass(frozen=True)

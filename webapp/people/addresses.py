@@ -13,15 +13,19 @@ give defaults freely but grant a role only when the deployment switches that on
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
+import time
 from collections.abc import Sequence
 from ipaddress import IPv4Address, IPv4Network, IPv6Address, IPv6Network
 from typing import Any, TypeVar
 
-from sqlalchemy import Row
+from sqlalchemy import Connection, Row, select
 from starlette.requests import HTTPConnection
 
 from webapp.database.models import AddressRuleRecord
+from webapp.engine.bus.base import EventBus
+from webapp.engine.bus.forgetting import Forgetting
 
 Network = IPv4Network | IPv6Network
 Rule = TypeVar("Rule", AddressRuleRecord, Row[Any])
@@ -91,3 +95,51 @@ def matching_rule(address: str, rules: Sequence[Rule]) -> Rule | None:
         if inside and (best is None or network.prefixlen > best[0]):
             best = (network.prefixlen, rule)
     return best[1] if best else None
+
+
+_RULES = select(AddressRuleRecord.__table__)  # built once (see Database.reading)
+RULES = "address_rules"
+"""The bus channel on which a process says it changed address rules."""
+
+
+def read_rules(connection: Connection) -> Sequence[Row[Any]]:
+    """Every address rule, read now."""
+    return connection.execute(_RULES).all()
+
+
+class AddressRules:
+    """The address rules as every request's person is matched against them: read at
+    most once per ``ttl_s`` (reading them was half of loading a person, and they change
+    only when an admin changes one), dropped in every process at once by :meth:`forget`;
+    ``ttl_s`` bounds how stale they are when that word is lost. One per app instance."""
+
+    def __init__(self, ttl_s: float = 2.0, bus: EventBus | None = None) -> None:
+        self.ttl_s = ttl_s
+        self._held: tuple[Sequence[Row[Any]], float] | None = None  # rules, read at
+        self._generation = 0  # bumped by a drop: reads begun before it are not kept
+        self._forgetting = Forgetting(bus, RULES, self._drop)
+
+    def now(self, connection: Connection) -> Sequence[Row[Any]]:
+        """The rules, read on ``connection`` when none younger than ``ttl_s`` are held."""
+        held = self._held
+        started = time.monotonic()
+        if held is not None and started - held[1] <= self.ttl_s:
+            return held[0]
+        generation = self._generation
+        rules = read_rules(connection)
+        if generation == self._generation:
+            self._held = (rules, started)
+        return rules
+
+    def forget(self) -> None:
+        """An address rule changed here: drop the rules held in every process (callable
+        from a worker thread too)."""
+        self._forgetting.forget()
+
+    async def follow(self, opened: asyncio.Event | None = None) -> None:
+        """Hear the other processes' :meth:`forget` until cancelled (the app's lifespan)."""
+        await self._forgetting.follow(opened)
+
+    def _drop(self) -> None:
+        self._generation += 1
+        self._held = None

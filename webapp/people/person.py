@@ -11,19 +11,19 @@ transaction.
 from __future__ import annotations
 
 import unicodedata
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from sqlalchemy import Insert, Row, Update, bindparam, insert, select, update
+from sqlalchemy import Connection, Insert, Row, Update, bindparam, insert, select, update
 from starlette.requests import HTTPConnection
 
 from webapp.core.roles import ROLES, Role, UserGroup
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
-from webapp.database.models import AddressRuleRecord, VisitorRecord
-from webapp.people.addresses import matching_rule
+from webapp.database.models import VisitorRecord
+from webapp.people.addresses import AddressRules, matching_rule, read_rules
 from webapp.people.audit import audit
 from webapp.people.visitors import Visitor, adopt, new_id, visitor_of
 
@@ -110,18 +110,24 @@ class Person:
 
 # Every request of a phone reads these: built once (see Database.reading).
 _VISITOR = select(VisitorRecord.__table__).where(VisitorRecord.id == bindparam("id"))
-_RULES = select(AddressRuleRecord.__table__)
 
 
-def load_person(db: Database, visitor: Visitor, address: str, settings: Settings) -> Person:
-    """The person behind ``visitor`` coming from ``address``.
+def load_person(
+    db: Database,
+    visitor: Visitor,
+    address: str,
+    settings: Settings,
+    rules_of: Callable[[Connection], Sequence[Row[Any]]] = read_rules,
+) -> Person:
+    """The person behind ``visitor`` coming from ``address``; the address rules from
+    ``rules_of`` (a request's: the app's :class:`AddressRules`).
 
     A cookie whose session id no longer matches (copied before a rotation, or
     kept past a sign-out elsewhere) is treated as a new, anonymous visitor.
     """
     with db.reading() as connection:
         record = connection.execute(_VISITOR, {"id": visitor.id}).first()
-        rules = connection.execute(_RULES).all()
+        rules = rules_of(connection)
     if record is not None and record.session_id != visitor.session_id:
         visitor, record = Visitor.fresh(), None
     return _person(visitor, record, matching_rule(address, rules), settings)
@@ -202,7 +208,7 @@ def _store(
                 role=record.role,
                 **{k: v for k, v in fields.items() if k in ("authority", "authorized_role")},
             )
-        rules = connection.execute(_RULES).all()
+        rules = read_rules(connection)
     return _person(visitor, record, matching_rule(address, rules), settings)
 
 
@@ -212,7 +218,7 @@ def address_grant(db: Database, address: str, settings: Settings) -> str | None:
     if not settings.address_rules_grant_roles:
         return None
     with db.reading() as connection:
-        rules = connection.execute(_RULES).all()
+        rules = read_rules(connection)
     rule = matching_rule(address, rules)
     return f"address:{rule.network}" if rule is not None and rule.role == "instructor" else None
 
@@ -314,13 +320,13 @@ def remember_person(request: HTTPConnection, person: Person) -> None:
 
 
 async def person_of(
-    request: HTTPConnection, db: Database, settings: Settings, address: str
+    request: HTTPConnection, db: Database, settings: Settings, address: str, rules: AddressRules
 ) -> Person:
     """The request's person, loaded from its session cookie once per request."""
     known: Person | None = getattr(request.state, "person", None)
     if known is not None:
         return known
     visitor = visitor_of(request, settings.resolved_secret_key)
-    person = await db.read(load_person, db, visitor, address, settings)
+    person = await db.read(load_person, db, visitor, address, settings, rules.now)
     remember_person(request, person)
     return person

@@ -103,6 +103,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             asyncio.create_task(services.scan_log.run()),
             asyncio.create_task(_keep_tokens_fresh(services)),
             asyncio.create_task(services.codes.follow()),
+            asyncio.create_task(services.address_rules.follow()),
         ]
         yield
         await cancel_and_wait(*tasks)

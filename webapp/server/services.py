@@ -20,6 +20,7 @@ from webapp.database.models import TagLayoutRecord
 from webapp.door.changes import WallDoor
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import Change
+from webapp.people.addresses import AddressRules
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
 from webapp.people.counters.redis import RedisCounters
@@ -48,6 +49,7 @@ class Services:
     counters: Counters = field(init=False)
     limits: ActionLimits = field(init=False)
     codes: CodeDirectory = field(init=False)
+    address_rules: AddressRules = field(init=False)
     scan_log: ScanLog = field(init=False)
     scan_feed: ScanFeed = field(init=False)
     login_throttle: SignInThrottle = field(init=False)
@@ -59,6 +61,7 @@ class Services:
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db, bus=self.hub.bus)
+        self.address_rules = AddressRules(bus=self.hub.bus)
         self.scan_log = ScanLog(self.db)
         self.scan_feed = ScanFeed(self.hub.bus)
         self.counters = counter_store(self.redis, self.settings)

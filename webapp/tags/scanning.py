@@ -19,22 +19,20 @@ import hashlib
 import logging
 import threading
 import time
-import uuid
 from collections import OrderedDict
 from contextlib import AbstractAsyncContextManager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from pydantic import BaseModel
 from sqlalchemy import insert, select
 from sqlalchemy.exc import SQLAlchemyError
 
-from webapp.core.tasks import cancel_and_wait
 from webapp.core.threads import run_blocking
 from webapp.database.connection import Database, as_utc
 from webapp.database.models import ScanRecord, TagRecord, WallStateRecord
-from webapp.engine.bus.base import BusUnavailable, EventBus, Subscription, follow
+from webapp.engine.bus.base import BusUnavailable, EventBus, Subscription
+from webapp.engine.bus.forgetting import Forgetting
 from webapp.engine.protocol import ScanSeen
 from webapp.tags.registry import is_live, shown_in
 
@@ -60,14 +58,7 @@ class _Facts:
 
 
 CODES = "codes"
-EVERY_WALL = "*"
-"""Codes changed is said on the bus's ``codes`` channel of no wall in particular."""
-
-
-class CodesChanged(BaseModel):
-    """Between processes: ``process`` changed tags or tag sets; drop what is cached."""
-
-    process: str
+"""The bus channel on which a process says it changed codes (`webapp.engine.bus.forgetting`)."""
 
 
 class CodeDirectory:
@@ -87,12 +78,9 @@ class CodeDirectory:
         self.db = db
         self.ttl_s = ttl_s
         self.max_codes = max_codes
-        self.bus = bus
-        self.process = uuid.uuid4().hex
         self._facts: OrderedDict[str, _Facts] = OrderedDict()
-        self._generation = 0  # bumped by forget(): loads begun before it are not kept
-        self._loop: asyncio.AbstractEventLoop | None = None  # set while following
-        self._telling: set[asyncio.Task[None]] = set()
+        self._generation = 0  # bumped by a drop: loads begun before it are not kept
+        self._forgetting = Forgetting(bus, CODES, self._drop)
 
     async def resolve(self, code: str) -> Resolution:
         """The tag behind ``code`` and, if it does not work now, why."""
@@ -109,45 +97,16 @@ class CodeDirectory:
 
     def forget(self) -> None:
         """Drop everything cached: tags or tag sets changed in this process. The other
-        processes are told (callable from a worker thread too), while :meth:`follow`
-        runs."""
-        self._drop()
-        if self._loop is not None:
-            self._loop.call_soon_threadsafe(self._tell_others)
+        processes are told (callable from a worker thread too), while :meth:`follow` runs."""
+        self._forgetting.forget()
+
+    async def follow(self, opened: asyncio.Event | None = None) -> None:
+        """Hear the other processes' :meth:`forget` until cancelled (the app's lifespan)."""
+        await self._forgetting.follow(opened)
 
     def _drop(self) -> None:
         self._generation += 1
         self._facts.clear()
-
-    async def follow(self, opened: asyncio.Event | None = None) -> None:
-        """Hear the other processes' :meth:`forget` until cancelled (the app's lifespan)."""
-        if self.bus is None:
-            return
-        self._loop = asyncio.get_running_loop()
-        try:
-            await follow(self.bus, EVERY_WALL, CODES, self._heard, opened)
-        finally:
-            self._loop = None
-            await cancel_and_wait(*self._telling)
-
-    def _heard(self, frame: str) -> None:
-        if CodesChanged.model_validate_json(frame).process != self.process:
-            self._drop()
-
-    def _tell_others(self) -> None:
-        task = asyncio.ensure_future(self._publish_changed())
-        self._telling.add(task)
-        task.add_done_callback(self._telling.discard)
-
-    async def _publish_changed(self) -> None:
-        if self.bus is None:
-            return
-        try:
-            await self.bus.publish(
-                EVERY_WALL, CodesChanged(process=self.process).model_dump_json(), CODES
-            )
-        except BusUnavailable as error:
-            log.warning("could not tell the other processes that codes changed: %s", error)
 
     def _load(self, code: str) -> _Facts:
         with self.db.session() as session:

@@ -16,6 +16,7 @@ from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import Change, WallState
+from webapp.people.addresses import AddressRules
 from webapp.people.ratelimit import WallAction
 from webapp.people.visitors import Visitor
 from webapp.tags.scanning import CodeDirectory
@@ -33,6 +34,7 @@ class AppContext(Protocol):
     walls: dict[str, Wall]
     volumes: VolumeCatalog
     codes: CodeDirectory
+    address_rules: AddressRules
 
     @property
     def base_url(self) -> str:

@@ -29,7 +29,7 @@ from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
 from webapp.quiz.engine import Reveal
 from webapp.quiz.http import answers_download, round_step
-from webapp.web.deps import ContextDep, CsrfDep, PersonDep, StaffDep, WallDep
+from webapp.web.deps import ContextDep, CsrfDep, PersonDep, PhoneDep, StaffDep, WallDep
 from webapp.web.problems import errors
 from webapp.web.templating import render
 
@@ -43,26 +43,21 @@ AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its 
 
 
 @router.get("/apps/brain/{wall_id}/pins/{code}", include_in_schema=False)
-async def pin(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
-) -> Response:
+async def pin(request: Request, phone: PhoneDep, code: str) -> Response:
     """A pin's page again (from the progress page), without counting a scan."""
+    context, wall = phone.context, phone.wall
     tag = await pages.tag_of(context, wall, code)
-    return await pages.pin_page(brain_atlas(context), request, context, wall, tag, person)
+    return await pages.pin_page(brain_atlas(context), request, context, wall, tag, phone.person)
 
 
 @router.post(
     "/apps/brain/{wall_id}/pins/{code}/answer", include_in_schema=False, dependencies=[CsrfDep]
 )
-async def answer(
-    request: Request,
-    wall: WallDep,
-    context: ContextDep,
-    person: PersonDep,
-    code: str,
-    answer: AnswerForm = "",
-) -> Response:
-    return await pages.answer(brain_atlas(context), request, context, wall, person, code, answer)
+async def answer(request: Request, phone: PhoneDep, code: str, answer: AnswerForm = "") -> Response:
+    context = phone.context
+    return await pages.answer(
+        brain_atlas(context), request, context, phone.wall, phone.person, code, answer
+    )
 
 
 @router.post(
@@ -76,10 +71,11 @@ async def reveal(
 
 
 @router.get("/apps/brain/{wall_id}/quiz/{tag_set}", include_in_schema=False)
-async def quiz_progress(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, tag_set: TagSetPath
-) -> Response:
-    return await pages.progress_page(brain_atlas(context), request, context, wall, person, tag_set)
+async def quiz_progress(request: Request, phone: PhoneDep, tag_set: TagSetPath) -> Response:
+    context = phone.context
+    return await pages.progress_page(
+        brain_atlas(context), request, context, phone.wall, phone.person, tag_set
+    )
 
 
 @router.post(

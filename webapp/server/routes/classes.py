@@ -154,7 +154,9 @@ async def roll_call(
     now = await services.db.read(standing, services.db, tag.wall_id, visitor.id)
     if now is None or now.joined:
         return None
-    person = await person_of(request, services.db, services.settings, address)
+    person = await person_of(
+        request, services.db, services.settings, address, services.address_rules
+    )
     if person.is_staff:
         return None
     if now.session.names == "anonymous":

@@ -268,7 +268,9 @@ def create_rule(
             actor=person.authority or "admin",
         )
 
-    return _admin_change(request, services, add, RuleError)
+    response = _admin_change(request, services, add, RuleError)
+    services.address_rules.forget()  # every process reads the rules afresh
+    return response
 
 
 @router.post("/dashboard/admin/rules/{rule_id}/remove", dependencies=[CsrfDep])
@@ -276,6 +278,8 @@ def delete_rule(
     request: Request, rule_id: RowId, person: AdminPageDep, services: ServicesDep
 ) -> Response:
     actor = person.authority or "admin"
-    return _admin_change(
+    response = _admin_change(
         request, services, lambda: remove_rule(services.db, rule_id, actor=actor), RuleError
     )
+    services.address_rules.forget()  # every process reads the rules afresh
+    return response

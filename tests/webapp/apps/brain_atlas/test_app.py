@@ -7,9 +7,11 @@ import json
 import re
 import shutil
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import anyio.to_thread
 import pytest
 import yaml
 from fastapi.testclient import TestClient
@@ -33,6 +35,7 @@ from webapp.core.markdown import markdown_html
 from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState, events_since, read_state
 from webapp.people.person import assume, load_person
+from webapp.people.tokens import load_tokens
 from webapp.people.visitors import Visitor
 from webapp.quiz.engine import Quiz
 from webapp.server.app import create_app
@@ -791,3 +794,45 @@ def test_an_answer_takes_one_connection_for_its_reads_and_one_for_its_write(
         "demo", pin.round.number, person.visitor.id, "full"
     )
     assert progress.answers[pin.region.id].correct
+
+
+def test_each_phone_step_hands_at_most_its_write_to_a_thread(
+    on_wall: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A hand-off to a worker thread cost a phone's request more than its SQLite reads
+    (issue 32): a scan, the pin's page and the progress page hand none over, a
+    registration and an answer one each, their write (the scan log's batches are
+    written by a task of their own, as the token salts are read)."""
+    services = services_of(on_wall)
+    register = next(t.code for t in wall_tags(services.db, "demo") if t.name == "register-student")
+    number, pin = next(iter(pins_on_wall(on_wall, "full").items()))
+    name = region_of(on_wall, "full", number).name
+    handed: list[str] = []
+    real = anyio.to_thread.run_sync
+
+    async def counting(function: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        work = getattr(function, "func", function)
+        if work not in (services.scan_log.flush, load_tokens):  # the server's own timers
+            handed.append(getattr(work, "__name__", repr(work)))
+        return await real(function, *args, **kwargs)
+
+    def hand_offs(step: Callable[[], Any], status: int) -> list[str]:
+        handed.clear()
+        assert step().status_code == status
+        return list(handed)
+
+    services.codes.ttl_s = 60.0  # the codes stay cached, as a busy room's do
+    for code in (register, pin):
+        assert on_wall.get(f"/t/{code}").status_code == 200
+    monkeypatch.setattr(anyio.to_thread, "run_sync", counting)
+    on_wall.cookies.clear()  # a new phone
+    assert hand_offs(lambda: on_wall.get(f"/t/{register}"), 200) == ["assume"]
+    assert hand_offs(lambda: on_wall.get(f"/t/{pin}"), 200) == []
+    assert hand_offs(lambda: on_wall.get(f"/apps/brain/demo/pins/{pin}"), 200) == []
+    csrf = csrf_of(on_wall)
+    form = {"answer": name, "csrf": csrf}
+    post = lambda: on_wall.post(  # noqa: E731
+        f"/apps/brain/demo/pins/{pin}/answer", data=form, follow_redirects=False
+    )
+    assert hand_offs(post, 303) == ["store_answer"]
+    assert hand_offs(lambda: on_wall.get("/apps/brain/demo/quiz/full"), 200) == []

@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
 from tests.conftest import TEST_PASSWORD, csrf_of, migrate, register_student, services_of, sign_in
+from webapp.cli.testing import wait_until
 from webapp.core.settings import Settings
 from webapp.engine.protocol import CLOSE_POLICY
 from webapp.people.accounts import authenticate, list_accounts, remove_account, set_password
@@ -84,6 +85,50 @@ def test_admins_add_and_remove_address_rules(client: TestClient) -> None:
     assert "do not grant roles" in page
     client.post(f"/dashboard/admin/rules/{rule.id}/remove", data={"csrf": csrf_of(client)})
     assert list_rules(services_of(client).db) == []
+
+
+def group_shown(phone: TestClient) -> str:
+    """The user group the phone's own page has chosen."""
+    found = re.search(r'<option value="(\w+)" selected>', phone.get("/me").text)
+    assert found is not None
+    return found.group(1)
+
+
+@pytest.mark.parametrize("bus", ["memory", "redis"])
+def test_an_address_rule_reaches_the_very_next_request_of_every_app_instance(
+    settings: Settings, bus: str, request: pytest.FixtureRequest
+) -> None:
+    """The rules are cached per app instance (a minute here, so only the word drops
+    them): an admin's change is seen by this instance's next request, and by another
+    instance on the same database and bus as soon as the word arrives. Two instances
+    with a memory bus each share no word: the other one keeps what it cached."""
+    if bus == "redis":
+        redis, prefix = (request.getfixturevalue(f) for f in ("redis_server", "redis_prefix"))
+        settings = settings.model_copy(
+            update={"bus": "redis", "redis_url": redis, "redis_prefix": prefix}
+        )
+    migrate(settings.resolved_database_url)
+    address, default = ("10.1.2.3", 50000), settings.default_user_group
+    with (
+        TestClient(create_app(settings), client=address) as admin,
+        TestClient(create_app(settings), client=address) as other,
+    ):
+        for client in (admin, other):
+            services_of(client).address_rules.ttl_s = 60.0
+        sign_in(admin, "admin")
+        assert group_shown(admin) == group_shown(other) == default != "medical"
+        form = {"network": "10.1.0.0/16", "user_group": "medical", "csrf": csrf_of(admin)}
+        assert admin.post("/dashboard/admin/rules", data=form).status_code == 200
+        assert group_shown(admin) == "medical"
+        if bus == "redis":
+            wait_until(lambda: group_shown(other) == "medical", what="the other instance")
+        else:
+            assert group_shown(other) == default
+        [rule] = list_rules(services_of(admin).db)
+        admin.post(f"/dashboard/admin/rules/{rule.id}/remove", data={"csrf": csrf_of(admin)})
+        assert group_shown(admin) == default
+        if bus == "redis":
+            wait_until(lambda: group_shown(other) == default, what="the other instance")
 
 
 @pytest.mark.parametrize(
