@@ -802,7 +802,9 @@ def test_each_phone_step_hands_at_most_its_write_to_a_thread(
     """A hand-off to a worker thread cost a phone's request more than its SQLite reads
     (issue 32): a scan, the pin's page and the progress page hand none over, a
     registration and an answer one each, their write (the scan log's batches are
-    written by a task of their own, as the token salts are read)."""
+    written by a task of their own, as the token salts are read). A database server's
+    reads go to a thread too (their round trips must not hold the event loop): on
+    PostgreSQL only the writes are counted."""
     services = services_of(on_wall)
     register = next(t.code for t in wall_tags(services.db, "demo") if t.name == "register-student")
     number, pin = next(iter(pins_on_wall(on_wall, "full").items()))
@@ -819,7 +821,8 @@ def test_each_phone_step_hands_at_most_its_write_to_a_thread(
     def hand_offs(step: Callable[[], Any], status: int) -> list[str]:
         handed.clear()
         assert step().status_code == status
-        return list(handed)
+        reads = [] if services.db.embedded else ["_reading_through"]
+        return [name for name in handed if name not in reads]
 
     services.codes.ttl_s = 60.0  # the codes stay cached, as a busy room's do
     for code in (register, pin):
