@@ -28,6 +28,7 @@ BENCHMARKS = (
     "lecture_hall",
     "memory",
     "image",
+    "globe",
 )
 RESULTS = Path(__file__).parent / "results"
 

@@ -172,13 +172,13 @@ CHROMIUM_ARGS = [
 ]
 
 # Records, in a tile's page, the true time (performance.timeOrigin is never skewed) at
-# which it showed each version: ``window.__shown[version]``.
+# which it showed each version: ``window.__shown[version]``. Observing the document
+# itself, it also serves as an init script (run before the root element exists).
 RECORD_SHOWN = """
 window.__shown = {};
 new MutationObserver(() => {
   window.__shown[document.body.dataset.version] = performance.timeOrigin + performance.now();
-}).observe(document.documentElement, {attributes: true, subtree: true,
-                                      attributeFilter: ["data-version"]});
+}).observe(document, {attributes: true, subtree: true, attributeFilter: ["data-version"]});
 """
 
 

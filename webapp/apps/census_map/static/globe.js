@@ -10,6 +10,11 @@ import {displayFrustum} from "./frustum.js";
 
 const CESIUM_URL = "/static/cesium/";
 const SETTLE_MS = 20000;  // at most this long for imagery before answering ready
+// Settling takes dozens of frames, and under software GL each costs the GPU process about
+// a second at 1920 x 1080 (multisampled), whatever it shows: drafts at a quarter of the
+// size cost a sixteenth and load the same tiles (Cesium divides a tile's screen-space
+// error by the resolution scale); only the picture kept is drawn at full size.
+const DRAFT_SCALE = 0.25;
 const LIFT_M = 0;  // tracts lie on the ellipsoid (no terrain)
 
 /** Why this browser cannot draw the globe ("" when it can). */
@@ -100,7 +105,6 @@ export class Globe {
       requestRenderMode: false,
       contextOptions: {webgl: {preserveDrawingBuffer: true, alpha: false}},
     });
-    this.widget.resolutionScale = 1;
     // Cesium sizes its canvas by its stylesheet (widgets.css, not loaded here): without
     // these the canvas keeps the default 300 x 150 and the picture is that, scaled up.
     for (const element of [this.widget.canvas.parentElement, this.widget.canvas]) {
@@ -210,7 +214,7 @@ export class Globe {
   restyle(key, style) {
     if (!this.map || key === this.styleKey) return;
     const Cesium = this.Cesium;
-    this.render();  // a primitive's attributes exist once it was drawn
+    this.render(DRAFT_SCALE);  // a primitive's attributes exist once it was drawn
     const looks = new Map(this.map.tracts.map((tract) => [tract.id, style(tract)]));
     for (const [id, look] of looks) {
       const attributes = this.fills.getGeometryInstanceAttributes(id);
@@ -230,21 +234,25 @@ export class Globe {
     this.styleKey = key;
   }
 
-  render() {
+  /** Draw a frame at `scale` times the display's pixels (the picture shown: 1). */
+  render(scale = 1) {
+    this.widget.resolutionScale = scale;
     this.widget.resize();
     this.widget.render();
   }
 
-  /** Render until the imagery the camera sees has loaded (or SETTLE_MS passed). */
+  /** Render until the imagery the camera sees has loaded (or SETTLE_MS passed), in
+   * drafts, then the picture. */
   async settle() {
     await this.ready;
     const until = performance.now() + SETTLE_MS;
     let frames = 0;
     for (;;) {
-      this.render();
+      this.render(DRAFT_SCALE);
       frames += 1;
-      if ((frames > 2 && this.widget.scene.globe.tilesLoaded) || performance.now() > until) return;
+      if ((frames > 2 && this.widget.scene.globe.tilesLoaded) || performance.now() > until) break;
       await new Promise((resolve) => setTimeout(resolve, 15));
     }
+    this.render();
   }
 }
