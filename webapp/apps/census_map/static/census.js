@@ -9,9 +9,13 @@ import {angleOf, upright} from "tagwall/matrix.js";
 import {Globe, globeMissing} from "./globe.js";
 
 /** The census map's slot of the wall state: {dataset, theme} (both null: not set up),
- * surface "flat" or "globe". */
+ * surface "flat" or "globe", the globe camera's heading and tilt, the tour. */
 export function censusOf(state) {
-  return {dataset: null, theme: null, surface: "flat", ...state?.apps?.census};
+  return {
+    dataset: null, theme: null, surface: "flat", heading: 0, tilt: 0,
+    tour: {steps: [], playing: false, step: 0, run: 0, note: ""},
+    ...state?.apps?.census,
+  };
 }
 
 const KEEP = 4;
@@ -45,10 +49,12 @@ export class CensusViews {
 
   /** The query of the map on the globe: the same for every tile (null: flat). */
   static globeKeyOf(state) {
-    const {dataset, surface} = censusOf(state);
+    const {dataset, surface, heading, tilt} = censusOf(state);
     if (state?.app !== "census" || !dataset || surface !== "globe") return null;
     const [cx, cy] = state.view?.center ?? [0.5, 0.5];
-    return new URLSearchParams({dataset, cx, cy, zoom: state.view?.zoom ?? 1}).toString();
+    return new URLSearchParams({
+      dataset, cx, cy, zoom: state.view?.zoom ?? 1, heading, tilt,
+    }).toString();
   }
 
   static keyOf(state) {
