@@ -12,13 +12,19 @@ from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
 from webapp.apps.census_map.maps import CensusMaps
-from webapp.apps.census_map.mapview import grown, label_mm, pointer_targets
+from webapp.apps.census_map.mapview import (
+    MapGeometry,
+    grown,
+    label_mm,
+    looking_at,
+    pointer_targets,
+)
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.state import CensusState, Surface
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Theme
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import Balloon, WallState, now_ms
+from webapp.engine.wall_state import Balloon, View, WallState, now_ms
 from webapp.tags.schemas import PlacedCode
 from webapp.web.context import AppContext, Update
 
@@ -54,6 +60,11 @@ class GroupHidden(Exception):
         self.group = group
 
 
+class GlobeTurned(Exception):
+    """The wall's globe is turned or tilted: a balloon placed on the flat map's
+    positions would point at the wrong place."""
+
+
 class MapChanged(Exception):
     """The wall stopped showing the data set a colouring was chosen for."""
 
@@ -82,6 +93,13 @@ async def colour_wall(
     await context.plan_change(wall, colour)
 
 
+def with_census(state: WallState, census: CensusState) -> WallState:
+    """``state`` with the census slot ``census``; on a turned or tilted globe the
+    balloons close in the same change (they point where the flat map puts a tract)."""
+    changed = census.put(state)
+    return changed.model_copy(update={"balloons": []}) if census.turned else changed
+
+
 async def choose_surface(context: AppContext, wall: Wall, surface: Surface) -> None:
     """Draw the map flat or on a globe, on every tile in the same frame (a heavy change:
     tiles load the globe first). Raises :class:`MapChanged` when the census map is not
@@ -90,9 +108,59 @@ async def choose_surface(context: AppContext, wall: Wall, surface: Surface) -> N
     def switch(state: WallState) -> WallState:
         if state.app != APP:
             raise MapChanged
-        return CensusState.of(state).model_copy(update={"surface": surface}).put(state)
+        return with_census(state, CensusState.of(state).model_copy(update={"surface": surface}))
 
     await context.change_wall(wall, switch)
+
+
+async def aim_camera(context: AppContext, wall: Wall, heading: float, tilt: float) -> None:
+    """Turn and tilt the globe's camera, on every tile in the same frame (a heavy
+    change: tiles render the new picture first); a tour playing stops (the instructor
+    took the camera). Raises :class:`MapChanged` when the census map is not on the
+    wall."""
+
+    def aim(state: WallState) -> WallState:
+        if state.app != APP:
+            raise MapChanged
+        census = CensusState.of(state)
+        tour = census.tour.stopped("the instructor turned the camera")
+        return with_census(
+            state, census.model_copy(update={"heading": heading, "tilt": tilt, "tour": tour})
+        )
+
+    await context.change_wall(wall, aim)
+
+
+async def fly_to(
+    context: AppContext,
+    wall: Wall,
+    geometry: MapGeometry,
+    middle: tuple[float, float],
+    place: tuple[float, float],
+    zoom: float | None,
+) -> View:
+    """Look at the plane point ``place`` of ``geometry``'s map from ``middle``, the
+    middle of the wall (:func:`~webapp.apps.census_map.globe.wall_middle`), at ``zoom``
+    or the zoom the wall has: the wall's one view, so the flat
+    map and the globe both go there, on every tile in the same frame. A tour playing
+    stops. Raises :class:`MapChanged` when the census map is not on the wall."""
+    flown: View | None = None
+
+    def fly(state: WallState) -> WallState:
+        nonlocal flown
+        if state.app != APP:
+            raise MapChanged
+        view = state.view if zoom is None else state.view.model_copy(update={"zoom": zoom})
+        flown = looking_at(geometry, wall, view, middle, *place)
+        census = CensusState.of(state)
+        tour = census.tour.stopped("the instructor flew to a place")
+        return census.model_copy(update={"tour": tour}).put(
+            state.model_copy(update={"view": flown})
+        )
+
+    await context.change_wall(wall, fly)
+    assert flown is not None
+    return flown
 
 
 async def toggle_group(context: AppContext, wall: Wall, group_id: str) -> bool:
@@ -120,8 +188,9 @@ async def open_balloon(
 ) -> Balloon:
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
-    are open). Raises :class:`GroupHidden` when the wall hides the tract's group and
-    :class:`NoRoom` when the wall has no room for it.
+    are open). Raises :class:`GroupHidden` when the wall hides the tract's group,
+    :class:`GlobeTurned` when its globe is turned or tilted and :class:`NoRoom` when the
+    wall has no room for it.
 
     Nothing of a balloon touches a code's symbol, quiet zone or caption: its dot marks
     the tract where no code stands (at the edge of the tract's own code, which stands
@@ -132,6 +201,8 @@ async def open_balloon(
 
     async def place(state: WallState) -> Update:
         nonlocal opened
+        if CensusState.of(state).turned:
+            raise GlobeTurned
         hidden = hidden_group(state, dataset, tract)
         if hidden is not None:
             raise GroupHidden(hidden)
@@ -215,7 +286,11 @@ async def switch_dataset(app: CensusMaps, context: AppContext, dataset_id: int) 
         def show(state: WallState) -> WallState:
             if state.app != APP:
                 return state
-            theme = kept_theme(dataset, CensusState.of(state).theme)
-            return CensusState(dataset=dataset_id, theme=theme).put(state)
+            census = CensusState.of(state)
+            theme = kept_theme(dataset, census.theme)
+            tour = census.tour.stopped("another data set went on the wall")
+            return census.model_copy(
+                update={"dataset": dataset_id, "theme": theme, "tour": tour}
+            ).put(state)
 
         await context.change_wall(wall, show)

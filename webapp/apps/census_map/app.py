@@ -17,7 +17,7 @@ from webapp.apps.census_map.dataset import MOST_GROUPS
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import on_the_map, tract_codes
-from webapp.apps.census_map.routes import datasets, earth, phones, tiles
+from webapp.apps.census_map.routes import camera, datasets, earth, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
@@ -67,20 +67,34 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
     static: Path | None = FOLDER / "static"
 
     def leave(self, state: WallState) -> WallState:
-        return state
+        """A tour playing stops (its driver ends at its next step)."""
+        census = CensusState.of(state)
+        tour = census.tour.stopped("the wall left the census map")
+        return census.model_copy(update={"tour": tour}).put(state) if tour != census.tour else state
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall, the map shows the current data set (the content folder's until
-        an import): seeded on first use, so walls that never show the map pay nothing."""
+        an import): seeded on first use, so walls that never show the map pay nothing.
+        The surface, camera and tour stay as they were kept; a tour still marked playing
+        had its driver in a server that is gone (settle runs as a server starts, and as
+        the map comes on a wall, which a tour's :meth:`leave` stopped): it stops, saying
+        so."""
         dataset_id = current_id(context.db) or seed(context.db, first_dataset(context.settings))
-        theme = kept_theme(self.dataset(context, dataset_id), CensusState.of(state).theme)
-        return CensusState(dataset=dataset_id, theme=theme).put(state)
+        census = CensusState.of(state)
+        theme = kept_theme(self.dataset(context, dataset_id), census.theme)
+        tour = census.tour.stopped("the server restarted")
+        return census.model_copy(update={"dataset": dataset_id, "theme": theme, "tour": tour}).put(
+            state
+        )
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """While the map is on the wall: the group toggles on the menu screen, the tract
         index on the registration screen, a code on every tract that has room for one
         at this view, and a cluster code over each neighbourhood of tracts too small
-        for theirs, so every tract on the map is reached by pointing at the wall."""
+        for theirs, so every tract on the map is reached by pointing at the wall. On a
+        globe turned or tilted, the tracts move on the displays away from where the
+        flat map puts them: no tract or cluster code then (the tract index reaches
+        every tract), rather than a code pointing at the wrong one."""
         dataset = self.shown(context, state) if state.app == APP else None
         if dataset is None:
             return []
@@ -99,6 +113,8 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
                 for slot, group in enumerate(dataset.groups, start=1)
             ),
         ]
+        if CensusState.of(state).turned:
+            return menu  # tracts are not where the flat map puts them: no code on them
         codes = tract_codes(
             self.geometry(dataset),
             wall,
@@ -224,7 +240,7 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
 
     def router(self) -> APIRouter | None:
         router = APIRouter()
-        for room in (phones, tiles, earth, datasets):  # phones' paths first: most asked for
+        for room in (phones, tiles, earth, datasets, camera):  # phones' paths first: most asked for
             router.include_router(room.router)
         return router
 

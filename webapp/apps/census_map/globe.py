@@ -50,25 +50,103 @@ def ground_m_per_unit(latitude: float) -> float:
     return WGS84_A / math.sqrt(1 - WGS84_E2 * math.sin(phi) ** 2) * math.pi / 180
 
 
-def globe_camera(geometry: MapGeometry, wall: Wall, view: View) -> dict[str, Any]:
-    """The wall's one camera: the eye (scene mm of the middle and its distance), and
-    where it stands over the Earth (longitude, latitude, height in metres)."""
+def globe_camera(
+    geometry: MapGeometry, wall: Wall, view: View, heading: float = 0.0, tilt: float = 0.0
+) -> dict[str, Any]:
+    """The wall's one camera: the eye (scene mm of the middle and its distance), the
+    target (the point of the map the middle of the wall shows, on the ellipsoid), and
+    the camera ``range_m`` from it, turned by ``heading`` (degrees clockwise from north:
+    the way the top of the wall faces) and tilted ``tilt`` degrees from straight down
+    towards it, as the eye would see the map hung that far off the wall. At heading 0,
+    tilt 0 the camera stands straight above the target, north up.
+
+    Where it stands: ``longitude``, ``latitude``, ``height_m`` and ``position`` (Earth-
+    centred, metres); which way it looks: ``direction``, and ``up``, the way the top of
+    the wall faces (unit vectors, Earth-centred). Each display turns these into its own
+    off-centre part of the one camera (``static/frustum.js``, ``static/globe.js``), so a
+    tilted view runs on across the bezels as a straight-down one does."""
     project = projection(geometry, wall, view)
     eye = wall_eye(wall)
     longitude, latitude = geometry.to_lonlat(*project.to_plane(eye["x"], eye["y"]))
     metres_per_mm = ground_m_per_unit(geometry.lat0) / project.scale
+    range_m = eye["distance_mm"] * metres_per_mm
+    east, north, up = _enu(longitude, latitude)
+    h, t = math.radians(heading), math.radians(tilt)
+    # in the target's east, north, up: the look down and towards the heading, and the
+    # top of the wall's picture (perpendicular to it, towards the heading and up)
+    look = (math.sin(h) * math.sin(t), math.cos(h) * math.sin(t), -math.cos(t))
+    top = (math.sin(h) * math.cos(t), math.cos(h) * math.cos(t), math.sin(t))
+
+    def world(v: tuple[float, float, float]) -> list[float]:
+        return [v[0] * e + v[1] * n + v[2] * u for e, n, u in zip(east, north, up, strict=True)]
+
+    target = _ecef(longitude, latitude)
+    direction = world(look)
+    position = [p - range_m * d for p, d in zip(target, direction, strict=True)]
+    cam_longitude, cam_latitude, height_m = _geodetic(position)
     return {
         "eye": eye,
-        "longitude": longitude,
-        "latitude": latitude,
-        "height_m": eye["distance_mm"] * metres_per_mm,
+        "longitude": cam_longitude,
+        "latitude": cam_latitude,
+        "height_m": height_m,
+        "target": {"longitude": longitude, "latitude": latitude},
+        "range_m": range_m,
+        "heading": heading,
+        "tilt": tilt,
+        "position": position,
+        "direction": direction,
+        "up": world(top),
     }
 
 
-def globe_view(dataset: DataSet, geometry: MapGeometry, wall: Wall, view: View) -> dict[str, Any]:
-    """The camera and every tract in longitude/latitude, simplified to within a quarter
-    pixel of the wall's finest display at ``view``, with their groups: the same for every
-    tile of the wall."""
+Vector = tuple[float, float, float]
+
+
+def _enu(longitude: float, latitude: float) -> tuple[Vector, Vector, Vector]:
+    """East, north and up (the ellipsoid's normal) at a place, Earth-centred."""
+    lam, phi = math.radians(longitude), math.radians(latitude)
+    east = (-math.sin(lam), math.cos(lam), 0.0)
+    north = (-math.sin(phi) * math.cos(lam), -math.sin(phi) * math.sin(lam), math.cos(phi))
+    up = (math.cos(phi) * math.cos(lam), math.cos(phi) * math.sin(lam), math.sin(phi))
+    return east, north, up
+
+
+def _ecef(longitude: float, latitude: float, height: float = 0.0) -> list[float]:
+    """A place on (or ``height`` metres above) the WGS84 ellipsoid, Earth-centred."""
+    lam, phi = math.radians(longitude), math.radians(latitude)
+    n = WGS84_A / math.sqrt(1 - WGS84_E2 * math.sin(phi) ** 2)
+    return [
+        (n + height) * math.cos(phi) * math.cos(lam),
+        (n + height) * math.cos(phi) * math.sin(lam),
+        (n * (1 - WGS84_E2) + height) * math.sin(phi),
+    ]
+
+
+def _geodetic(position: list[float]) -> tuple[float, float, float]:
+    """Longitude, latitude (degrees) and height (metres) of an Earth-centred point
+    (iterated to well under a millimetre at any height a wall's camera takes)."""
+    x, y, z = position
+    p = math.hypot(x, y)
+    phi = math.atan2(z, p * (1 - WGS84_E2))
+    height = 0.0
+    for _ in range(10):
+        n = WGS84_A / math.sqrt(1 - WGS84_E2 * math.sin(phi) ** 2)
+        height = p / math.cos(phi) - n
+        phi = math.atan2(z, p * (1 - WGS84_E2 * n / (n + height)))
+    return math.degrees(math.atan2(y, x)), math.degrees(phi), height
+
+
+def globe_view(
+    dataset: DataSet,
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    heading: float = 0.0,
+    tilt: float = 0.0,
+) -> dict[str, Any]:
+    """The camera (turned and tilted so) and every tract in longitude/latitude,
+    simplified to within a quarter pixel of the wall's finest display at ``view``, with
+    their groups: the same for every tile of the wall."""
     project = projection(geometry, wall, view)
     px_per_mm = max(
         max(math.hypot(m[0], m[1]), math.hypot(m[2], m[3]))
@@ -86,7 +164,8 @@ def globe_view(dataset: DataSet, geometry: MapGeometry, wall: Wall, view: View) 
             tracts.append(
                 {"id": tract.geoid, "group": dataset.group_of[tract.geoid], "polygons": polygons}
             )
-    return {"dataset": dataset.id, "camera": globe_camera(geometry, wall, view), "tracts": tracts}
+    camera = globe_camera(geometry, wall, view, heading, tilt)
+    return {"dataset": dataset.id, "camera": camera, "tracts": tracts}
 
 
 def _polygons(shape: Any) -> list[Polygon]:

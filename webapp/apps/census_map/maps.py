@@ -7,6 +7,7 @@ The app object is a :class:`CensusMaps`; its pages and routes find it with
 
 from __future__ import annotations
 
+import asyncio
 import threading
 from collections import OrderedDict
 
@@ -39,6 +40,7 @@ class CensusMaps:
         self.shadings = SizedCache[Shading](KEPT_SHADINGS)
         self._geometries: OrderedDict[int, MapGeometry] = OrderedDict()
         self._lock = threading.Lock()
+        self.tours: dict[str, asyncio.Task[None]] = {}  # by wall: this process's tour drivers
 
     # --- data ----------------------------------------------------------------------
 

@@ -136,6 +136,10 @@ class MapGeometry:
         """A point of the plane as longitude/latitude: the plane's projection undone."""
         return (u / math.cos(math.radians(self.lat0)), -v)
 
+    def from_lonlat(self, longitude: float, latitude: float) -> tuple[float, float]:
+        """A longitude/latitude on the plane (:meth:`to_lonlat` undone)."""
+        return (longitude * math.cos(math.radians(self.lat0)), -latitude)
+
     def outlines(self, tolerance: float) -> Shapes:
         """Outlines simplified as much as ``tolerance`` (plane units) allows: none
         strays further than that from the true outline."""
@@ -322,6 +326,24 @@ def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
         dx=middle_x + zoom * (fitted.dx - middle_x - pan_x),
         dy=middle_y + zoom * (fitted.dy - middle_y - pan_y),
     )
+
+
+def looking_at(
+    geometry: MapGeometry, wall: Wall, view: View, middle: tuple[float, float], u: float, v: float
+) -> View:
+    """``view`` moved (its zoom kept) so that the scene point ``middle`` (the middle of
+    the wall) shows the plane point (``u``, ``v``): :func:`projection` undone for the
+    centre. The flat map and the globe both look there (the globe's camera stands over
+    the point the middle of the wall shows)."""
+    fitted = geometry.fit(wall)
+    minx, miny, maxx, maxy = geometry.extent
+    middle_x, middle_y = fitted.point((minx + maxx) / 2, (miny + maxy) / 2)
+    zoom = view.zoom
+    pan_x = u * fitted.scale + fitted.dx - middle_x - (middle[0] - middle_x) / zoom
+    pan_y = v * fitted.scale + fitted.dy - middle_y - (middle[1] - middle_y) / zoom
+    stage = wall.stage
+    center = (0.5 + pan_x / stage.width, 0.5 + pan_y / stage.height)
+    return view.model_copy(update={"center": center})
 
 
 def tract_boxes(geometry: MapGeometry, wall: Wall, view: View) -> list[Rect]:

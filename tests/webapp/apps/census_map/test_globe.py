@@ -11,13 +11,18 @@ import subprocess
 from itertools import permutations
 from typing import Any
 
+import numpy as np
 import pytest
 
 from tests.conftest import wall_files
+from tests.webapp.apps.census_map.conftest import sacramento
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine, invert_affine
-from webapp.apps.census_map.globe import wall_eye
+from webapp.apps.census_map.earth import WGS84_A, WGS84_E2
+from webapp.apps.census_map.globe import globe_camera, wall_eye, wall_middle
+from webapp.apps.census_map.mapview import MapGeometry, looking_at, projection
 from webapp.core.settings import PROJECT_ROOT
+from webapp.engine.wall_state import View
 
 FRUSTUM_JS = PROJECT_ROOT / "webapp" / "apps" / "census_map" / "static" / "frustum.js"
 MM = 1e-6  # how close, in scene mm at the wall
@@ -158,3 +163,92 @@ def test_a_display_seeing_the_wrong_part_is_caught() -> None:
     centred = {"left": -half_w, "right": half_w, "top": half_h, "bottom": -half_h}
     seen = window(wall, display.id, centred, eye)
     assert seen.x != pytest.approx(scene.x, abs=MM)
+
+
+# --- the wall's one camera, turned and tilted (globe.globe_camera) -------------------
+
+
+def camera_of(heading: float = 0.0, tilt: float = 0.0, view: View | None = None) -> dict[str, Any]:
+    wall = load_wall(wall_files("demo")[0])
+    geometry = MapGeometry.of(sacramento())
+    return globe_camera(geometry, wall, view or View(), heading, tilt)
+
+
+def enu_at(longitude: float, latitude: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    lam, phi = np.radians(longitude), np.radians(latitude)
+    east = np.array([-np.sin(lam), np.cos(lam), 0.0])
+    north = np.array([-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)])
+    return east, north, np.cross(east, north)
+
+
+def ground(longitude: float, latitude: float) -> np.ndarray:
+    lam, phi = np.radians(longitude), np.radians(latitude)
+    n = WGS84_A / np.sqrt(1 - WGS84_E2 * np.sin(phi) ** 2)
+    return np.array(
+        [
+            n * np.cos(phi) * np.cos(lam),
+            n * np.cos(phi) * np.sin(lam),
+            n * (1 - WGS84_E2) * np.sin(phi),
+        ]
+    )
+
+
+def test_straight_down_the_camera_stands_over_the_middle_north_up() -> None:
+    camera = camera_of()
+    target = camera["target"]
+    _, north, up = enu_at(target["longitude"], target["latitude"])
+    assert camera["longitude"] == pytest.approx(target["longitude"], abs=1e-9)
+    assert camera["latitude"] == pytest.approx(target["latitude"], abs=1e-9)
+    assert camera["height_m"] == pytest.approx(camera["range_m"], rel=1e-9)
+    assert np.allclose(camera["direction"], -up) and np.allclose(camera["up"], north)
+    # the position is the geodetic place and height it names
+    above = ground(camera["longitude"], camera["latitude"]) + camera["height_m"] * up
+    assert np.allclose(camera["position"], above, atol=1e-3)
+
+
+@pytest.mark.parametrize(("heading", "tilt"), [(0, 30), (90, 0), (90, 45), (225, 60), (359, 10)])
+def test_turned_and_tilted_the_camera_still_looks_at_the_middle_from_as_far(
+    heading: float, tilt: float
+) -> None:
+    straight = camera_of()
+    camera = camera_of(heading, tilt)
+    target = camera["target"]
+    assert target == straight["target"] and camera["range_m"] == straight["range_m"]
+    east, north, up = enu_at(target["longitude"], target["latitude"])
+    position, direction, top = (np.array(camera[k]) for k in ("position", "direction", "up"))
+    # the middle of the wall still shows the target, from the same distance
+    at = ground(target["longitude"], target["latitude"])
+    assert np.allclose(position + camera["range_m"] * direction, at, atol=1e-3)
+    # tilted from straight down by `tilt`, towards the heading (clockwise from north)
+    assert np.degrees(np.arccos(-direction @ up)) == pytest.approx(tilt, abs=1e-6)
+    if tilt:
+        along = np.degrees(np.arctan2(direction @ east, direction @ north)) % 360
+        assert along == pytest.approx(heading, abs=1e-6)
+    # the top of the wall faces the heading; the camera's axes are a right-handed frame
+    facing = np.degrees(np.arctan2(top @ east, top @ north)) % 360
+    assert facing == pytest.approx(heading, abs=1e-6)
+    assert abs(direction @ top) < 1e-12 and np.isclose(np.linalg.norm(top), 1)
+    # it stands where it says: lower as it tilts, a little higher than the flat
+    # Earth's range cos(tilt) as the Earth curves away under it (d^2 / 2R, some 12 km
+    # at the demo's range of about 450 km and 60 degrees), behind the target
+    off = camera["range_m"] * np.sin(np.radians(tilt))
+    assert camera["height_m"] == pytest.approx(
+        camera["range_m"] * np.cos(np.radians(tilt)) + off**2 / (2 * 6.371e6), rel=0.003
+    )
+    assert np.allclose(
+        ground(camera["longitude"], camera["latitude"])
+        + camera["height_m"] * enu_at(camera["longitude"], camera["latitude"])[2],
+        position,
+        atol=1e-3,
+    )
+
+
+def test_a_view_flown_to_a_place_puts_it_under_the_camera() -> None:
+    wall = load_wall(wall_files("demo")[0])
+    geometry = MapGeometry.of(sacramento())
+    u, v = (float(c) for c in geometry.label_points[17])
+    view = looking_at(geometry, wall, View(zoom=3), wall_middle(wall), u, v)
+    assert view.zoom == 3
+    target = globe_camera(geometry, wall, view)["target"]
+    assert (target["longitude"], target["latitude"]) == pytest.approx(geometry.to_lonlat(u, v))
+    assert projection(geometry, wall, view).point(u, v) == pytest.approx(wall_middle(wall))

@@ -284,6 +284,41 @@ def matrix(client: TestClient) -> list[Row]:
             STAFF_API,
             json={"surface": "flat"},
         ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/camera",
+            "/api/census/walls/kl-3x3/camera",
+            STAFF_API,
+            json={"heading": 0, "tilt": 0},
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/fly",
+            "/api/census/walls/kl-3x3/fly",
+            STAFF_API,
+            json={"group": group},
+        ),
+        Row(
+            "PUT",
+            "/api/census/walls/{wall_id}/tour",
+            "/api/census/walls/kl-3x3/tour",
+            STAFF_API,
+            json={"steps": []},
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/tour/play",
+            "/api/census/walls/kl-3x3/tour/play",
+            (401, 401, 409, 409),  # no steps kept
+            json={},  # none needed: sends the CSRF header
+        ),
+        Row(
+            "POST",
+            "/api/census/walls/{wall_id}/tour/stop",
+            "/api/census/walls/kl-3x3/tour/stop",
+            STAFF_API,
+            json={},
+        ),
         Row("GET", "/api/census/schemes", "/api/census/schemes", STAFF_API),
         Row(
             "GET",

@@ -9,6 +9,7 @@ from fastapi import APIRouter, Form, Request, Response, status
 
 from webapp.apps.census_map import pages
 from webapp.apps.census_map.actions import (
+    GlobeTurned,
     GroupHidden,
     NoRoom,
     open_balloon,
@@ -71,7 +72,8 @@ async def show_on_wall(
 ) -> Response:
     """ "Show on the wall": the tract's balloon opens beside it on every tile. 409, with
     the reason and what to do, when the wall hides the tract's group (the balloon would
-    point at empty map) or has no room for it clear of every code."""
+    point at empty map), turns or tilts its globe (it would point at the wrong place)
+    or has no room for it clear of every code."""
     app = census_maps(context)
     _, dataset = await pages.shown_dataset(app, context, wall)
     tract = pages.tract_of(dataset, geoid)
@@ -92,6 +94,18 @@ async def show_on_wall(
             seconds=seconds,
             hidden=hidden.group,
             refused=True,
+        )
+    except GlobeTurned:
+        return render(
+            request,
+            "census/balloon.html",
+            status.HTTP_409_CONFLICT,
+            wall=wall,
+            tract=tract,
+            title=title,
+            placed=False,
+            turned=True,
+            seconds=seconds,
         )
     except NoRoom:
         return render(

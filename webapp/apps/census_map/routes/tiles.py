@@ -17,6 +17,7 @@ from webapp.apps.census_map.maps import CensusMaps, census_maps
 from webapp.apps.census_map.mapview import tile_view, tract_boxes
 from webapp.apps.census_map.routes.common import MapViewDep
 from webapp.apps.census_map.rules import APP
+from webapp.apps.census_map.state import MAX_TILT
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Method, Theme
 from webapp.choropleth.palettes import SchemeName
@@ -172,13 +173,19 @@ def _theme_body(
 
 @router.get("/api/walls/{wall_id}/census/globe", responses=errors(404))
 async def wall_globe(
-    wall: WallDep, context: ContextDep, dataset: RowId, view: MapViewDep
+    wall: WallDep,
+    context: ContextDep,
+    dataset: RowId,
+    view: MapViewDep,
+    heading: Annotated[float, Query(ge=0, lt=360)] = 0.0,
+    tilt: Annotated[float, Query(ge=0, le=MAX_TILT)] = 0.0,
 ) -> Response:
-    """The map on the globe for a data set and view, the same for every tile of the
-    wall: the wall's one camera and every tract in longitude/latitude (tiles colour them
-    with the theme's classes, ``.../census/theme``)."""
+    """The map on the globe for a data set, view and camera (the state's ``heading`` and
+    ``tilt``), the same for every tile of the wall: the wall's one camera and every
+    tract in longitude/latitude (tiles colour them with the theme's classes,
+    ``.../census/theme``)."""
     app = census_maps(context)
-    key = ("globe", wall.id, dataset, view.center, view.zoom)
+    key = ("globe", wall.id, dataset, view.center, view.zoom, heading, tilt)
     body = app.renders.get(key)
     if body is None:
         found = await run_blocking(app.dataset, context, dataset)
@@ -186,11 +193,13 @@ async def wall_globe(
             raise HTTPException(
                 status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
             )
-        body = await run_blocking(_globe_body, app, wall, found, view)
+        body = await run_blocking(_globe_body, app, wall, found, view, heading, tilt)
         app.renders.put(key, body)
     return Response(body, media_type="application/json")
 
 
-def _globe_body(app: CensusMaps, wall: Wall, dataset: DataSet, view: View) -> bytes:
-    body = globe_view(dataset, app.geometry(dataset), wall, view)
+def _globe_body(
+    app: CensusMaps, wall: Wall, dataset: DataSet, view: View, heading: float, tilt: float
+) -> bytes:
+    body = globe_view(dataset, app.geometry(dataset), wall, view, heading, tilt)
     return json.dumps(body, separators=(",", ":")).encode()

@@ -9,9 +9,13 @@ import {angleOf, upright} from "tagwall/matrix.js";
 import {Globe, globeMissing} from "./globe.js";
 
 /** The census map's slot of the wall state: {dataset, theme} (both null: not set up),
- * surface "flat" or "globe". */
+ * surface "flat" or "globe", the globe camera's heading and tilt, the tour. */
 export function censusOf(state) {
-  return {dataset: null, theme: null, surface: "flat", ...state?.apps?.census};
+  return {
+    dataset: null, theme: null, surface: "flat", heading: 0, tilt: 0,
+    tour: {steps: [], playing: false, step: 0, run: 0, note: ""},
+    ...state?.apps?.census,
+  };
 }
 
 const KEEP = 4;
@@ -45,10 +49,12 @@ export class CensusViews {
 
   /** The query of the map on the globe: the same for every tile (null: flat). */
   static globeKeyOf(state) {
-    const {dataset, surface} = censusOf(state);
+    const {dataset, surface, heading, tilt} = censusOf(state);
     if (state?.app !== "census" || !dataset || surface !== "globe") return null;
     const [cx, cy] = state.view?.center ?? [0.5, 0.5];
-    return new URLSearchParams({dataset, cx, cy, zoom: state.view?.zoom ?? 1}).toString();
+    return new URLSearchParams({
+      dataset, cx, cy, zoom: state.view?.zoom ?? 1, heading, tilt,
+    }).toString();
   }
 
   static keyOf(state) {
@@ -270,7 +276,10 @@ class GlobeLayer {
     this.maps = new Map();
     this.globe = null;
     this.missing = "";
-    this.picture = null;  // {key, canvas}: the last picture, ready to copy
+    // The last few pictures by look, ready to copy: changes prepared one after another
+    // (a turn, then a tilt) each find their own picture at their swap, rather than
+    // rendering it again in the frame (hundreds of ms under software GL: tiles apart).
+    this.pictures = new Map();
   }
 
   async load(state, views) {
@@ -315,24 +324,30 @@ class GlobeLayer {
 
   keep(key) {
     const source = this.globe.canvas;
-    const canvas = this.picture?.canvas ?? document.createElement("canvas");
+    let canvas = this.pictures.get(key);
+    this.pictures.delete(key);
+    if (!canvas && this.pictures.size >= KEEP) {
+      canvas = this.pictures.values().next().value;  // the oldest's canvas, reused
+      this.pictures.delete(this.pictures.keys().next().value);
+    }
+    canvas ??= document.createElement("canvas");
     canvas.width = source.width;
     canvas.height = source.height;
     canvas.getContext("2d").drawImage(source, 0, 0);
-    this.picture = {key, canvas};
+    this.pictures.set(key, canvas);
   }
 
   /** The picture for `state` (rendered now unless prepared), or null: draw flat. */
   pictureOf(state, views) {
     const look = this.look(state, views);
     if (!look) return null;
-    if (this.picture?.key !== look.key) {
+    if (!this.pictures.has(look.key)) {
       this.globe.show(look.map, look.style);
       this.globe.restyle(look.styleKey, look.style);
       this.globe.render();
       this.keep(look.key);
     }
-    return this.picture.canvas;
+    return this.pictures.get(look.key);
   }
 }
 

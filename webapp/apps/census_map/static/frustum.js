@@ -3,7 +3,8 @@
 // through its own rectangle of that window. Its frustum is off centre: left, right, top,
 // bottom are tangents (the near plane's edges at distance 1), in the display's own pixel
 // axes (a panel turned a quarter sees the window turned with it), and `up` says which way
-// on the ground (east, north) the top of its picture faces. Every display has the same
+// the top of its picture faces in the wall's own right and up (the camera's right and up:
+// straight down, north up, those are east and north; globe.js turns them with the camera). Every display has the same
 // eye, so a straight line on the ground runs on straight across the bezels (overlay mode:
 // the scene is the wall's mm, bezels included; offset mode: the bezels squeezed out).
 
@@ -42,7 +43,7 @@ export function displayFrustum(display, eye) {
     right: Math.max(...xs),
     top: -Math.min(...ys),
     bottom: -Math.max(...ys),
-    // scene y runs south: the picture's up (-ey) is ey.x west and ey.y north
+    // scene y runs down the wall: the picture's up (-ey) is -ey.x right and ey.y up
     up: [-ey[0], ey[1]],
   };
 }

@@ -128,21 +128,25 @@ export class Globe {
     return this.widget.canvas;
   }
 
-  /** Point the camera as the wall's camera, seen through this display. */
+  /** Point the camera as the wall's camera, seen through this display. The server
+   * says where the one camera stands and which way it looks (webapp/apps/census_map/
+   * globe.py: turned and tilted there, Earth-centred `position`, `direction` and `up`,
+   * the way the top of the wall faces); this display looks along the same direction
+   * through its own off-centre part of it, its picture's up turned in the camera's
+   * plane as the panel hangs (frustum.js: `up` in the wall's right and up). */
   aim(camera) {
     const Cesium = this.Cesium;
     const frustum = displayFrustum(this.display, camera.eye);
-    const position = Cesium.Cartesian3.fromDegrees(camera.longitude, camera.latitude, camera.height_m);
-    const frame = Cesium.Transforms.eastNorthUpToFixedFrame(position);
-    const axis = (column) => Cesium.Cartesian3.fromCartesian4(
-      Cesium.Matrix4.getColumn(frame, column, new Cesium.Cartesian4()));
-    const [ue, un] = frustum.up;
+    const position = Cesium.Cartesian3.fromArray(camera.position);
+    const direction = Cesium.Cartesian3.fromArray(camera.direction);
+    const wallUp = Cesium.Cartesian3.fromArray(camera.up);
+    const right = Cesium.Cartesian3.cross(direction, wallUp, new Cesium.Cartesian3());
+    const [ur, uu] = frustum.up;
     const up = Cesium.Cartesian3.add(
-      Cesium.Cartesian3.multiplyByScalar(axis(0), ue, new Cesium.Cartesian3()),
-      Cesium.Cartesian3.multiplyByScalar(axis(1), un, new Cesium.Cartesian3()),
+      Cesium.Cartesian3.multiplyByScalar(right, ur, new Cesium.Cartesian3()),
+      Cesium.Cartesian3.multiplyByScalar(wallUp, uu, new Cesium.Cartesian3()),
       new Cesium.Cartesian3(),
     );
-    const direction = Cesium.Cartesian3.negate(axis(2), new Cesium.Cartesian3());
     const cam = this.widget.scene.camera;
     cam.frustum = wallFrustum(Cesium, frustum);
     cam.setView({destination: position, orientation: {direction, up}});

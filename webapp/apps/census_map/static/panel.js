@@ -1,5 +1,6 @@
 // The census map's dashboard panel: the data set, pan and zoom, flat or on a globe, the
-// colouring, groups, open balloons.
+// globe's camera (turn, tilt, fly to a place), the tour, the colouring, groups, open
+// balloons.
 import {api, changeState, onStatus, wallId} from "tagwall/api.js";
 import {bindViewControls} from "tagwall/panels/view.js";
 import {censusOf} from "./census.js";
@@ -44,6 +45,7 @@ async function loadGroups(datasetId) {
   attributes = detail?.attributes ?? [];
   $("census-attribute").replaceChildren(option("", "nothing (one plain colour)"),
     ...attributes.map((a) => option(a.key, a.label)));
+  $("census-places").replaceChildren(...groups.map((g) => option(g.name, `${g.tracts} tracts`)));
 }
 
 async function loadSchemes() {
@@ -80,6 +82,64 @@ function showSurface() {
     button.setAttribute("aria-pressed", String(button.dataset.surface === surface));
   }
   $("census-surface-shown").textContent = SURFACES[surface] ?? surface;
+}
+
+// The globe's camera as the status says. Codes on tracts follow the map only while the
+// globe looks straight down, north up (the server takes them off otherwise).
+const MAX_TILT = 60;  // webapp/apps/census_map/state.py refuses more
+function showCamera() {
+  const {surface, heading, tilt} = censusOf(state);
+  const look = heading === 0 && tilt === 0 ? "Straight down, north up."
+    : `Turned to ${heading}° from north, tilted ${tilt}° from straight down.`;
+  const codes = surface !== "globe" ? " The flat map stays north up, straight down: the globe shows the turn."
+    : (heading || tilt ? " Codes on the tracts are off the wall until the globe looks straight down, north up again (the tract index reaches every tract)." : "");
+  $("census-camera-shown").textContent = look + codes;
+}
+
+function showTour() {
+  const {tour} = censusOf(state);
+  $("census-tour-steps").replaceChildren(...tour.steps.map((step, i) => {
+    const li = document.createElement("li");
+    const [cx, cy] = step.center;
+    li.textContent = `centre ${cx.toFixed(2)}, ${cy.toFixed(2)} · zoom ${+step.zoom.toFixed(2)}`
+      + ` · turned ${step.heading}° · tilted ${step.tilt}° · ${step.dwell_s} s`
+      + (tour.playing && tour.step === i ? " · on the wall" : "");
+    return li;
+  }));
+  $("census-tour-shown").textContent = tour.playing
+    ? `Playing: step ${tour.step + 1} of ${tour.steps.length}.`
+    : (tour.note ? `Not playing: ${tour.note}.` : (tour.steps.length ? "Not playing." : "No tour yet: add views to it."));
+  $("census-tour-play").disabled = !tour.steps.length;
+  $("census-tour-stop").disabled = !tour.playing;
+  $("census-tour-clear").disabled = !tour.steps.length;
+}
+
+function say(element, promise) {
+  element.textContent = "";
+  return promise.catch((error) => { element.textContent = error.message; });
+}
+
+function aim(heading, tilt) {
+  return say($("census-camera-shown"), api(`/api/census/walls/${wallId}/camera`, {
+    method: "POST", body: JSON.stringify({heading, tilt}),
+  }));
+}
+
+// What the instructor typed: "lon, lat", a group (its name or id), else a tract.
+function placeOf(text) {
+  const numbers = text.match(/^\s*(-?\d+(?:\.\d*)?)\s*,\s*(-?\d+(?:\.\d*)?)\s*$/);
+  if (numbers) return {longitude: Number(numbers[1]), latitude: Number(numbers[2])};
+  const wanted = text.trim().toLowerCase();
+  const group = groups.find((g) => g.id.toLowerCase() === wanted || g.name.toLowerCase() === wanted);
+  return group ? {group: group.id} : {tract: text.trim()};
+}
+
+function tourCall(path, options = {method: "POST"}) {
+  return say($("census-tour-shown"), api(`/api/census/walls/${wallId}/tour${path}`, options));
+}
+
+function putTour(steps) {
+  return tourCall("", {method: "PUT", body: JSON.stringify({steps})});
 }
 
 function item(text, buttonText, onClick) {
@@ -120,6 +180,8 @@ onStatus(async (detail) => {
   }
   await loadGroups(state.app === "census" ? dataset : null);
   showSurface();
+  showCamera();
+  showTour();
   showTheme();
   showGroups();
   showBalloons();
@@ -137,6 +199,35 @@ for (const button of $("census-surface").querySelectorAll("[data-surface]")) {
     method: "POST", body: JSON.stringify({surface: button.dataset.surface}),
   }));
 }
+for (const button of $("census-camera").querySelectorAll("[data-turn]")) {
+  button.addEventListener("click", () => {
+    const {heading, tilt} = censusOf(state);
+    aim((((heading + Number(button.dataset.turn)) % 360) + 360) % 360, tilt);
+  });
+}
+for (const button of $("census-camera").querySelectorAll("[data-tilt]")) {
+  button.addEventListener("click", () => {
+    const {heading, tilt} = censusOf(state);
+    aim(heading, Math.max(0, Math.min(MAX_TILT, tilt + Number(button.dataset.tilt))));
+  });
+}
+$("census-camera").querySelector("[data-camera-reset]").addEventListener("click", () => aim(0, 0));
+$("census-fly").addEventListener("submit", (event) => {
+  event.preventDefault();
+  const text = $("census-place").value;
+  say($("census-fly-said"), api(`/api/census/walls/${wallId}/fly`, {
+    method: "POST", body: JSON.stringify(placeOf(text)),
+  }).then(() => { $("census-fly-said").textContent = `Flying to ${text}.`; }));
+});
+$("census-tour-add").addEventListener("click", () => {
+  const {tour, heading, tilt} = censusOf(state);
+  const dwell = Number($("census-dwell").value);
+  const {center, zoom} = state.view;
+  putTour([...tour.steps, {center, zoom, heading, tilt, dwell_s: dwell}]);
+});
+$("census-tour-clear").addEventListener("click", () => putTour([]));
+$("census-tour-play").addEventListener("click", () => tourCall("/play"));
+$("census-tour-stop").addEventListener("click", () => tourCall("/stop"));
 $("census-colour").addEventListener("click", async () => {
   const attribute = $("census-attribute").value;
   const theme = attribute ? {

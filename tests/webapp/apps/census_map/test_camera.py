@@ -1,0 +1,253 @@
+"""The globe's camera and tours over HTTP, as the dashboard drives them: turn and tilt,
+fly to a place, keep and play a tour; the codes and balloons a turned globe takes off."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+
+from tests.conftest import operator_headers, register_student, services_of
+from tests.webapp.apps.census_map.test_app import (
+    census_codes,
+    open_balloon,
+    show_census,
+    state_of,
+)
+from webapp.apps.census_map.globe import wall_middle
+from webapp.apps.census_map.mapview import projection
+from webapp.apps.census_map.state import CensusState
+from webapp.engine.wall_state import read_state
+
+WALL = "/api/census/walls/demo"
+
+
+def post(client: TestClient, path: str, body: Any = None) -> Any:
+    return client.post(f"{WALL}{path}", json=body, headers=operator_headers(client))
+
+
+def census(client: TestClient) -> CensusState:
+    return CensusState.of(state_of(client))
+
+
+def on_globe(client: TestClient) -> None:
+    show_census(client)
+    assert post(client, "/surface", {"surface": "globe"}).status_code == 200
+
+
+def tract_codes(client: TestClient) -> set[str]:
+    return {n for n in census_codes(client) if n.startswith(("census:tract:", "census:cluster:"))}
+
+
+def test_the_instructor_turns_and_tilts_the_globe_and_codes_leave_the_tracts(
+    client: TestClient,
+) -> None:
+    on_globe(client)
+    straight = tract_codes(client)
+    assert straight, "codes stand on the tracts while the globe looks straight down"
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    assert open_balloon(client, dataset.tracts[0].geoid).status_code == 200
+    assert state_of(client).balloons
+
+    answer = post(client, "/camera", {"heading": 30, "tilt": 45})
+    assert answer.status_code == 200, answer.text
+    turned = census(client)
+    assert (turned.heading, turned.tilt) == (30, 45)
+    assert not state_of(client).balloons, "balloons pointing at the flat map's places close"
+    assert not tract_codes(client), "no code points at the wrong tract"
+    assert {n for n in census_codes(client) if n.startswith("census:group:")}, "toggles stay"
+    refused = open_balloon(client, dataset.tracts[0].geoid)
+    assert refused.status_code == 409 and "turned or tilted" in refused.text
+
+    # every tile asks for the same camera: the globe's answer follows the state
+    cx, cy = state_of(client).view.center
+    query = {"dataset": turned.dataset, "cx": cx, "cy": cy, "zoom": 1, "heading": 30, "tilt": 45}
+    body = client.get("/api/walls/demo/census/globe", params=query).json()
+    assert (body["camera"]["heading"], body["camera"]["tilt"]) == (30, 45)
+
+    assert post(client, "/camera", {"heading": 0, "tilt": 0}).status_code == 200
+    assert tract_codes(client) == straight, "the same codes come back straight down"
+
+
+@pytest.mark.parametrize(
+    "camera",
+    [
+        {"heading": 0, "tilt": 61},
+        {"heading": 0, "tilt": -1},
+        {"heading": 360, "tilt": 0},
+        {"heading": -5, "tilt": 0},
+        {"heading": 10},
+        {"heading": 10, "tilt": 10, "roll": 3},
+    ],
+)
+def test_a_camera_out_of_bounds_is_refused(client: TestClient, camera: dict[str, Any]) -> None:
+    on_globe(client)
+    before = read_state(services_of(client).db, "demo")[0]
+    assert post(client, "/camera", camera).status_code == 422
+    assert read_state(services_of(client).db, "demo")[0] == before
+
+
+@pytest.mark.parametrize("query", [{"tilt": 61}, {"heading": 360}, {"heading": -1}])
+def test_a_globe_asked_for_out_of_bounds_is_refused(
+    client: TestClient, query: dict[str, Any]
+) -> None:
+    show_census(client)
+    dataset = census(client).dataset
+    answer = client.get("/api/walls/demo/census/globe", params={"dataset": dataset, **query})
+    assert answer.status_code == 422
+
+
+def test_the_camera_needs_the_map_on_the_wall(client: TestClient) -> None:
+    assert post(client, "/camera", {"heading": 0, "tilt": 0}).status_code == 409
+    assert post(client, "/fly", {"longitude": -121.5, "latitude": 38.5}).status_code == 409
+    assert post(client, "/tour", None).status_code in (404, 405)  # PUT keeps a tour
+    assert post(client, "/tour/play").status_code == 409
+    answer = client.post(f"{WALL}/camera", json={"heading": 0, "tilt": 0})
+    assert answer.status_code == 401
+
+
+def shown_middle(client: TestClient) -> tuple[float, float]:
+    """The plane point the middle of the wall shows now."""
+    services = services_of(client)
+    app = services.apps["census"]
+    dataset = app.datasets.current(services.db)
+    wall = services.walls["demo"]
+    return projection(app.geometry(dataset), wall, state_of(client).view).to_plane(
+        *wall_middle(wall)
+    )
+
+
+def test_fly_to_a_tract_a_group_or_a_place_moves_the_one_view(client: TestClient) -> None:
+    on_globe(client)
+    services = services_of(client)
+    app = services.apps["census"]
+    dataset = app.datasets.current(services.db)
+    geometry = app.geometry(dataset)
+    tract = dataset.tracts[42].geoid
+    answer = post(client, "/fly", {"tract": tract, "zoom": 4})
+    assert answer.status_code == 200, answer.text
+    assert state_of(client).view.zoom == 4 and answer.json()["zoom"] == 4
+    label = geometry.label_points[geometry.geoids.index(tract)]
+    assert shown_middle(client) == pytest.approx(tuple(label))
+
+    group = dataset.groups[1]
+    assert post(client, "/fly", {"group": group.id}).status_code == 200
+    assert state_of(client).view.zoom == 4, "the zoom kept"
+    u, v = shown_middle(client)
+    boxes = [geometry.bounds[i] for i, g in enumerate(geometry.geoids) if g in group.geoids]
+    assert min(b[0] for b in boxes) < u < max(b[2] for b in boxes)
+    assert min(b[1] for b in boxes) < v < max(b[3] for b in boxes)
+
+    assert post(client, "/fly", {"longitude": -121.49, "latitude": 38.58}).status_code == 200
+    assert geometry.to_lonlat(*shown_middle(client)) == pytest.approx((-121.49, 38.58))
+
+
+@pytest.mark.parametrize(
+    ("place", "status"),
+    [
+        ({"tract": "06067999999"}, 404),
+        ({"group": "nope"}, 404),
+        ({}, 422),
+        ({"tract": "06067000100", "group": "x"}, 422),
+        ({"longitude": -121.5}, 422),
+        ({"longitude": -200, "latitude": 38}, 422),
+        ({"longitude": -121.5, "latitude": 38, "zoom": 0}, 422),
+    ],
+)
+def test_a_place_that_is_not_one_is_refused(
+    client: TestClient, place: dict[str, Any], status: int
+) -> None:
+    show_census(client)
+    before = state_of(client).view
+    assert post(client, "/fly", place).status_code == status
+    assert state_of(client).view == before
+
+
+def keep_tour(client: TestClient, steps: list[dict[str, Any]]) -> Any:
+    return client.put(f"{WALL}/tour", json={"steps": steps}, headers=operator_headers(client))
+
+
+STEPS = [
+    {"center": [0.4, 0.5], "zoom": 2, "heading": 90, "tilt": 30, "dwell_s": 2},
+    {"center": [0.6, 0.45], "zoom": 3, "heading": 0, "tilt": 0, "dwell_s": 2},
+]
+
+
+def wait_for(check: Any, seconds: float = 15) -> None:
+    until = time.monotonic() + seconds
+    while not check():
+        assert time.monotonic() < until, "waited too long"
+        time.sleep(0.1)
+
+
+def test_a_tour_plays_its_steps_in_turn_then_ends(client: TestClient) -> None:
+    on_globe(client)
+    assert post(client, "/tour/play").status_code == 409, "no steps yet"
+    assert keep_tour(client, STEPS).status_code == 200
+    assert census(client).tour.steps[1].zoom == 3 and not census(client).tour.playing
+    answer = post(client, "/tour/play")
+    assert answer.status_code == 200, answer.text
+    first = state_of(client)
+    assert CensusState.of(first).tour.playing and CensusState.of(first).tour.step == 0
+    assert (first.view.center, first.view.zoom) == ((0.4, 0.5), 2)
+    assert (CensusState.of(first).heading, CensusState.of(first).tilt) == (90, 30)
+    assert not tract_codes(client), "turned: no codes on the tracts"
+    wait_for(lambda: census(client).tour.step == 1)
+    second = state_of(client)
+    assert (second.view.center, second.view.zoom) == ((0.6, 0.45), 3)
+    assert (CensusState.of(second).heading, CensusState.of(second).tilt) == (0, 0)
+    assert tract_codes(client), "straight down again: the codes are back"
+    wait_for(lambda: not census(client).tour.playing)
+    assert census(client).tour.note == "played all 2 steps"
+    assert state_of(client).view == second.view, "the last view kept"
+
+
+def test_stopping_or_turning_stops_a_tour(client: TestClient) -> None:
+    on_globe(client)
+    long = [{**step, "dwell_s": 600} for step in STEPS]
+    keep_tour(client, long)
+    post(client, "/tour/play")
+    answer = post(client, "/tour/stop")
+    assert answer.status_code == 200 and not answer.json()["playing"]
+    assert census(client).tour.note == "stopped at step 1 of 2: the instructor stopped it"
+    post(client, "/tour/play")
+    post(client, "/camera", {"heading": 15, "tilt": 0})
+    assert census(client).tour.note.endswith("the instructor turned the camera")
+    assert post(client, "/tour/stop").json()["playing"] is False, "nothing to stop: as it is"
+
+
+@pytest.mark.parametrize(
+    "step",
+    [
+        {"center": [0.5, 0.5], "zoom": 1, "tilt": 70, "dwell_s": 5},
+        {"center": [0.5, 0.5], "zoom": 1, "dwell_s": 1},
+        {"center": [0.5, 0.5], "zoom": 0, "dwell_s": 5},
+        {"center": [0.5], "zoom": 1, "dwell_s": 5},
+    ],
+)
+def test_a_tour_step_that_cannot_be_is_refused(client: TestClient, step: dict[str, Any]) -> None:
+    show_census(client)
+    assert keep_tour(client, [step]).status_code == 422
+    assert keep_tour(client, [STEPS[0]] * 51).status_code == 422
+    assert census(client).tour.steps == []
+
+
+def test_a_tour_playing_when_the_server_stops_is_stopped_after_a_restart(
+    client: TestClient,
+) -> None:
+    from webapp.server.app import create_app
+
+    on_globe(client)
+    keep_tour(client, [{**step, "dwell_s": 600} for step in STEPS])
+    post(client, "/tour/play")
+    assert census(client).tour.playing
+    with TestClient(create_app(services_of(client).settings)) as restarted:
+        _, after = read_state(services_of(restarted).db, "demo")
+        kept = CensusState.of(after)
+        assert not kept.tour.playing
+        assert kept.tour.note == "stopped at step 1 of 2: the server restarted"
+        assert len(kept.tour.steps) == 2, "its steps kept, to play again"
+        assert (kept.surface, kept.heading, kept.tilt) == ("globe", 90, 30), "the camera kept"
