@@ -95,7 +95,7 @@ async def show_on_wall(
             hidden=hidden.group,
             refused=True,
         )
-    except GlobeTurned:
+    except (GlobeTurned, NoRoom) as refused:
         return render(
             request,
             "census/balloon.html",
@@ -104,18 +104,7 @@ async def show_on_wall(
             tract=tract,
             title=title,
             placed=False,
-            turned=True,
-            seconds=seconds,
-        )
-    except NoRoom:
-        return render(
-            request,
-            "census/balloon.html",
-            status.HTTP_409_CONFLICT,
-            wall=wall,
-            tract=tract,
-            title=title,
-            placed=False,
+            turned=isinstance(refused, GlobeTurned),
             seconds=seconds,
         )
     return render(

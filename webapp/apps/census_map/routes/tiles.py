@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Hashable
 from typing import Annotated
 
 from fastapi import APIRouter, HTTPException, Query, Response, status
@@ -50,16 +51,13 @@ async def tile_map(
     tile's native pixels (the tile fetches it before it answers ``ready``)."""
     app = census_maps(context)
     key = (dataset, wall.id, tile.id, layout, view.center, view.zoom)
-    body = app.renders.get(key)
-    if body is None:
-        found = await run_blocking(app.dataset, context, dataset)
-        if found is None:
-            raise HTTPException(
-                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
-            )
-        body = await run_blocking(_tile_body, app, context, wall, tile.id, found.id, layout, view)
-        app.renders.put(key, body)
-    return Response(body, media_type="application/json")
+    return await _render_once(
+        app,
+        context,
+        key,
+        dataset,
+        lambda found: _tile_body(app, context, wall, tile.id, found.id, layout, view),
+    )
 
 
 def _tile_body(
@@ -135,20 +133,13 @@ async def tile_theme(
         ) from None
     app = census_maps(context)
     key = ("theme", wall.id, dataset, layout, view.center, view.zoom, theme)
-    body = app.renders.get(key)
-    if body is None:
-        found = await run_blocking(app.dataset, context, dataset)
-        if found is None:
-            raise HTTPException(
-                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
-            )
-        if kept_theme(found, theme) is None:
-            raise HTTPException(
-                status.HTTP_404_NOT_FOUND, f"{found.title} has no value {attribute!r}."
-            )
-        body = await run_blocking(_theme_body, app, context, wall, found, layout, view, theme)
-        app.renders.put(key, body)
-    return Response(body, media_type="application/json")
+    return await _render_once(
+        app,
+        context,
+        key,
+        dataset,
+        lambda found: _theme_body(app, context, wall, found, layout, view, theme),
+    )
 
 
 def _theme_body(
@@ -160,6 +151,10 @@ def _theme_body(
     view: View,
     theme: Theme,
 ) -> bytes:
+    if kept_theme(dataset, theme) is None:
+        raise HTTPException(
+            status.HTTP_404_NOT_FOUND, f"{dataset.title} has no value {theme.attribute!r}."
+        )
     shading = app.shading(dataset, theme)
     assert shading is not None
     record = context.layout(wall.id, layout_id)
@@ -186,16 +181,13 @@ async def wall_globe(
     ``.../census/theme``)."""
     app = census_maps(context)
     key = ("globe", wall.id, dataset, view.center, view.zoom, heading, tilt)
-    body = app.renders.get(key)
-    if body is None:
-        found = await run_blocking(app.dataset, context, dataset)
-        if found is None:
-            raise HTTPException(
-                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset}."
-            )
-        body = await run_blocking(_globe_body, app, wall, found, view, heading, tilt)
-        app.renders.put(key, body)
-    return Response(body, media_type="application/json")
+    return await _render_once(
+        app,
+        context,
+        key,
+        dataset,
+        lambda found: _globe_body(app, wall, found, view, heading, tilt),
+    )
 
 
 def _globe_body(
@@ -203,3 +195,24 @@ def _globe_body(
 ) -> bytes:
     body = globe_view(dataset, app.geometry(dataset), wall, view, heading, tilt)
     return json.dumps(body, separators=(",", ":")).encode()
+
+
+async def _render_once(
+    app: CensusMaps,
+    context: AppContext,
+    key: Hashable,
+    dataset_id: int,
+    build: Callable[[DataSet], bytes],
+) -> Response:
+    """A JSON body every tile asks for alike, built once per ``key`` (in a worker
+    thread, from its data set; 404 when there is none) and kept in the app's renders."""
+    body = app.renders.get(key)
+    if body is None:
+        found = await run_blocking(app.dataset, context, dataset_id)
+        if found is None:
+            raise HTTPException(
+                status.HTTP_404_NOT_FOUND, f"There is no census data set {dataset_id}."
+            )
+        body = await run_blocking(build, found)
+        app.renders.put(key, body)
+    return Response(body, media_type="application/json")
