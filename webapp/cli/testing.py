@@ -63,9 +63,13 @@ class ServerProcess:
     @property
     def http(self) -> httpx.Client:
         """One client while the server runs: a new client loads the CA bundle (about
-        10 ms of CPU), and tests poll the server many times a second."""
+        10 ms of CPU), and tests poll the server many times a second. A connection per
+        request still, as with a client each: a test may kill one of the server's
+        worker processes, and a kept connection would go with it."""
         if self._http is None:
-            self._http = httpx.Client(base_url=self.url, timeout=10)
+            self._http = httpx.Client(
+                base_url=self.url, timeout=10, limits=httpx.Limits(max_keepalive_connections=0)
+            )
         return self._http
 
     @property
@@ -90,7 +94,6 @@ class ServerProcess:
         }
 
     def start(self) -> None:
-        self._close_http()  # a process killed outside stop() left its connections behind
         self.var_dir.mkdir(parents=True, exist_ok=True)
         tagwall = Path(sys.executable).with_name("tagwall")
         with self.log.open("ab") as log:
@@ -122,10 +125,6 @@ class ServerProcess:
                 self.process.kill()
                 self.process.wait()
         self.process = None
-        self._close_http()
-
-    def _close_http(self) -> None:
-        """Drop the client: its connections were to a process that is gone."""
         if self._http is not None:
             self._http.close()
             self._http = None
