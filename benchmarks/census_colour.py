@@ -13,19 +13,19 @@
 from __future__ import annotations
 
 import gzip
-import shutil
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 import httpx
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
 from benchmarks.census_fit import shipped_dataset
+from benchmarks.running import chromium, tagwall_server
 from webapp.apps.census_map.theme import shade
 from webapp.choropleth.classes import Method, Theme
-from webapp.cli.testing import CHROMIUM_ARGS, ServerProcess, wait_until
+from webapp.cli.testing import ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
 
 THEME: dict[str, str | int] = {
@@ -132,30 +132,19 @@ def _tile(server: ServerProcess, page: Page, wall: str) -> dict[str, Any]:
 
 
 def run() -> dict[str, Any]:
-    executable = shutil.which("chromium")
-    if executable is None:
-        raise SystemExit("Debian chromium is not installed: run `make test` first")
-    with tempfile.TemporaryDirectory() as tmp:
-        result: dict[str, Any] = {"theme": THEME, "cut_ms": _cuts(), "walls": {}}
-        server = ServerProcess(
-            var_dir=Path(tmp) / "var",
-            database_url=f"sqlite:///{tmp}/bench.db",
-            secret="benchmark-secret-" + "x" * 32,
-            extra_env={"TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls")},
-        )
-        server.start()
-        try:
-            with sync_playwright() as playwright:
-                browser = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
-                for wall, (width, height) in WALLS.items():
-                    context = browser.new_context(
-                        viewport={"width": width, "height": height}, device_scale_factor=1
-                    )
-                    result["walls"][wall] = _tile(server, context.new_page(), wall)
-                    context.close()
-                browser.close()
-        finally:
-            server.stop()
+    result: dict[str, Any] = {"theme": THEME, "cut_ms": _cuts(), "walls": {}}
+    extra_env = {"TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls")}
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        tagwall_server(Path(tmp), extra_env) as server,
+        chromium() as browser,
+    ):
+        for wall, (width, height) in WALLS.items():
+            context = browser.new_context(
+                viewport={"width": width, "height": height}, device_scale_factor=1
+            )
+            result["walls"][wall] = _tile(server, context.new_page(), wall)
+            context.close()
     return result
 
 

@@ -21,7 +21,6 @@ The browser test shows that the globe is right; only the times are here.
 from __future__ import annotations
 
 import os
-import shutil
 import statistics
 import tempfile
 import time
@@ -29,10 +28,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import httpx
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, Page
 
-from webapp.cli.testing import CHROMIUM_ARGS, RECORD_SHOWN, ServerProcess, wait_until
+from benchmarks.running import chromium, tagwall_server
+from webapp.cli.testing import RECORD_SHOWN, ServerProcess, wait_until
 from webapp.core.settings import CONTENT_DIR
 
 WALL = "demo"
@@ -94,8 +93,8 @@ def change_frames(
 
 
 def colour(server: ServerProcess, theme: dict[str, Any] | None) -> int:
-    httpx.post(
-        f"{server.url}/api/census/walls/{WALL}/theme",
+    server.http.post(
+        f"/api/census/walls/{WALL}/theme",
         json={"theme": theme},
         headers=server.operator(),
         timeout=120,
@@ -104,8 +103,8 @@ def colour(server: ServerProcess, theme: dict[str, Any] | None) -> int:
 
 
 def surface(server: ServerProcess, name: str) -> None:
-    httpx.post(
-        f"{server.url}/api/census/walls/{WALL}/surface",
+    server.http.post(
+        f"/api/census/walls/{WALL}/surface",
         json={"surface": name},
         headers=server.operator(),
         timeout=600,
@@ -159,35 +158,22 @@ def figures_of(samples: dict[str, dict[str, list[float]]]) -> dict[str, Any]:
 def run(
     rounds: int = ROUNDS, changes: int = CHANGES, tiles: Sequence[str] = TILES
 ) -> dict[str, Any]:
-    executable = shutil.which("chromium")
-    if executable is None:
-        raise SystemExit("Debian chromium is not installed: run `make test` first")
     samples: dict[str, dict[str, list[float]]] = {s: {k: [] for k in KINDS} for s in SURFACES}
     load_before = os.getloadavg()[0]
-    with tempfile.TemporaryDirectory() as tmp:
-        server = ServerProcess(
-            var_dir=Path(tmp) / "var",
-            database_url=f"sqlite:///{tmp}/bench.db",
-            secret="benchmark-secret-" + "x" * 32,
-            extra_env={
-                "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls" / f"{WALL}.toml"),
-                "TAGWALL_APPLY_LEAD_MS": "0",  # a change's time is the tiles' drawing
-            },
-        )
-        server.start()
-        try:
-            server.change(WALL, {"app": "census"})
-            with sync_playwright() as playwright:
-                browser = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
-                for _ in range(rounds):
-                    for name in SURFACES:
-                        for kind, values in measure_round(
-                            browser, server, name, tiles, changes
-                        ).items():
-                            samples[name][kind] += values
-                browser.close()
-        finally:
-            server.stop()
+    extra_env = {
+        "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls" / f"{WALL}.toml"),
+        "TAGWALL_APPLY_LEAD_MS": "0",  # a change's time is the tiles' drawing
+    }
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        tagwall_server(Path(tmp), extra_env) as server,
+        chromium() as browser,
+    ):
+        server.change(WALL, {"app": "census"})
+        for _ in range(rounds):
+            for name in SURFACES:
+                for kind, values in measure_round(browser, server, name, tiles, changes).items():
+                    samples[name][kind] += values
     return {
         "wall": WALL,
         "tiles": list(tiles),

@@ -42,15 +42,16 @@ from typing import Any
 
 import httpx
 import pyvips
-from playwright.sync_api import Browser, Page, sync_playwright
+from playwright.sync_api import Browser, Page
 
 from benchmarks.floors import STATIC_DIR_ENV
 from benchmarks.measuring import cpu_seconds, percentile, process_tree
+from benchmarks.running import chromium, tagwall_server
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall
 from webapp.apps.image.hotspots import placement
 from webapp.apps.image.store import PYRAMID, TILE_SIZE, TILE_SUFFIX, ImageManifest, ImageStore
-from webapp.cli.testing import CHROMIUM_ARGS, RECORD_SHOWN, ServerProcess
+from webapp.cli.testing import RECORD_SHOWN, ServerProcess
 from webapp.core.settings import CONTENT_DIR
 from webapp.engine.wall_state import View
 
@@ -75,7 +76,12 @@ TARGETS = {
     "refine_ms": 1000.0,
     "coarse_spread_ms": 16.7,  # one frame at 60 Hz, as benchmarks.sync holds a change to
 }
-SECRET = "benchmark-secret-" + "x" * 32
+# the HIPerWall alone, its image store in the scratch folder's var/images
+TAGWALL_ENV = {
+    "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls" / f"{WALL}.toml"),
+    "TAGWALL_DEFAULT_WALL": WALL,
+    "TAGWALL_APPLY_LEAD_MS": "400",  # as benchmarks.sync runs it
+}
 CELL = (970, 979)  # the texture's tile: ten 97 px and eleven 89 px checkerboard cells
 
 Tile = tuple[int, int, int]  # a pyramid tile: level, column, row
@@ -456,20 +462,13 @@ def change_and_refine(
 ) -> tuple[list[float], list[dict[str, Any]]]:
     """Open ``tiles`` in Chromium and let them refine the view shown; then the spreads
     of ``LIGHT_CHANGES`` light changes, and what each of ``CHANGES`` did."""
-    executable = shutil.which("chromium")
-    if executable is None:
-        raise SystemExit("Debian chromium is not installed: run `make test` first")
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
-        try:
-            pages = {tile: open_tile(browser, server, wall, tile) for tile in tiles}
-            start = server.version(wall.id)
-            for page in pages.values():
-                refined(page, start)
-            light = [light_spread(server, wall, pages, index) for index in range(LIGHT_CHANGES)]
-            return light, [change(server, wall, pages, view) for view in CHANGES]
-        finally:
-            browser.close()
+    with chromium() as browser:
+        pages = {tile: open_tile(browser, server, wall, tile) for tile in tiles}
+        start = server.version(wall.id)
+        for page in pages.values():
+            refined(page, start)
+        light = [light_spread(server, wall, pages, index) for index in range(LIGHT_CHANGES)]
+        return light, [change(server, wall, pages, view) for view in CHANGES]
 
 
 def refine_figures(
@@ -513,27 +512,6 @@ def refine_figures(
 
 
 @contextmanager
-def tagwall_server(var_dir: Path, database: Path) -> Iterator[ServerProcess]:
-    """``tagwall serve`` on SQLite with the HIPerWall alone, on ``var_dir`` (its image
-    store ``var_dir/images``)."""
-    server = ServerProcess(
-        var_dir=var_dir,
-        database_url=f"sqlite:///{database}",
-        secret=SECRET,
-        extra_env={
-            "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls" / f"{WALL}.toml"),
-            "TAGWALL_DEFAULT_WALL": WALL,
-            "TAGWALL_APPLY_LEAD_MS": "400",  # as benchmarks.sync runs it
-        },
-    )
-    server.start()
-    try:
-        yield server
-    finally:
-        server.stop()
-
-
-@contextmanager
 def static_server(directory: Path, scratch: Path) -> Iterator[ServerProcess]:
     """The static-files floor over ``directory``, under uvicorn as ``tagwall serve`` runs."""
     server = ServerProcess(
@@ -559,7 +537,7 @@ def run(
         synthesise(source, size)
         build, image = build_pyramids(source, work / "var" / "images", work)
         pyramid = work / "var" / "images" / image.id / f"{PYRAMID}_files"
-        with tagwall_server(work / "var", work / "tagwall.db") as tagwall:
+        with tagwall_server(work, TAGWALL_ENV) as tagwall:
             with (
                 static_server(pyramid, work / "floor") as floor,
                 keep_alive(tagwall.url) as ours,

@@ -14,22 +14,16 @@ The test suite proves the mechanism with loose bounds; the targets live here.
 
 from __future__ import annotations
 
-import shutil
 import statistics
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
-from playwright.sync_api import Page, sync_playwright
+from playwright.sync_api import Page
 
-from webapp.cli.testing import (
-    CHROMIUM_ARGS,
-    RECORD_SHOWN,
-    ServerProcess,
-    skewed_clock,
-    wait_until,
-)
+from benchmarks.running import chromium, tagwall_server
+from webapp.cli.testing import RECORD_SHOWN, ServerProcess, skewed_clock, wait_until
 from webapp.core.settings import CONTENT_DIR
 
 WALL = "demo"
@@ -45,38 +39,27 @@ def _version(page: Page) -> int | None:
 
 
 def run() -> dict[str, Any]:
-    executable = shutil.which("chromium")
-    if executable is None:
-        raise SystemExit("Debian chromium is not installed: run `make test` first")
-    with tempfile.TemporaryDirectory() as tmp:
-        server = ServerProcess(
-            var_dir=Path(tmp) / "var",
-            database_url=f"sqlite:///{tmp}/bench.db",
-            secret="benchmark-secret-" + "x" * 32,
-            extra_env={
-                "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
-                "TAGWALL_APPLY_LEAD_MS": "400",
-            },
-        )
-        server.start()
-        try:
-            with sync_playwright() as playwright:
-                browser = playwright.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
-                pages = []
-                for tile, skew in zip(TILES, SKEWS_MS, strict=True):
-                    context = browser.new_context(viewport={"width": 480, "height": 270})
-                    context.add_init_script(skewed_clock(skew))
-                    page = context.new_page()
-                    page.goto(server.tile_url(WALL, tile))
-                    page.evaluate(RECORD_SHOWN)
-                    pages.append(page)
-                start = server.version(WALL)
-                wait_until(lambda: all(_version(p) == start for p in pages), what="tiles")
-                time.sleep(3)  # clock sync converges within a few ping round trips
-                reported, true = _measure(server, pages)
-                browser.close()
-        finally:
-            server.stop()
+    extra_env = {
+        "TAGWALL_WALL_CONFIGS": str(CONTENT_DIR / "walls"),
+        "TAGWALL_APPLY_LEAD_MS": "400",
+    }
+    with (
+        tempfile.TemporaryDirectory() as tmp,
+        tagwall_server(Path(tmp), extra_env) as server,
+        chromium() as browser,
+    ):
+        pages = []
+        for tile, skew in zip(TILES, SKEWS_MS, strict=True):
+            context = browser.new_context(viewport={"width": 480, "height": 270})
+            context.add_init_script(skewed_clock(skew))
+            page = context.new_page()
+            page.goto(server.tile_url(WALL, tile))
+            page.evaluate(RECORD_SHOWN)
+            pages.append(page)
+        start = server.version(WALL)
+        wait_until(lambda: all(_version(p) == start for p in pages), what="tiles")
+        time.sleep(3)  # clock sync converges within a few ping round trips
+        reported, true = _measure(server, pages)
     return {
         "wall": WALL,
         "skews_ms": SKEWS_MS,
