@@ -424,6 +424,7 @@ def test_a_site_server_that_fails_leaves_natural_earth_and_the_codes(
         assert magenta_share(shot) < 0.001 and fill_mask(shot).mean() > 0.02
         decodes_its_codes(process, shot)
         notes = notes_of(process)
+        print(f"the dashboard's notes: {notes}")
         assert any("without terrain: its server failed (HTTP 5" in n for n in notes), notes
         assert any("Natural Earth where its imagery server failed" in n for n in notes), notes
         assert tile_server.asked and all(p.startswith("/broken/") for p in tile_server.asked)

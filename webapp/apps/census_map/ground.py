@@ -22,7 +22,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal
-from urllib.parse import urlsplit
+from urllib.parse import urlencode, urlsplit
 
 import httpx
 from pydantic import BaseModel, Field, ValidationError, field_validator
@@ -205,7 +205,7 @@ class GroundRelay:
         under its folder, only the query CesiumTerrainProvider adds."""
         if ".." in path.split("/") or not TERRAIN_TILE.match(path):
             raise GroundUnavailable(404, f"{path!r} is no file of a terrain tileset")
-        kept = "&".join(f"{k}={query[k]}" for k in TERRAIN_QUERY if k in query)
+        kept = urlencode([(k, query[k]) for k in TERRAIN_QUERY if k in query])
         base = self.settings.terrain_url.rstrip("/")
         url = f"{base}/{path}" + (f"?{kept}" if kept else "")
         return await self._once("terrain", url, (accept or TERRAIN_ACCEPT)[:300])

@@ -184,10 +184,13 @@ async def test_terrain_passes_only_its_tileset_files_and_query() -> None:
     upstream = Upstream(mesh)
     relay = upstream.relay(terrain_url="https://terrain.example.org/sac/")
     accept = "application/vnd.quantized-mesh;extensions=watermask"
-    tile = await relay.terrain("9/160/380.terrain", {"v": "1.2.0", "token": "x"}, accept)
+    query = {"v": "1.2.0", "token": "x", "extensions": "watermask&x=1"}
+    tile = await relay.terrain("9/160/380.terrain", query, accept)
     assert tile.body == b"mesh"
     asked = upstream.asked[-1]
-    assert str(asked.url) == "https://terrain.example.org/sac/9/160/380.terrain?v=1.2.0"
+    assert str(asked.url) == (
+        "https://terrain.example.org/sac/9/160/380.terrain?v=1.2.0&extensions=watermask%26x%3D1"
+    )
     assert asked.headers["accept"] == accept
     for path in ("../secret", "9/../../x", "/etc/passwd", "https://elsewhere.example/x", ""):
         with pytest.raises(GroundUnavailable) as refused:
