@@ -313,8 +313,15 @@ export class Globe {
     await this.ready;
     const until = performance.now() + SETTLE_MS;
     let frames = 0;
+    // Cesium's own context (asked again for its kind, it is the one already made)
+    const gl = this.canvas.getContext("webgl2") ?? this.canvas.getContext("webgl");
+    const pixel = new Uint8Array(4);
     for (;;) {
       this.render(DRAFT_SCALE);
+      // Wait for the GPU to draw it: under software GL, JavaScript otherwise queues
+      // drafts far faster than they are drawn (130 while a site's imagery loads), and
+      // the picture waits behind them all (docs/census.md, How fast).
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
       frames += 1;
       if ((frames > 2 && this.widget.scene.globe.tilesLoaded) || performance.now() > until) break;
       await new Promise((resolve) => setTimeout(resolve, 15));
