@@ -1,13 +1,17 @@
 """The census map on a globe (CesiumJS under Chromium's software GL): two neighbouring
 tiles of the demo wall, screenshot at native size, show one continuous globe across the
 bezel between them, with their codes still decoding; the dashboard switches the globe on
-and off and names a tile that cannot show it."""
+and off and names a tile that cannot show it; a site's own imagery server lies over the
+bundled Natural Earth, which stays when that server (or its terrain server) fails."""
 
 from __future__ import annotations
 
 import io
+import json
+import threading
 import time
 from collections.abc import Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
 import httpx
@@ -26,18 +30,18 @@ from tests.browser.conftest import (
 from tests.browser.test_census import brown_share
 from webapp.apps.census_map.mapview import COLOURS
 from webapp.cli.check import fetch_layout
-from webapp.cli.testing import ServerProcess, wait_until
+from webapp.cli.testing import ServerProcess, free_port, wait_until
 from webapp.people.security import operator_token
 
 TILES = ["r2c2", "r2c3"]  # side by side, a 7 mm bezel between them, both on the map
 
 
-@pytest.fixture
-def globe(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+def on_globe(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
+    """The demo wall showing the census map on the globe."""
     # Software GL prepares a globe picture in seconds (its first in tens): the wall waits
     # for every tile's ready up to a minute (a GPU's kiosk needs far less than the 3 s
     # default), so each change still swaps on both at one instant.
-    process = serve(tmp_path, database_url, ("demo",), TAGWALL_SWAP_TIMEOUT_MS="60000")
+    process = serve(tmp_path, database_url, ("demo",), TAGWALL_SWAP_TIMEOUT_MS="60000", **extra_env)
     process.change("demo", {"app": "census"})
     answer = httpx.post(
         f"{process.url}/api/census/walls/demo/surface",
@@ -46,6 +50,12 @@ def globe(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
         timeout=60,
     )
     assert answer.status_code == 200, answer.text
+    return process
+
+
+@pytest.fixture
+def globe(tmp_path: Path, database_url: str) -> Iterator[ServerProcess]:
+    process = on_globe(tmp_path, database_url)
     yield process
     process.stop()
 
@@ -243,5 +253,181 @@ def test_the_dashboard_switches_to_the_globe_and_names_a_tile_without_webgl(
         assert tile.evaluate("document.body.dataset.censusSurface") == "flat"
         context.close()
         dashboard.close()
+    finally:
+        process.stop()
+
+
+MAGENTA = (255, 0, 255)
+
+
+TERRAIN_HEIGHT_M = 100
+# a heightmap-1.0 terrain tileset (the simplest Cesium reads): every tile 65 x 65
+# heights, all TERRAIN_HEIGHT_M, stored as (h + 1000) * 5; children down to level 7
+TERRAIN_LAYER = json.dumps(
+    {
+        "tilejson": "2.1.0",
+        "format": "heightmap-1.0",
+        "version": "1.0.0",
+        "scheme": "tms",
+        "tiles": ["{z}/{x}/{y}.terrain"],
+    }
+).encode()
+
+
+def heightmap(level: int) -> bytes:
+    heights = np.full(65 * 65, (TERRAIN_HEIGHT_M + 1000) * 5, dtype="<u2").tobytes()
+    return heights + bytes([15 if level < 7 else 0, 0])  # child tiles, no water
+
+
+class TileServer:
+    """A site's own tile server: every ``/{z}/{x}/{y}.png`` a solid magenta picture,
+    under ``/terrain/`` a flat terrain tileset, under ``/broken/`` 500s; it counts what
+    it is asked."""
+
+    def __init__(self) -> None:
+        buffer = io.BytesIO()
+        Image.new("RGB", (256, 256), MAGENTA).save(buffer, format="PNG")
+        picture = buffer.getvalue()
+        asked: list[str] = []
+
+        class Answer(BaseHTTPRequestHandler):
+            def do_GET(self) -> None:
+                asked.append(self.path)
+                path = self.path.split("?")[0]
+                if path.startswith("/broken/"):
+                    self.send_error(500)
+                    return
+                if path == "/terrain/layer.json":
+                    self.answer(TERRAIN_LAYER, "application/json")
+                elif path.startswith("/terrain/"):
+                    self.answer(heightmap(int(path.split("/")[2])), "application/octet-stream")
+                else:
+                    self.answer(picture, "image/png")
+
+            def answer(self, body: bytes, media_type: str) -> None:
+                self.send_response(200)
+                self.send_header("Content-Type", media_type)
+                self.send_header("Content-Length", str(len(body)))
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, format: str, *args: object) -> None:
+                pass
+
+        self.asked = asked
+        self.http = ThreadingHTTPServer(("127.0.0.1", 0), Answer)
+        self.url = f"http://127.0.0.1:{self.http.server_address[1]}"
+        threading.Thread(target=self.http.serve_forever, daemon=True).start()
+
+    def close(self) -> None:
+        self.http.shutdown()
+        self.http.server_close()
+
+
+@pytest.fixture
+def tile_server() -> Iterator[TileServer]:
+    server = TileServer()
+    yield server
+    server.close()
+
+
+def globe_tile(browser: Browser, process: ServerProcess) -> tuple[Page, list[str]]:
+    """r2c2 at its native size showing the globe, and every URL it asked for."""
+    started = time.monotonic()
+    (page,) = open_tiles(browser, process, "demo", ["r2c2"], native=True)
+    asked: list[str] = []
+    page.on("request", lambda request: asked.append(request.url))
+    version = process.version("demo")
+    wait_until(
+        lambda: (
+            version_of(page) == version
+            and page.evaluate("document.body.dataset.censusSurface") == "globe"
+        ),
+        timeout=300,
+        what="the tile to show the globe",
+    )
+    print(f"first globe frame after {time.monotonic() - started:.1f} s")
+    return page, asked
+
+
+def decodes_its_codes(process: ServerProcess, shot: np.ndarray) -> None:
+    _, layout = fetch_layout(process.url, "demo", operator_token(process.secret))
+    placed = {c.code for c in layout.placed if c.display == "r2c2"}
+    found = {d.payload.rsplit("/", 1)[-1] for d in decode_image(Image.fromarray(shot))}
+    assert placed and placed <= found, placed - found
+
+
+def notes_of(process: ServerProcess) -> list[str]:
+    tiles = process.status("demo")["tiles"]
+    return next(t["notes"] for t in tiles if t["tile_id"] == "r2c2")
+
+
+def magenta_share(shot: np.ndarray) -> float:
+    return float((np.abs(shot.astype(int) - MAGENTA).max(axis=2) <= 30).mean())
+
+
+def test_the_sites_own_imagery_lies_over_the_globe_through_tagwall(
+    browser: Browser, tmp_path: Path, database_url: str, tile_server: TileServer
+) -> None:
+    process = on_globe(
+        tmp_path,
+        database_url,
+        TAGWALL_CENSUS_IMAGERY_URL=f"{tile_server.url}/{{z}}/{{x}}/{{y}}.png",
+        TAGWALL_CENSUS_TERRAIN_URL=f"{tile_server.url}/terrain/",
+    )
+    try:
+        page, asked = globe_tile(browser, process)
+        shot = shoot(page)
+        Image.fromarray(shot).save(tmp_path / "site-imagery.png")
+        print(f"the tile on the site's imagery: {tmp_path / 'site-imagery.png'}")
+        # the site's picture around the county, the county's tracts over it (on the
+        # ellipsoid, never hidden by the land 100 m above it)
+        assert magenta_share(shot) > 0.3, magenta_share(shot)
+        assert fill_mask(shot).mean() > 0.02
+        decodes_its_codes(process, shot)
+        assert notes_of(process) == []
+        # the tile asked only tagwall; tagwall asked the site's server
+        assert all(url.startswith(process.url) for url in asked), [
+            url for url in asked if not url.startswith(process.url)
+        ]
+        pictures = [path for path in tile_server.asked if path.endswith(".png")]
+        terrain = [path for path in tile_server.asked if path.endswith(".terrain")]
+        relayed = [url for url in asked if "/apps/census/globe/" in url]
+        print(
+            f"the tile asked tagwall for {len(relayed)} imagery and terrain tiles, "
+            f"tagwall the site's server for {len(pictures)} pictures, {len(terrain)} terrain tiles"
+        )
+        assert pictures and terrain
+        page.context.close()
+    finally:
+        process.stop()
+
+
+def test_a_site_server_that_fails_leaves_natural_earth_and_the_codes(
+    browser: Browser, tmp_path: Path, database_url: str, tile_server: TileServer
+) -> None:
+    nobody = f"http://127.0.0.1:{free_port()}"  # a port nothing listens on
+    process = on_globe(
+        tmp_path,
+        database_url,
+        TAGWALL_CENSUS_IMAGERY_URL=f"{nobody}/{{z}}/{{x}}/{{y}}.png",
+        TAGWALL_CENSUS_TERRAIN_URL=f"{tile_server.url}/broken/",  # answers 500
+    )
+    try:
+        page, _ = globe_tile(browser, process)
+        shot = shoot(page)
+        Image.fromarray(shot).save(tmp_path / "site-failed.png")
+        print(f"the tile with its site's servers failing: {tmp_path / 'site-failed.png'}")
+        # Natural Earth around the county: land in colours, no blank or black tiles
+        background = np.abs(shot.astype(int) - [5, 7, 10]).max(axis=2) <= 6
+        assert shot.std() > 20 and background.mean() < 0.01, (shot.std(), background.mean())
+        assert magenta_share(shot) < 0.001 and fill_mask(shot).mean() > 0.02
+        decodes_its_codes(process, shot)
+        notes = notes_of(process)
+        print(f"the dashboard's notes: {notes}")
+        assert any("without terrain: its server failed (HTTP 5" in n for n in notes), notes
+        assert any("Natural Earth where its imagery server failed" in n for n in notes), notes
+        assert tile_server.asked and all(p.startswith("/broken/") for p in tile_server.asked)
+        page.context.close()
     finally:
         process.stop()

@@ -15,7 +15,7 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from wall_client.config import WallConfigError, load_walls
 from wall_client.layout import Wall
-from webapp.core.settings import Settings
+from webapp.core.settings import Settings, setting_name, setting_problems
 from webapp.database.connection import Database, database_problem
 from webapp.database.migrate import upgrade
 from webapp.database.redis import redis_problem
@@ -30,24 +30,13 @@ def load_settings(**overrides: Any) -> Settings:
     try:
         return Settings(**given)
     except ValidationError as error:
-        for problem in error.errors():
-            field = ".".join(str(part) for part in problem["loc"])
-            # A rule between settings (no one field) says which settings it names itself.
-            where = f"{_setting_name(field)}: " if field else ""
-            message = problem["msg"].removeprefix("Value error, ")
-            click.echo(f"error: {where}{message}", err=True)
+        for line in setting_problems(error, Settings):
+            click.echo(f"error: {line}", err=True)
     except SettingsError as error:  # a value that is not even JSON, before validation
         field = str(error).removeprefix('error parsing value for field "').split('"')[0]
         reason = error.__cause__ or error
-        click.echo(f"error: {_setting_name(field)}: not valid JSON ({reason})", err=True)
+        click.echo(f"error: {setting_name(Settings, field)}: not valid JSON ({reason})", err=True)
     sys.exit(EXIT_USAGE)
-
-
-def _setting_name(field: str) -> str:
-    """``info_class_max`` as the operator wrote it: ``TAGWALL_INFO_CLASS_MAX``."""
-    head, _, rest = field.partition(".")
-    known = head in Settings.model_fields
-    return f"TAGWALL_{head.upper()}{'.' + rest if rest else ''}" if known else field
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:

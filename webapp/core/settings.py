@@ -9,7 +9,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field, IPvAnyNetwork, field_validator, model_validator
+from pydantic import Field, IPvAnyNetwork, ValidationError, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
 from webapp.core.roles import (
@@ -255,6 +255,28 @@ class Settings(BaseSettings):
             path.touch(mode=0o600)
             path.write_text(secrets.token_urlsafe(32))
         return path.read_text().strip()
+
+
+def setting_name(model: type[BaseSettings], field: str) -> str:
+    """A field (``info_class_max``, ``info_class_max.student``) as the operator writes
+    it in the environment: ``TAGWALL_INFO_CLASS_MAX.student``. The core's settings and
+    an app's own (its own prefix) alike."""
+    head, _, rest = field.partition(".")
+    if head not in model.model_fields:
+        return field
+    prefix = model.model_config.get("env_prefix", "")
+    return f"{prefix}{head.upper()}{'.' + rest if rest else ''}"
+
+
+def setting_problems(error: ValidationError, model: type[BaseSettings]) -> list[str]:
+    """One line per problem of settings that failed validation, each naming the
+    setting (a rule between settings, which has no one field, names them itself)."""
+    lines = []
+    for problem in error.errors():
+        field = ".".join(str(part) for part in problem["loc"])
+        where = f"{setting_name(model, field)}: " if field else ""
+        lines.append(where + problem["msg"].removeprefix("Value error, "))
+    return lines
 
 
 def _http_url(host: str, port: int) -> str:

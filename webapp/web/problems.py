@@ -20,7 +20,9 @@ ERROR_MEANINGS = {
     403: "Not allowed: a missing or wrong tile token or CSRF header, or a role that may not.",
     404: "No such wall, tile or other thing named in the path or query.",
     409: "Not possible in the wall's present state (another app is on the wall, say).",
+    502: "A server this one asks on the caller's behalf (a site's own) failed or refused.",
     503: "The database (or, with several server processes, Redis) does not answer; try again.",
+    504: "A server this one asks on the caller's behalf (a site's own) did not answer in time.",
 }
 
 

@@ -17,7 +17,7 @@ from webapp.apps.census_map.dataset import MOST_GROUPS
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import on_the_map, tract_codes
-from webapp.apps.census_map.routes import camera, datasets, earth, phones, tiles
+from webapp.apps.census_map.routes import camera, datasets, earth, ground, phones, tiles
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
@@ -240,7 +240,8 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
 
     def router(self) -> APIRouter | None:
         router = APIRouter()
-        for room in (phones, tiles, earth, datasets, camera):  # phones' paths first: most asked for
+        # phones' paths first: most asked for
+        for room in (phones, tiles, earth, datasets, camera, ground):
             router.include_router(room.router)
         return router
 

@@ -14,6 +14,7 @@ from collections import OrderedDict
 from wall_client.layout import Wall
 from webapp.apps.census_map.charts import ChartStats
 from webapp.apps.census_map.dataset import DataSet, Tract
+from webapp.apps.census_map.ground import GroundRelay, GroundSettings, ground_settings
 from webapp.apps.census_map.mapview import MapGeometry
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.state import CensusState
@@ -33,8 +34,11 @@ RENDER_CACHE_BYTES = 64 * 1024 * 1024
 class CensusMaps:
     """The census map's data and what is computed from it, kept across requests."""
 
-    def __init__(self) -> None:
+    def __init__(self, ground: GroundSettings | None = None) -> None:
+        """``ground``: the globe's imagery and terrain servers (default: the
+        environment's ``TAGWALL_CENSUS_*``; a bad one stops the app loading)."""
         self.datasets = DataSets()
+        self.ground = GroundRelay(ground or ground_settings())
         self.renders = SizedCache[bytes](RENDER_CACHE_BYTES, len)  # tile views, KML
         self.chart_stats = ChartStats()
         self.shadings = SizedCache[Shading](KEPT_SHADINGS)

@@ -243,6 +243,19 @@ def matrix(client: TestClient) -> list[Row]:
             f"/api/walls/kl-3x3/census/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1",
             PUBLIC,
         ),
+        # the site's imagery and terrain, relayed for tiles: none set here
+        Row(
+            "GET",
+            "/apps/census/globe/imagery/{z}/{x}/{y}",
+            "/apps/census/globe/imagery/3/1/2",
+            (404, 404, 404, 404),
+        ),
+        Row(
+            "GET",
+            "/apps/census/globe/terrain/{path:path}",
+            "/apps/census/globe/terrain/layer.json",
+            (404, 404, 404, 404),
+        ),
         Row("GET", "/apps/census/{wall_id}/tracts", "/apps/census/kl-3x3/tracts", PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}", tract, PUBLIC),
         Row("GET", "/apps/census/{wall_id}/tracts/{geoid}/here", f"{tract}/here", PUBLIC),

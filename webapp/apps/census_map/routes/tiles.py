@@ -176,9 +176,10 @@ async def wall_globe(
     tilt: Annotated[float, Query(ge=0, le=MAX_TILT)] = 0.0,
 ) -> Response:
     """The map on the globe for a data set, view and camera (the state's ``heading`` and
-    ``tilt``), the same for every tile of the wall: the wall's one camera and every
-    tract in longitude/latitude (tiles colour them with the theme's classes,
-    ``.../census/theme``)."""
+    ``tilt``), the same for every tile of the wall: the wall's one camera, every tract in
+    longitude/latitude (tiles colour them with the theme's classes,
+    ``.../census/theme``) and the ground the site's servers lay over the bundled
+    imagery and ellipsoid (``ground``: this server's relay paths, or nulls)."""
     app = census_maps(context)
     key = ("globe", wall.id, dataset, view.center, view.zoom, heading, tilt)
     return await _render_once(
@@ -194,6 +195,7 @@ def _globe_body(
     app: CensusMaps, wall: Wall, dataset: DataSet, view: View, heading: float, tilt: float
 ) -> bytes:
     body = globe_view(dataset, app.geometry(dataset), wall, view, heading, tilt)
+    body["ground"] = app.ground.offered().model_dump()  # the site's imagery and terrain
     return json.dumps(body, separators=(",", ":")).encode()
 
 

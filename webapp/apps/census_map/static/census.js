@@ -289,7 +289,6 @@ class GlobeLayer {
       if (!this.globe) {
         this.missing = globeMissing();
         if (this.missing) return;
-        this.globe = await Globe.create(this.display);
       }
       if (!this.maps.has(key)) {
         const response = await fetch(`${this.base}?${key}`);
@@ -297,6 +296,8 @@ class GlobeLayer {
         this.maps.set(key, await response.json());
         while (this.maps.size > KEEP) this.maps.delete(this.maps.keys().next().value);
       }
+      // on the site's imagery and terrain, where it has them (the same for every map)
+      this.globe ??= await Globe.create(this.display, this.maps.get(key).ground ?? {});
       const look = this.look(state, views);
       if (!look) return;
       this.globe.show(look.map, look.style);
@@ -385,8 +386,9 @@ export function createLayer({wall, displays}) {
     },
     codes: (layout, {state, display}) => codesShown(layout, views.get(display.id), state),
     notes(state) {
-      const why = CensusViews.globeKeyOf(state) != null ? globe?.missing : "";
-      return why ? [`shows the flat map: ${why}`] : [];
+      if (CensusViews.globeKeyOf(state) == null || !globe) return [];
+      if (globe.missing) return [`shows the flat map: ${globe.missing}`];
+      return globe.globe?.notes() ?? [];
     },
     marks(state) {
       const loaded = displays.length === 1 ? views.get(displays[0].id) : null;

@@ -1,6 +1,7 @@
 // The census map on a globe, one display's part of the wall's one camera (CesiumJS,
 // served from our own origin at /static/cesium; nothing is fetched from elsewhere: the
-// imagery is Cesium's bundled Natural Earth II, no Ion, no base layer of its own).
+// imagery is Cesium's bundled Natural Earth II, no Ion, no base layer of its own; a
+// site's own imagery and terrain servers come relayed through our origin, `ground`).
 //
 // Cesium draws into a canvas of its own, kept out of sight at the display's native
 // size; the census layer copies each finished picture into the tile's frame like any
@@ -15,7 +16,10 @@ const SETTLE_MS = 20000;  // at most this long for imagery before answering read
 // size cost a sixteenth and load the same tiles (Cesium divides a tile's screen-space
 // error by the resolution scale); only the picture kept is drawn at full size.
 const DRAFT_SCALE = 0.25;
-const LIFT_M = 0;  // tracts lie on the ellipsoid (no terrain)
+// Tracts lie on the ellipsoid, where the codes' placement has them, with terrain too:
+// Cesium clears the globe's depth before it draws them (depthTestAgainstTerrain off),
+// so land above the ellipsoid never hides them.
+const LIFT_M = 0;
 
 /** Why this browser cannot draw the globe ("" when it can). */
 export function globeMissing() {
@@ -71,16 +75,37 @@ function wallFrustum(Cesium, tangents) {
   return made;
 }
 
+/** "(HTTP 502)" from a failed request's error, when it says. */
+function statusOf(error) {
+  const code = error?.statusCode ?? /Status Code: (\d+)/.exec(String(error?.message ?? error))?.[1];
+  return code ? ` (HTTP ${code})` : "";
+}
+
 export class Globe {
-  /** A globe for `display` (its native resolution and to_pixels). */
-  static async create(display) {
+  /** A globe for `display` (its native resolution and to_pixels), on the site's
+   * `ground` ({imagery, terrain}: our relay's paths, or nulls) where it has one. */
+  static async create(display, ground = {}) {
     const Cesium = await cesium();
-    return new Globe(Cesium, display);
+    let terrain = null;
+    let terrainNote = "";
+    if (ground.terrain) {
+      try {
+        // asked first here for the status Cesium's error leaves out (then from the cache)
+        const layer = await fetch(`${ground.terrain}layer.json`);
+        if (!layer.ok) throw {statusCode: layer.status};
+        terrain = await Cesium.CesiumTerrainProvider.fromUrl(ground.terrain);
+      } catch (error) {
+        terrainNote = `shows the globe without terrain: its server failed${statusOf(error)}`;
+      }
+    }
+    return new Globe(Cesium, display, ground, terrain, terrainNote);
   }
 
-  constructor(Cesium, display) {
+  constructor(Cesium, display, ground = {}, terrain = null, terrainNote = "") {
     this.Cesium = Cesium;
     this.display = display;
+    this.terrainNote = terrainNote;
+    this.imageryFailures = new Map();  // HTTP status (or "") -> pictures the site's server failed
     const [width, height] = display.resolution;
     const box = document.createElement("div");
     // Out of sight behind the frames, at the display's native pixels (devicePixelRatio
@@ -97,6 +122,7 @@ export class Globe {
     );
     this.widget = new Cesium.CesiumWidget(box, {
       baseLayer: Cesium.ImageryLayer.fromProviderAsync(imagery),
+      ...(terrain ? {terrainProvider: terrain} : {}),
       useDefaultRenderLoop: false,
       creditContainer: credits,
       skyBox: false,
@@ -118,10 +144,46 @@ export class Globe {
     scene.sun = undefined;
     scene.moon = undefined;
     this.ready = imagery;
+    this.layGround(ground, terrain);
     this.map = null;      // the globe body shown: {dataset, camera, tracts}
     this.fills = null;    // the tracts' primitive
     this.lines = null;    // their outlines
     this.styleKey = null;
+  }
+
+  /** The site's imagery over Natural Earth II, so wherever its server sends no
+   * picture (down, slow, a tile it lacks) Natural Earth shows beneath, never a hole;
+   * and its terrain, dropped for the bare ellipsoid as soon as its server fails (a
+   * terrain tile that cannot load is a hole in the globe). */
+  layGround(ground, terrain) {
+    const Cesium = this.Cesium;
+    if (ground.imagery) {
+      const site = new Cesium.UrlTemplateImageryProvider({url: ground.imagery});
+      site.errorEvent.addEventListener((failure) => {
+        const status = failure.error?.statusCode;
+        if (status === 404) return;  // a tile the server does not have: nothing wrong
+        const key = status ? String(status) : "";
+        this.imageryFailures.set(key, (this.imageryFailures.get(key) ?? 0) + 1);
+      });
+      this.widget.imageryLayers.addImageryProvider(site);
+    }
+    terrain?.errorEvent.addEventListener((failure) => {
+      if (this.terrainNote) return;
+      this.terrainNote = `shows the globe without terrain: its server failed${statusOf(failure.error)}`;
+      this.widget.scene.terrainProvider = new Cesium.EllipsoidTerrainProvider();
+    });
+  }
+
+  /** What this globe shows otherwise than the site asked (the tile's `applied` notes). */
+  notes() {
+    const notes = this.terrainNote ? [this.terrainNote] : [];
+    if (this.imageryFailures.size) {
+      const count = [...this.imageryFailures.values()].reduce((sum, n) => sum + n, 0);
+      const codes = [...this.imageryFailures.keys()].filter(Boolean).map((c) => `HTTP ${c}`);
+      notes.push(`shows Natural Earth where its imagery server failed (${count} pictures`
+        + `${codes.length ? `, ${codes.join(", ")}` : ""})`);
+    }
+    return notes;
   }
 
   get canvas() {
@@ -251,8 +313,15 @@ export class Globe {
     await this.ready;
     const until = performance.now() + SETTLE_MS;
     let frames = 0;
+    // Cesium's own context (asked again for its kind, it is the one already made)
+    const gl = this.canvas.getContext("webgl2") ?? this.canvas.getContext("webgl");
+    const pixel = new Uint8Array(4);
     for (;;) {
       this.render(DRAFT_SCALE);
+      // Wait for the GPU to draw it: under software GL, JavaScript otherwise queues
+      // drafts far faster than they are drawn (130 while a site's imagery loads), and
+      // the picture waits behind them all (docs/census.md, How fast).
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, pixel);
       frames += 1;
       if ((frames > 2 && this.widget.scene.globe.tilesLoaded) || performance.now() > until) break;
       await new Promise((resolve) => setTimeout(resolve, 15));
