@@ -450,6 +450,8 @@ def test_the_globe_runs_on_across_every_bezel_within_2_px_and_its_codes_scan(
         (reference.picture.shape[1] // 4, reference.picture.shape[0] // 4)
     ).save(tmp_path / "reference.png")
     composite(wall, shots).save(tmp_path / "tiles.png")
+    for tile, shot in shots.items():
+        Image.fromarray(shot).save(tmp_path / f"{tile}.png")
     print(f"{wall_id}: globe on every tile after {shown_s:.0f} s, reference {reference_s:.0f} s;")
     print(f"  pictures: {tmp_path}")
 
