@@ -46,6 +46,8 @@ HEARTBEAT_S = 2.0
 ORPHAN_GRACE_S = 2.0
 """How long past the swap timeout a prepared change waits for its swap before any process
 publishes it (its committing process died)."""
+SHOWN_KEPT = 64
+"""Versions per wall whose instant on the tiles a hub remembers (see :meth:`WallHub.shown_at`)."""
 WALL_THREADS = 8
 """Worker threads of the walls' own: changes and tiles' catch-ups (see :meth:`WallHub.run_sync`)."""
 
@@ -98,6 +100,8 @@ class WallHub:
         self._tiles: dict[str, dict[str, TileStatus]] = {}  # this process's own tiles
         self._barriers: dict[tuple[str, int], _Barrier] = {}
         self._orphans: dict[tuple[str, int], asyncio.Task[None]] = {}  # prepared, not swapped
+        self._shown: dict[str, dict[int, int]] = {}  # wall -> version -> apply_at, the latest
+        self._shown_waiting: dict[tuple[str, int], asyncio.Future[int]] = {}
         self._tasks: set[asyncio.Task[None]] = set()
         self._threads: CapacityLimiter | None = None  # made in the event loop, on first use
 
@@ -189,13 +193,48 @@ class WallHub:
         await self._publish(wall_id, version, swap.model_dump_json())
 
     def _hear_event(self, wall_id: str, frame: str) -> None:
-        """Track prepared changes until their swap (see :meth:`_swap_orphan`)."""
+        """Track prepared changes until their swap (see :meth:`_swap_orphan`), and the
+        instant each version shows (see :meth:`shown_at`)."""
         message = json.loads(frame)
         key = (wall_id, message.get("version"))
         if message.get("type") == "prepare" and key not in self._orphans:
             self._orphans[key] = self._spawn(self._swap_orphan(wall_id, message["version"]))
         elif message.get("type") == "swap" and (watcher := self._orphans.pop(key, None)):
             watcher.cancel()
+        if message.get("type") in ("event", "swap"):
+            self._heard_shown(wall_id, int(message["version"]), int(message["apply_at"]))
+
+    def _heard_shown(self, wall_id: str, version: int, apply_at: int) -> None:
+        """Tiles take the first swap of a version: its instant is the one kept."""
+        shown = self._shown.setdefault(wall_id, {})
+        if version in shown:
+            return
+        shown[version] = apply_at
+        while len(shown) > SHOWN_KEPT:
+            del shown[next(iter(shown))]
+        if (waiting := self._shown_waiting.pop((wall_id, version), None)) and not waiting.done():
+            waiting.set_result(apply_at)
+
+    async def shown_at(self, wall_id: str, version: int) -> int | None:
+        """The wall clock's instant (server ms) from which every tile shows ``version``
+        of the wall: a light change's ``apply_at``, a heavy one's swap's, which comes
+        once every tile has prepared it. Waits for it as long as a swap may take (the
+        swap timeout, and an orphan's grace); None when it was not heard by then (a bus
+        that lost it)."""
+        if (kept := self._shown.get(wall_id, {}).get(version)) is not None:
+            return kept
+        key = (wall_id, version)
+        waiting = self._shown_waiting.get(key)
+        if waiting is None:
+            waiting = self._shown_waiting[key] = asyncio.get_running_loop().create_future()
+        try:
+            return await asyncio.wait_for(
+                asyncio.shield(waiting), self.swap_timeout_ms / 1000 + 2 * self.orphan_grace_s
+            )
+        except TimeoutError:
+            if self._shown_waiting.get(key) is waiting:
+                del self._shown_waiting[key]
+            return None
 
     async def _swap_orphan(self, wall_id: str, version: int) -> None:
         """A prepared change with no swap long after the swap timeout lost its committing

@@ -97,6 +97,9 @@ class Services:
     ) -> Change | None:
         return await self.door.plan(wall, plan, replace_codes=replace_codes)
 
+    async def shown_at(self, wall: Wall, version: int) -> int | None:
+        return await self.hub.shown_at(wall.id, version)
+
     async def action_allowed(
         self, kind: WallAction, visitor: Visitor, address: str, wall_id: str = ""
     ) -> float | None:

@@ -68,6 +68,12 @@ class AppContext(Protocol):
         """Like :meth:`change_wall`, for a change that must look at the wall first."""
         ...
 
+    async def shown_at(self, wall: Wall, version: int) -> int | None:
+        """The wall clock's instant (server ms) from which every tile of ``wall`` shows
+        ``version`` (a heavy change's swap comes once the tiles have prepared it),
+        waiting for it; None when it was not heard in the time a swap may take."""
+        ...
+
 
 class ServerContext(AppContext, Protocol):
     """What the request checks of :mod:`webapp.web.deps` need beyond an app's context:

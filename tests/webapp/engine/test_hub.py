@@ -101,6 +101,29 @@ async def test_heavy_change_swaps_after_timeout_without_a_silent_tile(hub: WallH
     assert now_ms() - started >= 300
 
 
+async def test_the_instant_a_version_shows_is_its_swap_once_every_tile_prepared_it(
+    hub: WallHub,
+) -> None:
+    """What a tour's dwell counts from: a heavy change shows at its swap, after the
+    tiles' ready (the commit comes long before); a light one at its apply_at."""
+    await connect(hub, "r1c1")
+    async with hub.bus.subscribe("demo") as inbox:
+        heavy = await hub.commit("demo", StatePatch(view=View(zoom=2)).apply_to)
+        assert heavy is not None
+        waiting = asyncio.ensure_future(hub.shown_at("demo", heavy.version))
+        await inbox.next()  # prepare
+        await asyncio.sleep(0.05)
+        assert not waiting.done(), "not shown before the tile is ready"
+        await hub.tile_ready("demo", "r1c1", heavy.version)
+        swap = json.loads(await asyncio.wait_for(inbox.next(), BOUND_S))
+        assert await asyncio.wait_for(waiting, BOUND_S) == swap["apply_at"]
+        light = await hub.commit("demo", mode("quiz").apply_to)
+        assert light is not None
+        event = json.loads(await inbox.next())
+    assert await hub.shown_at("demo", light.version) == event["apply_at"]
+    assert await hub.shown_at("demo", heavy.version) == swap["apply_at"], "still known"
+
+
 async def test_disconnecting_tile_releases_the_barrier(hub: WallHub) -> None:
     await connect(hub, "r1c1")
     async with hub.bus.subscribe("demo") as inbox:

@@ -3,13 +3,15 @@ applies at the wall clock's instant (a heavy one: the tiles prepare the step's p
 then all swap together).
 
 The server drives a tour: playing starts a task in the process that was asked, which
-changes the wall to each step after the one before has dwelt its ``dwell_s`` (counted
-from the change; tiles that take long to prepare a globe picture shorten what is seen
-of it). The wall state says whether a tour plays and which play (``run``), so the
-driver ends when it is stopped from any process, when another play replaces it, when
-the instructor turns the camera or flies elsewhere, or when the wall leaves the census
-map. A task does not survive its process: a server that starts finds a tour still
-marked playing and marks it stopped, saying so (the app's ``settle``)."""
+changes the wall to each step after the one before has dwelt its ``dwell_s``, counted
+from the instant the tiles show it (a step's picture on the globe takes seconds to
+prepare, under software GL tens; counted from the change, a step that took longer to
+prepare than the next stayed that much less). The wall state says whether a tour
+plays and which play (``run``), so the driver ends when it is stopped from any
+process, when another play replaces it, when the instructor turns the camera or flies
+elsewhere, or when the wall leaves the census map. A task does not survive its
+process: a server that starts finds a tour still marked playing and marks it stopped,
+saying so (the app's ``settle``)."""
 
 from __future__ import annotations
 
@@ -23,7 +25,7 @@ from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.state import CensusState, Tour, TourStep
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import WallState, now_ms, read_state
 from webapp.web.context import AppContext
 
 log = logging.getLogger(__name__)
@@ -91,11 +93,12 @@ async def play_tour(
         )
         return at_step(state, census, started, 0)
 
-    await context.change_wall(wall, start)
+    change = await context.change_wall(wall, start)
     previous = app.tours.get(wall.id)
     if previous is not None:
         previous.cancel()
-    app.tours[wall.id] = asyncio.create_task(drive(context, wall, started.run, sleep))
+    shown = change.version if change is not None else None
+    app.tours[wall.id] = asyncio.create_task(drive(context, wall, started.run, shown, sleep))
     return started
 
 
@@ -116,10 +119,13 @@ async def stop_tour(app: CensusMaps, context: AppContext, wall: Wall) -> Tour:
     return stopped
 
 
-async def drive(context: AppContext, wall: Wall, run: int, sleep: Sleep = asyncio.sleep) -> None:
-    """Play on play ``run`` of the wall's tour from the step it shows: dwell, then the
-    next step, until the last has dwelt (the tour then ends, its last view kept) or the
-    play ends otherwise (see the module)."""
+async def drive(
+    context: AppContext, wall: Wall, run: int, shown: int | None, sleep: Sleep = asyncio.sleep
+) -> None:
+    """Play on play ``run`` of the wall's tour from the step it shows (the wall's
+    version ``shown``): dwell from the instant the tiles show it, then the next step,
+    until the last has dwelt (the tour then ends, its last view kept) or the play ends
+    otherwise (see the module)."""
 
     def playing(state: WallState) -> tuple[CensusState, Tour]:
         census = CensusState.of(state)
@@ -138,10 +144,14 @@ async def drive(context: AppContext, wall: Wall, run: int, sleep: Sleep = asynci
 
     try:
         while True:
+            since = await context.shown_at(wall, shown) if shown is not None else None
             _, state = await run_blocking(read_state, context.db, wall.id)
             _, tour = playing(state)
-            await sleep(tour.steps[tour.step].dwell_s)
-            await context.change_wall(wall, next_step)
+            # from the instant it shows (apply_at may lie ahead: then a little longer)
+            passed_s = (now_ms() - since) / 1000 if since is not None else 0.0
+            await sleep(tour.steps[tour.step].dwell_s - passed_s)
+            change = await context.change_wall(wall, next_step)
+            shown = change.version if change is not None else None
     except TourEnded:
         return
     except Exception:

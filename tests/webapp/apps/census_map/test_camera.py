@@ -16,10 +16,13 @@ from tests.webapp.apps.census_map.test_app import (
     show_census,
     state_of,
 )
+from wall_client.layout import Wall
 from webapp.apps.census_map.globe import wall_middle
+from webapp.apps.census_map.maps import census_maps
 from webapp.apps.census_map.mapview import projection
 from webapp.apps.census_map.state import CensusState
-from webapp.engine.wall_state import read_state
+from webapp.apps.census_map.tours import play_tour
+from webapp.engine.wall_state import now_ms, read_state
 
 WALL = "/api/census/walls/demo"
 
@@ -203,6 +206,55 @@ def test_a_tour_plays_its_steps_in_turn_then_ends(client: TestClient) -> None:
     wait_for(lambda: not census(client).tour.playing)
     assert census(client).tour.note == "played all 2 steps"
     assert state_of(client).view == second.view, "the last view kept"
+
+
+def test_each_step_dwells_from_the_instant_the_tiles_show_it(
+    client: TestClient, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Tiles slow to prepare a step (a globe picture under software GL: tens of
+    seconds) swap it long after the change: the step still stays its dwell on the wall,
+    counted from that swap, not from the change."""
+    on_globe(client)
+    keep_tour(client, STEPS)
+    services = services_of(client)
+    late_ms = 30_000
+    shown: list[tuple[int, int]] = []  # (version, the instant the tiles show it)
+    slept: list[tuple[int, float]] = []  # (when, how long)
+
+    async def shown_at(wall: Wall, version: int) -> int:
+        shown.append((version, now_ms() + late_ms))
+        return shown[-1][1]
+
+    async def sleep(seconds: float) -> None:
+        slept.append((now_ms(), seconds))
+
+    monkeypatch.setattr(services, "shown_at", shown_at)
+    maps = census_maps(services)
+    assert client.portal is not None
+    client.portal.call(play_tour, maps, services, services.walls["demo"], sleep)
+    wait_for(lambda: census(client).tour.note == "played all 2 steps")
+    assert [version for version, _ in shown] == sorted({version for version, _ in shown})
+    # every step is waited for until it shows (the tour's end is a change too: waited
+    # for, not dwelt), and dwells from then
+    assert len(slept) == len(STEPS) and len(shown) >= len(STEPS)
+    for (_, instant), (when, seconds), step in zip(shown, slept, STEPS, strict=False):
+        assert when + seconds * 1000 >= instant + step["dwell_s"] * 1000
+
+
+def test_saving_a_tour_is_a_change_of_the_wall(client: TestClient) -> None:
+    """Like every other change it bumps the wall's version (tiles and dashboards learn
+    of it); keeping the same steps again changes nothing."""
+    show_census(client)
+    before = version_of(client)
+    keep_tour(client, STEPS)
+    assert version_of(client) == before + 1
+    keep_tour(client, STEPS)
+    assert version_of(client) == before + 1
+
+
+def version_of(client: TestClient) -> int:
+    version, _ = read_state(services_of(client).db, "demo")
+    return version
 
 
 def test_stopping_or_turning_stops_a_tour(client: TestClient) -> None:

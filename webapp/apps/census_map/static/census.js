@@ -280,9 +280,18 @@ class GlobeLayer {
     // (a turn, then a tilt) each find their own picture at their swap, rather than
     // rendering it again in the frame (hundreds of ms under software GL: tiles apart).
     this.pictures = new Map();
+    this.loading = Promise.resolve();
   }
 
-  async load(state, views) {
+  /** Prepare the picture of `state`. One at a time: a tile prepares a snapshot and the
+   * changes that arrive meanwhile at once, and each aims the one globe (two at once
+   * each rendered the other's camera, and one kept it as its own picture). */
+  load(state, views) {
+    this.loading = this.loading.then(() => this.loadNow(state, views));
+    return this.loading;
+  }
+
+  async loadNow(state, views) {
     const key = CensusViews.globeKeyOf(state);
     if (!key || this.missing) return;
     try {
@@ -303,6 +312,12 @@ class GlobeLayer {
       this.globe.show(look.map, look.style);
       this.globe.restyle(look.styleKey, look.style);
       await this.globe.settle();
+      if (this.globe.map !== look.map || this.globe.styleKey !== look.styleKey) {
+        // a frame drawn meanwhile (pictureOf: a light change) aimed it at its own look
+        this.globe.show(look.map, look.style);
+        this.globe.restyle(look.styleKey, look.style);
+        this.globe.render();
+      }
       this.keep(look.key);
     } catch (error) {
       this.missing = `globe failed: ${error.message ?? error}`;

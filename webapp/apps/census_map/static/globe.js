@@ -267,9 +267,15 @@ export class Globe {
       appearance: new Cesium.PerInstanceColorAppearance({flat: true, translucent: false}),
       asynchronous: false,
     }));
+    // The outlines lie on the ellipsoid as the fills do: depth-tested, they fought the
+    // fills for every pixel and showed as dotted lines, dotted differently on each display
+    // (each has its own projection). Drawn after the fills without the test, they are
+    // whole; nothing else on the globe stands between them and the camera.
     this.lines = primitives.add(new Cesium.Primitive({
       geometryInstances: lines,
-      appearance: new Cesium.PerInstanceColorAppearance({flat: true, translucent: false}),
+      appearance: new Cesium.PerInstanceColorAppearance({
+        flat: true, translucent: false, renderState: {depthTest: {enabled: false}},
+      }),
       asynchronous: false,
     }));
     this.lineOwners = lines.map((line) => line.id.split(":line:")[0]);
