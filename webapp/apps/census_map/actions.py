@@ -211,8 +211,8 @@ async def open_balloon(
             raise GroupHidden(hidden)
         layout = await run_blocking(context.layout, wall.id, state.tag_layout)
         geometry = await run_blocking(app.geometry, dataset)
-        census = CensusState.of(state)
-        mapping = await run_blocking(map_projection, geometry, wall, state.view, census)
+        camera = CensusState.of(state).camera
+        mapping = await run_blocking(map_projection, geometry, wall, state.view, *camera)
         now = now_ms()
         open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
         others = open_[-(MAX_BALLOONS - 1) :]  # the oldest goes when too many are open

@@ -121,7 +121,7 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
             state.view,
             anchored_code_side_mm(context.base_url, wall),
             anchored_footprint_mm(context.base_url, wall),
-            mapping=map_projection(geometry, wall, state.view, CensusState.of(state)),
+            mapping=map_projection(geometry, wall, state.view, *CensusState.of(state).camera),
         )
         # A code wanting to stand on a designated screen (a cluster's middle beside it)
         # may have its head under the panel's codes: its tracts join a cluster on the map.

@@ -38,7 +38,7 @@ from webapp.apps.census_map.mapview import (
     projection,
     visual_centre,
 )
-from webapp.apps.census_map.state import CensusState
+from webapp.apps.census_map.state import Surface
 from webapp.engine.wall_state import View
 
 DEGREES_DIGITS = 6  # a tenth of a metre: far under a pixel at any wall's scale
@@ -266,12 +266,18 @@ def globe_projection(
 
 
 def map_projection(
-    geometry: MapGeometry, wall: Wall, view: View, census: CensusState
+    geometry: MapGeometry,
+    wall: Wall,
+    view: View,
+    surface: Surface,
+    heading: float = 0.0,
+    tilt: float = 0.0,
 ) -> MapProjection:
-    """Where the wall shows the map now: on the globe as its camera sees it (turned,
-    tilted or straight down), else flat. Codes and balloons are placed through it."""
-    if census.surface == "globe":
-        return globe_projection(geometry, wall, view, census.heading, census.tilt)
+    """Where the wall shows the map: on the globe as its camera sees it (turned,
+    tilted or straight down), else flat. Codes, balloons and the legend are placed
+    through it."""
+    if surface == "globe":
+        return globe_projection(geometry, wall, view, heading, tilt)
     return projection(geometry, wall, view)
 
 

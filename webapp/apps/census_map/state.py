@@ -82,6 +82,11 @@ class CensusState(AppState):
     tilt: Tilt = 0.0  # the globe's camera tilted (the flat map stays straight down)
     tour: Tour = Field(default_factory=Tour)
 
+    @property
+    def camera(self) -> tuple[Surface, float, float]:
+        """Where the tiles show the map: the surface, and the globe's heading and tilt."""
+        return (self.surface, self.heading, self.tilt)
+
     def moves_tracts(self, before: CensusState) -> bool:
         """Whether the tracts stand elsewhere on the wall than ``before``: another
         surface, or on the globe another heading or tilt (an open balloon would point

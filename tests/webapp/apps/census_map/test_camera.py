@@ -162,6 +162,23 @@ def test_a_globe_asked_for_out_of_bounds_is_refused(
     assert answer.status_code == 422
 
 
+def test_the_colouring_is_asked_for_with_the_globe_s_camera(client: TestClient) -> None:
+    """The legend keeps off the tracts where the wall shows them: tiles on the globe
+    ask for the colouring with its camera, which is bounded as the globe's is."""
+    on_globe(client)
+    state = state_of(client)
+    theme = {"attribute": "HH_INC", "scheme": "YlOrRd", "method": "quantiles", "classes": 5}
+    cx, cy = state.view.center
+    query = {"dataset": census(client).dataset, "cx": cx, "cy": cy, "zoom": 1, **theme}
+    path = "/api/walls/demo/tiles/r2c2/census/theme"
+    for camera in ({}, {"surface": "globe", "heading": 30, "tilt": 45}):
+        answer = client.get(path, params={**query, **camera})
+        assert answer.status_code == 200, answer.text
+        assert answer.json()["legend"]["rect"] is not None
+    for camera in ({"surface": "sphere"}, {"surface": "globe", "tilt": 61}):
+        assert client.get(path, params={**query, **camera}).status_code == 422
+
+
 def test_the_camera_needs_the_map_on_the_wall(client: TestClient) -> None:
     assert post(client, "/camera", {"heading": 0, "tilt": 0}).status_code == 409
     assert post(client, "/fly", {"longitude": -121.5, "latitude": 38.5}).status_code == 409

@@ -30,7 +30,13 @@ from webapp.apps.census_map.globe import (
     wall_middle,
     wall_window,
 )
-from webapp.apps.census_map.mapview import MapGeometry, code_anchors, looking_at, projection
+from webapp.apps.census_map.mapview import (
+    MapGeometry,
+    code_anchors,
+    looking_at,
+    projection,
+    tract_boxes,
+)
 from webapp.core.settings import PROJECT_ROOT
 from webapp.engine.wall_state import View
 
@@ -437,3 +443,17 @@ def test_each_display_draws_a_place_at_the_pixel_its_code_is_placed_at(
             assert want == pytest.approx((px[i], py[i]), abs=0.01), (display.id, i)
             checked += 1
     assert checked > 100, checked
+
+
+def test_tract_boxes_on_the_globe_are_those_of_the_outlines_it_shows() -> None:
+    wall, geometry = demo_and_sacramento()
+    tilted = globe_projection(geometry, wall, View(zoom=3), 30, 45)
+    boxes = tract_boxes(geometry, wall, View(zoom=3), mapping=tilted)
+    outlines = [tilted.outline(shape) for shape in geometry.shapes]
+    shown = [o for o in outlines if not o.is_empty]
+    assert 0 < len(boxes) == len(shown) < len(geometry.shapes)
+    for box, outline in zip(boxes, shown, strict=True):
+        assert (box.x, box.y, box.right, box.bottom) == pytest.approx(outline.bounds)
+        window = wall_window(wall)
+        assert window.x <= box.x and box.right <= window.right
+        assert window.y <= box.y and box.bottom <= window.bottom
