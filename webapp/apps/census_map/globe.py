@@ -35,6 +35,7 @@ from webapp.apps.census_map.mapview import (
     Floats,
     MapGeometry,
     MapProjection,
+    Shapes,
     projection,
     visual_centre,
 )
@@ -216,17 +217,36 @@ class GlobeProjection:
         x, y = self.points(np.array([[u, v]]))[0]
         return None if math.isnan(x) else (float(x), float(y))
 
-    def outline(self, shape: Polygon | MultiPolygon) -> Polygon | MultiPolygon:
-        """A tract's outline on the wall (scene mm), cut at the wall's edge; empty when
-        any of it is behind the camera or over the horizon (on a wall that sees the
-        horizon, a tract that far is too small for a code)."""
-        if np.isnan(self.seen(shapely.get_coordinates(shape))).any():
-            return Polygon()
-        seen = shapely.make_valid(shapely.transform(shape, self.seen))
+    def outlines(self, shapes: Shapes) -> Shapes:
+        """Tracts' outlines on the wall (scene mm), cut at the wall's edge; empty where
+        any of one is behind the camera or over the horizon (on a wall that sees the
+        horizon, a tract that far is too small for a code). A perspective keeps an
+        outline in front of the camera simple, so no repair is needed."""
+        seen: Shapes = shapely.transform(shapes, self.seen)
+        coords, owner = shapely.get_coordinates(seen, return_index=True)
+        unseen = np.zeros(len(seen), dtype=bool)
+        unseen[owner[np.isnan(coords).any(axis=1)]] = True
         w = self.window
-        cut = shapely.intersection(seen, shapely.box(w.x, w.y, w.right, w.bottom))
-        parts = [p for p in _polygons(cut) if p.area > 0]
-        return MultiPolygon(parts) if len(parts) > 1 else (parts[0] if parts else Polygon())
+        bounds = shapely.bounds(seen)
+        beyond = ~unseen & (
+            (bounds[:, 0] < w.x)
+            | (bounds[:, 1] < w.y)
+            | (bounds[:, 2] > w.right)
+            | (bounds[:, 3] > w.bottom)
+        )
+        window = shapely.box(w.x, w.y, w.right, w.bottom)
+        for index, cut in zip(
+            np.flatnonzero(beyond), shapely.intersection(seen[beyond], window), strict=True
+        ):
+            seen[index] = _areas(cut)
+        for index in np.flatnonzero(unseen):
+            seen[index] = Polygon()
+        return seen
+
+    def outline(self, shape: Polygon | MultiPolygon) -> Polygon | MultiPolygon:
+        """One tract's outline on the wall (:meth:`outlines`)."""
+        found: Polygon | MultiPolygon = self.outlines(np.array([shape], dtype=object))[0]
+        return found
 
     def anchors(
         self, geometry: MapGeometry, which: Sequence[int] | None = None
@@ -234,12 +254,11 @@ class GlobeProjection:
         """Each tract's visual centre on the wall and the room around it (scene mm),
         from its outline as the camera shows it (:func:`mapview.visual_centre`): a tract
         foreshortened far up a tilted wall has less room than on the flat map."""
-        chosen = range(len(geometry.geoids)) if which is None else which
-        outlines = geometry.outlines(ANCHOR_MM / self.scale)
-        points = np.full((len(chosen), 2), np.nan)
-        room = np.zeros(len(chosen))
-        for row, index in enumerate(chosen):
-            seen = self.outline(outlines[index])
+        chosen = slice(None) if which is None else list(which)
+        outlines = self.outlines(geometry.outlines(ANCHOR_MM / self.scale)[chosen])
+        points = np.full((len(outlines), 2), np.nan)
+        room = np.zeros(len(outlines))
+        for row, seen in enumerate(outlines):
             if not seen.is_empty:
                 points[row], room[row] = visual_centre(seen)
         return points, room
@@ -316,6 +335,12 @@ def globe_view(
             )
     camera = globe_camera(geometry, wall, view, heading, tilt)
     return {"dataset": dataset.id, "camera": camera, "tracts": tracts}
+
+
+def _areas(shape: Any) -> Polygon | MultiPolygon:
+    """The parts of ``shape`` with an area (a cut may leave lines and points)."""
+    parts = [p for p in _polygons(shape) if p.area > 0]
+    return MultiPolygon(parts) if len(parts) > 1 else (parts[0] if parts else Polygon())
 
 
 def _polygons(shape: Any) -> list[Polygon]:

@@ -323,9 +323,14 @@ class Projection:
         """Plane points (n, 2) on the wall (scene mm): every one is placed."""
         return np.asarray(uv, dtype=np.float64).reshape(-1, 2) * self.scale + (self.dx, self.dy)
 
+    def outlines(self, shapes: Shapes) -> Shapes:
+        """Tracts' outlines on the wall (scene mm)."""
+        moved: Shapes = shapely.transform(shapes, self.points)
+        return moved
+
     def outline(self, shape: Polygon | MultiPolygon) -> Polygon | MultiPolygon:
-        """A tract's outline on the wall (scene mm)."""
-        moved: Polygon | MultiPolygon = shapely.transform(shape, self.points)
+        """One tract's outline on the wall (scene mm)."""
+        moved: Polygon | MultiPolygon = self.outlines(np.array([shape], dtype=object))[0]
         return moved
 
     def anchors(
@@ -351,8 +356,8 @@ class MapProjection(Protocol):
         """Plane points (n, 2) on the wall, NaN where the wall does not show them."""
         ...
 
-    def outline(self, shape: Polygon | MultiPolygon) -> Polygon | MultiPolygon:
-        """A tract's outline on the wall, empty where the wall does not show it."""
+    def outlines(self, shapes: Shapes) -> Shapes:
+        """Tracts' outlines on the wall, each empty where the wall does not show it."""
         ...
 
     def anchors(
@@ -407,7 +412,7 @@ def tract_boxes(
     """The bounding box in scene mm of each tract the wall shows at ``view``, of its
     outline as ``mapping`` puts it (default: the flat map): where the map lies."""
     project = mapping or projection(geometry, wall, view)
-    bounds = shapely.bounds([project.outline(shape) for shape in geometry.shapes])
+    bounds = shapely.bounds(project.outlines(geometry.shapes))
     return [
         Rect(minx, miny, maxx - minx, maxy - miny)
         for minx, miny, maxx, maxy in bounds
@@ -503,7 +508,7 @@ def pointer_targets(
     )
     covered = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in blocked])
     free = shapely.difference(shown, covered)
-    tract = project.outline(geometry.shapes[index])
+    tract = project.outlines(geometry.shapes[[index]])[0]
     for region in (shapely.intersection(tract, free), free):
         parts = [part for part in _polygons(region) if part.area > 0]
         if parts:
