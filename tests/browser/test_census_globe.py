@@ -1,11 +1,13 @@
 """The census map on a globe (CesiumJS under Chromium's software GL): two neighbouring
 tiles of the demo wall, screenshot at native size, show one continuous globe across the
-bezel between them, with their codes still decoding; the dashboard switches the globe on
-and off and names a tile that cannot show it; a site's own imagery server lies over the
-bundled Natural Earth, which stays when that server (or its terrain server) fails."""
+bezel between them, with their codes still decoding, straight down and turned and
+tilted, each tract code over its tract; the dashboard switches the globe on and off and
+names a tile that cannot show it; a site's own imagery server lies over the bundled
+Natural Earth, which stays when that server (or its terrain server) fails."""
 
 from __future__ import annotations
 
+import base64
 import io
 import json
 import threading
@@ -28,9 +30,12 @@ from tests.browser.conftest import (
     version_of,
 )
 from tests.browser.test_census import brown_share
+from wall_client.config import load_wall
+from wall_client.layout import apply_affine
 from webapp.apps.census_map.mapview import COLOURS
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, free_port, wait_until
+from webapp.core.settings import CONTENT_DIR
 from webapp.people.security import operator_token
 
 TILES = ["r2c2", "r2c3"]  # side by side, a 7 mm bezel between them, both on the map
@@ -197,10 +202,98 @@ def test_the_dashboard_turns_and_tilts_the_globe_on_every_tile_at_one_instant(
         assert b.std() > 20 and fill_mask(b).mean() > 0.01
         changed = np.abs(a.astype(int) - b.astype(int)).max(axis=2) > 40
         assert changed.mean() > 0.2, (tile, changed.mean())
-    # turned: no code on the tiles' tracts (they are not where the flat map has them)
+    # turned and tilted: the codes placed on these tiles decode from their screenshots
+    # (which tract each stands on: test_codes_stand_on_their_tracts_on_a_tilted_globe)
     _, layout = fetch_layout(globe.url, "demo", operator_token(globe.secret))
-    assert not [c for c in layout.placed if c.display in TILES]
+    for tile, shot in zip(TILES, after, strict=True):
+        placed = {c.code for c in layout.placed if c.display == tile}
+        found = {d.payload.rsplit("/", 1)[-1] for d in decode_image(Image.fromarray(shot))}
+        assert placed <= found, (tile, placed - found)
     dashboard.close()
+    for page in pages:
+        page.context.close()
+
+
+def globe_picture(page: Page) -> np.ndarray:
+    """The globe as CesiumJS last drew it on the tile, without the layers over it
+    (codes, pins, captions): its canvas at the display's native pixels."""
+    url = page.evaluate("document.querySelector('.cesium-widget canvas').toDataURL('image/png')")
+    data = base64.b64decode(url.split(",", 1)[1])
+    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
+
+
+def test_codes_stand_on_their_tracts_on_a_tilted_globe(
+    browser: Browser, globe: ServerProcess, tmp_path: Path
+) -> None:
+    """Zoomed in, coloured by a value in seven classes, turned and tilted: the codes on
+    the two map tiles decode from the screenshots, and under each tract code's anchor
+    (where its pin points) the globe shows that tract: its class's colour in the globe's
+    own picture (the codes drawn over it left out)."""
+    globe.change("demo", {"view": {"center": [0.5, 0.5], "zoom": 3}})
+    theme = {"attribute": "HSG_VAL", "scheme": "PuOr", "method": "natural", "classes": 7}
+    for path, body in (("theme", {"theme": theme}), ("camera", {"heading": 30, "tilt": 45})):
+        answer = httpx.post(
+            f"{globe.url}/api/census/walls/demo/{path}",
+            json=body,
+            headers=globe.operator(),
+            timeout=60,
+        )
+        assert answer.status_code == 200, answer.text
+    pages = open_tiles(browser, globe, "demo", TILES, native=True)
+    version = globe.version("demo")
+    wait_until(
+        lambda: all(
+            version_of(p) == version
+            and p.evaluate("document.body.dataset.censusSurface") == "globe"
+            and p.evaluate("document.body.dataset.censusTheme") == "HSG_VAL 7"
+            for p in pages
+        ),
+        timeout=300,  # software GL: a first globe frame takes tens of seconds
+        what="both tiles to show the tilted, coloured globe",
+    )
+    shots = [shoot(p) for p in pages]
+    pictures = [globe_picture(p) for p in pages]
+    for tile, shot, picture in zip(TILES, shots, pictures, strict=True):
+        Image.fromarray(shot).save(tmp_path / f"tilted-{tile}.png")
+        Image.fromarray(picture).save(tmp_path / f"tilted-{tile}-globe.png")
+    print(f"screenshots: {tmp_path}/tilted-*.png")
+
+    state = globe.status("demo")["state"]
+    cx, cy = state["view"]["center"]
+    classes = httpx.get(
+        f"{globe.url}/api/walls/demo/tiles/r2c2/census/theme",
+        params={
+            "dataset": state["apps"]["census"]["dataset"],
+            "layout": state["tag_layout"],
+            "cx": cx,
+            "cy": cy,
+            "zoom": state["view"]["zoom"],
+            **theme,
+        },
+    ).json()
+    tags = httpx.get(f"{globe.url}/api/walls/demo/tags", headers=globe.operator()).json()
+    geoid_of = {t["code"]: t["params"]["geoid"] for t in tags if t["action"] == "tract"}
+    _, layout = fetch_layout(globe.url, "demo", operator_token(globe.secret))
+    wall = load_wall(CONTENT_DIR / "walls" / "demo.toml")
+    checked = []
+    for tile, shot, picture in zip(TILES, shots, pictures, strict=True):
+        assert picture.shape == shot.shape
+        found = {d.payload.rsplit("/", 1)[-1] for d in decode_image(Image.fromarray(shot))}
+        placed = [c for c in layout.placed if c.display == tile]
+        assert placed and {c.code for c in placed} <= found, tile
+        to_pixels = wall.viewport(tile).to_pixels
+        for code in placed:
+            if code.code not in geoid_of:
+                continue  # a cluster's code: its anchor is its tracts' middle
+            x, y = (round(c) for c in apply_affine(to_pixels, *code.anchor))
+            seen = np.median(picture[y - 2 : y + 3, x - 2 : x + 3].reshape(-1, 3), axis=0)
+            index = classes["tracts"][geoid_of[code.code]]
+            row = classes["classes"][index] if index >= 0 else classes["missing"]
+            want = [int(row["fill"][i : i + 2], 16) for i in (1, 3, 5)]
+            assert np.abs(seen - want).max() <= 12, (tile, code.label, seen, row["fill"])
+            checked.append(code.label)
+    print(f"tract codes on their tracts' colours: {checked}")
+    assert len(checked) >= 4, checked
     for page in pages:
         page.context.close()
 

@@ -11,6 +11,7 @@ import math
 from tag_service.placement import place_box
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet, Group, Tract
+from webapp.apps.census_map.globe import map_projection
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import (
     MapGeometry,
@@ -60,9 +61,9 @@ class GroupHidden(Exception):
         self.group = group
 
 
-class GlobeTurned(Exception):
-    """The wall's globe is turned or tilted: a balloon placed on the flat map's
-    positions would point at the wrong place."""
+class OffTheWall(Exception):
+    """The wall shows no part of the tract (its globe looks elsewhere: the tract lies
+    beyond the wall's edge or over the horizon): a balloon would point at nothing."""
 
 
 class MapChanged(Exception):
@@ -94,10 +95,12 @@ async def colour_wall(
 
 
 def with_census(state: WallState, census: CensusState) -> WallState:
-    """``state`` with the census slot ``census``; on a turned or tilted globe the
-    balloons close in the same change (they point where the flat map puts a tract)."""
+    """``state`` with the census slot ``census``; where that moves the tracts on the
+    wall (another surface, the globe turned or tilted) the balloons close in the same
+    change: they point where their tracts were."""
     changed = census.put(state)
-    return changed.model_copy(update={"balloons": []}) if census.turned else changed
+    moved = census.moves_tracts(CensusState.of(state))
+    return changed.model_copy(update={"balloons": []}) if moved else changed
 
 
 async def choose_surface(context: AppContext, wall: Wall, surface: Surface) -> None:
@@ -188,8 +191,10 @@ async def open_balloon(
 ) -> Balloon:
     """Open the tract's balloon beside it, clear of codes and other open balloons; it
     closes by itself after ``TAGWALL_BALLOON_SECONDS`` (the oldest goes when too many
-    are open). Raises :class:`GroupHidden` when the wall hides the tract's group,
-    :class:`GlobeTurned` when its globe is turned or tilted and :class:`NoRoom` when the
+    are open). The tract stands where the wall shows it: on the flat map, or where the
+    globe's camera, turned and tilted as it is, shows it (:func:`globe.map_projection`).
+    Raises :class:`GroupHidden` when the wall hides the tract's group,
+    :class:`OffTheWall` when the globe shows no part of it and :class:`NoRoom` when the
     wall has no room for it.
 
     Nothing of a balloon touches a code's symbol, quiet zone or caption: its dot marks
@@ -201,13 +206,13 @@ async def open_balloon(
 
     async def place(state: WallState) -> Update:
         nonlocal opened
-        if CensusState.of(state).turned:
-            raise GlobeTurned
         hidden = hidden_group(state, dataset, tract)
         if hidden is not None:
             raise GroupHidden(hidden)
         layout = await run_blocking(context.layout, wall.id, state.tag_layout)
         geometry = await run_blocking(app.geometry, dataset)
+        camera = CensusState.of(state).camera
+        mapping = await run_blocking(map_projection, geometry, wall, state.view, *camera)
         now = now_ms()
         open_ = [b for b in state.balloons if b.open_at(now) and b.id != f"tract-{tract.geoid}"]
         others = open_[-(MAX_BALLOONS - 1) :]  # the oldest goes when too many are open
@@ -218,8 +223,17 @@ async def open_balloon(
         ]
         obstacles = codes + [grown(Rect(*b.rect), margin) for b in others if b.rect]
         targets = await run_blocking(
-            pointer_targets, geometry, wall, state.view, tract.geoid, obstacles, margin
+            pointer_targets,
+            geometry,
+            wall,
+            state.view,
+            tract.geoid,
+            obstacles,
+            margin,
+            mapping=mapping,
         )
+        if not targets:
+            raise OffTheWall
         title = dataset.tract_title(tract)
         lines = [f"{label}: {value}" for label, value in dataset.headline(tract)]
         font = label_mm(wall) * BALLOON_FONT_OF_LABEL

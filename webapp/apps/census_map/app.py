@@ -14,6 +14,7 @@ from wall_client.layout import Wall
 from webapp.apps.census_map import commands, pages
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MOST_GROUPS
+from webapp.apps.census_map.globe import map_projection
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import on_the_map, tract_codes
@@ -91,10 +92,10 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
         """While the map is on the wall: the group toggles on the menu screen, the tract
         index on the registration screen, a code on every tract that has room for one
         at this view, and a cluster code over each neighbourhood of tracts too small
-        for theirs, so every tract on the map is reached by pointing at the wall. On a
-        globe turned or tilted, the tracts move on the displays away from where the
-        flat map puts them: no tract or cluster code then (the tract index reaches
-        every tract), rather than a code pointing at the wrong one."""
+        for theirs, so every tract on the map is reached by pointing at the wall. The
+        tracts stand where the wall shows them: flat, or on the globe where its camera,
+        turned and tilted as it is, shows them (:func:`globe.map_projection`), their room
+        for a code measured there."""
         dataset = self.shown(context, state) if state.app == APP else None
         if dataset is None:
             return []
@@ -113,14 +114,14 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
                 for slot, group in enumerate(dataset.groups, start=1)
             ),
         ]
-        if CensusState.of(state).turned:
-            return menu  # tracts are not where the flat map puts them: no code on them
+        geometry = self.geometry(dataset)
         codes = tract_codes(
-            self.geometry(dataset),
+            geometry,
             wall,
             state.view,
             anchored_code_side_mm(context.base_url, wall),
             anchored_footprint_mm(context.base_url, wall),
+            mapping=map_projection(geometry, wall, state.view, *CensusState.of(state).camera),
         )
         # A code wanting to stand on a designated screen (a cluster's middle beside it)
         # may have its head under the panel's codes: its tracts join a cluster on the map.

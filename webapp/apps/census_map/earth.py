@@ -59,6 +59,7 @@ from tag_service.codes import content_hash
 from wall_client.layout import Display, Wall
 from webapp.apps.census_map.actions import group_shown
 from webapp.apps.census_map.dataset import DataSet
+from webapp.apps.census_map.ellipsoid import WGS84_A, WGS84_E2
 from webapp.apps.census_map.kml import (
     NAMESPACES,
     XML_DECLARATION,
@@ -77,10 +78,6 @@ from webapp.people.security import derive_token, token_matches
 from webapp.tags.registry import get_layout
 from webapp.tags.schemas import PlacedCode
 
-# The WGS84 ellipsoid, which Google Earth draws: its equatorial radius (m), its flattening.
-WGS84_A = 6_378_137.0
-WGS84_F = 1 / 298.257223563
-WGS84_E2 = WGS84_F * (2 - WGS84_F)  # its first eccentricity, squared
 DEFAULT_FOV = 60.0  # degrees across: Google Earth's horizontal field of view
 MIN_FOV, MAX_FOV = 1.0, 150.0
 DEFAULT_REFRESH_S = 2  # the wall document: view, groups, balloons, codes

@@ -9,6 +9,10 @@ At the whole-map view the data is as large as its shape allows on the displays t
 show the map (:meth:`MapGeometry.fit`), once per data set and wall.
 Outlines are simplified at a few tolerances, each twice the one before, and each
 tile takes the coarsest that stays within half a pixel of the true outline.
+
+Codes and balloons are placed through a :class:`MapProjection`, where the map's plane
+appears on the wall: the flat map's :class:`Projection`, or the globe's camera
+(``globe.GlobeProjection``), so the same placement serves both.
 """
 
 from __future__ import annotations
@@ -18,7 +22,7 @@ import math
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -96,17 +100,9 @@ class MapGeometry:
         lat0 = float(np.mean(shapely.bounds(shapes_ll)[:, [1, 3]])) if len(shapes_ll) else 0.0
         shapes = shapely.transform(shapes_ll, _plane(lat0))
         bounds = shapely.bounds(shapes)
-        points, room = [], []
-        for shape in shapes:
-            largest = _largest(shape)
-            # polylabel: the pole of inaccessibility, the visual centre a code and a
-            # label read best at; its distance to the outline says how much fits.
-            tolerance = max(math.sqrt(largest.area) / 100, 1e-9)
-            point = polylabel(largest, tolerance)
-            points.append((point.x, point.y))
-            room.append(largest.exterior.distance(point) if largest.area else 0.0)
-            for hole in largest.interiors:
-                room[-1] = min(room[-1], hole.distance(point))
+        centres = [visual_centre(shape) for shape in shapes]
+        points = [point for point, _ in centres]
+        room = [radius for _, radius in centres]
         extent = (
             (
                 float(bounds[:, 0].min()),
@@ -179,6 +175,21 @@ class MapGeometry:
             2 * tolerance, join_style="mitre"
         )
         return footprint
+
+
+def visual_centre(shape: Polygon | MultiPolygon) -> tuple[tuple[float, float], float]:
+    """Where a code or label reads best on a tract and how much fits there: the pole of
+    inaccessibility of its largest part (polylabel) and the radius of the widest circle
+    inside it around that point. Scale-free (its tolerance is a share of the part's
+    size), so the plane's and the wall's outlines agree where the wall is the plane
+    scaled."""
+    largest = _largest(shape)
+    tolerance = max(math.sqrt(largest.area) / 100, 1e-9)
+    point = polylabel(largest, tolerance)
+    room = largest.exterior.distance(point) if largest.area else 0.0
+    for hole in largest.interiors:
+        room = min(room, hole.distance(point))
+    return (point.x, point.y), room
 
 
 def shown_area(wall: Wall) -> Polygon | MultiPolygon:
@@ -308,6 +319,55 @@ class Projection:
     def to_plane(self, x: float, y: float) -> tuple[float, float]:
         return ((x - self.dx) / self.scale, (y - self.dy) / self.scale)
 
+    def points(self, uv: Floats) -> Floats:
+        """Plane points (n, 2) on the wall (scene mm): every one is placed."""
+        return np.asarray(uv, dtype=np.float64).reshape(-1, 2) * self.scale + (self.dx, self.dy)
+
+    def outlines(self, shapes: Shapes) -> Shapes:
+        """Tracts' outlines on the wall (scene mm)."""
+        moved: Shapes = shapely.transform(shapes, self.points)
+        return moved
+
+    def outline(self, shape: Polygon | MultiPolygon) -> Polygon | MultiPolygon:
+        """One tract's outline on the wall (scene mm)."""
+        moved: Polygon | MultiPolygon = self.outlines(np.array([shape], dtype=object))[0]
+        return moved
+
+    def anchors(
+        self, geometry: MapGeometry, which: Sequence[int] | None = None
+    ) -> tuple[Floats, Floats]:
+        """The tracts' label points on the wall and the room around each (scene mm):
+        the plane's, scaled (the plane's visual centres are the wall's)."""
+        chosen = slice(None) if which is None else list(which)
+        return self.points(geometry.label_points[chosen]), geometry.room[chosen] * self.scale
+
+
+class MapProjection(Protocol):
+    """Where the map's plane appears on the wall (scene mm) at one view: the flat map
+    (:class:`Projection`) or the globe seen through the wall (``globe.GlobeProjection``).
+    Codes, their room on a tract, and balloons are placed through it."""
+
+    @property
+    def scale(self) -> float:
+        """Scene mm per plane unit at the middle of the wall (sizes clusters' cells)."""
+        ...
+
+    def points(self, uv: Floats) -> Floats:
+        """Plane points (n, 2) on the wall, NaN where the wall does not show them."""
+        ...
+
+    def outlines(self, shapes: Shapes) -> Shapes:
+        """Tracts' outlines on the wall, each empty where the wall does not show it."""
+        ...
+
+    def anchors(
+        self, geometry: MapGeometry, which: Sequence[int] | None = None
+    ) -> tuple[Floats, Floats]:
+        """Where each tract (``which``: these, by index) wants its code on the wall and
+        the radius of the widest circle inside the tract around it there (scene mm;
+        NaN and 0 where the wall does not show the tract)."""
+        ...
+
 
 def projection(geometry: MapGeometry, wall: Wall, view: View) -> Projection:
     """At zoom 1 and centre (0.5, 0.5) the data as :meth:`MapGeometry.fit` puts it. The
@@ -346,14 +406,17 @@ def looking_at(
     return view.model_copy(update={"center": center})
 
 
-def tract_boxes(geometry: MapGeometry, wall: Wall, view: View) -> list[Rect]:
-    """Each tract's bounding box in scene mm at ``view``: where the map lies."""
-    project = projection(geometry, wall, view)
+def tract_boxes(
+    geometry: MapGeometry, wall: Wall, view: View, *, mapping: MapProjection | None = None
+) -> list[Rect]:
+    """The bounding box in scene mm of each tract the wall shows at ``view``, of its
+    outline as ``mapping`` puts it (default: the flat map): where the map lies."""
+    project = mapping or projection(geometry, wall, view)
+    bounds = shapely.bounds(project.outlines(geometry.shapes))
     return [
-        Rect(
-            *project.point(minx, miny), (maxx - minx) * project.scale, (maxy - miny) * project.scale
-        )
-        for minx, miny, maxx, maxy in geometry.bounds
+        Rect(minx, miny, maxx - minx, maxy - miny)
+        for minx, miny, maxx, maxy in bounds
+        if not math.isnan(minx)
     ]
 
 
@@ -368,6 +431,8 @@ def code_anchors(
     view: View,
     code_side_mm: float,
     spacing_mm: tuple[float, float] | None = None,
+    *,
+    mapping: MapProjection | None = None,
 ) -> dict[str, tuple[float, float]]:
     """Where the tracts that can carry their own code want it (scene mm), by GEOID.
 
@@ -376,15 +441,30 @@ def code_anchors(
     screen), and the code would not come within ``spacing_mm`` (across, down; default
     the code's side: a code with its caption and the gap kept around it) of a bigger
     tract's code there; the others are too small at this view (see
-    :func:`tract_codes`).
+    :func:`tract_codes`). Tracts stand where ``mapping`` puts them (default: the flat
+    map), their room measured there: on a tilted globe a tract far up the wall is
+    foreshortened and may have none.
     """
-    project = projection(geometry, wall, view)
+    project = mapping or projection(geometry, wall, view)
+    points, room = project.anchors(geometry)
+    return _own_codes(geometry, wall, points, room, code_side_mm, spacing_mm)
+
+
+def _own_codes(
+    geometry: MapGeometry,
+    wall: Wall,
+    points: Floats,
+    room: Floats,
+    code_side_mm: float,
+    spacing_mm: tuple[float, float] | None,
+) -> dict[str, tuple[float, float]]:
+    """:func:`code_anchors` from the tracts' anchors and room on the wall."""
     apart_x, apart_y = spacing_mm or (code_side_mm, code_side_mm)
     free = _free_rects(wall)
-    fits = np.flatnonzero(geometry.room * project.scale >= code_side_mm / 2)
+    fits = np.flatnonzero(room >= code_side_mm / 2)
     anchors: dict[str, tuple[float, float]] = {}
-    for index in fits[np.argsort(-geometry.room[fits], kind="stable")]:
-        x, y = project.point(*geometry.label_points[index])
+    for index in fits[np.argsort(-room[fits], kind="stable")]:
+        x, y = (float(c) for c in points[index])
         if not shows_map(free, (x, y)):
             continue
         if any(abs(x - ax) < apart_x and abs(y - ay) < apart_y for ax, ay in anchors.values()):
@@ -400,6 +480,8 @@ def pointer_targets(
     geoid: str,
     blocked: Sequence[Rect],
     margin_mm: float,
+    *,
+    mapping: MapProjection | None = None,
 ) -> list[tuple[float, float]]:
     """Where a balloon may point to show a tract (scene mm), best first: in each part
     of the tract that lies on a display showing the map (``margin_mm`` inside its
@@ -409,10 +491,15 @@ def pointer_targets(
     carrying its own code has it standing on its label point, so the first meets the
     tract at the code's edge, the others on its far sides. A tract wholly under codes
     or off the map's displays gets the nearest free point beside it (its label point
-    when nothing is free)."""
-    project = projection(geometry, wall, view)
+    when nothing is free). The tract stands where ``mapping`` puts it (default: the
+    flat map); none when it puts the tract nowhere on the wall (over a globe's horizon
+    or beyond the wall's edge)."""
+    project = mapping or projection(geometry, wall, view)
     index = geometry.geoids.index(geoid)
-    label = shapely.Point(project.point(*geometry.label_points[index]))
+    anchor, _ = project.anchors(geometry, [index])
+    if np.isnan(anchor).any():
+        return []
+    label = shapely.Point(anchor[0])
     shown = shapely.union_all(
         [
             shapely.box(r.x, r.y, r.right, r.bottom).buffer(-margin_mm, join_style="mitre")
@@ -421,8 +508,7 @@ def pointer_targets(
     )
     covered = shapely.union_all([shapely.box(r.x, r.y, r.right, r.bottom) for r in blocked])
     free = shapely.difference(shown, covered)
-    scale, dx, dy = project.scale, project.dx, project.dy
-    tract = shapely.transform(geometry.shapes[index], lambda c: c * scale + (dx, dy))
+    tract = project.outlines(geometry.shapes[[index]])[0]
     for region in (shapely.intersection(tract, free), free):
         parts = [part for part in _polygons(region) if part.area > 0]
         if parts:
@@ -523,6 +609,8 @@ def tract_codes(
     view: View,
     code_side_mm: float,
     footprint_mm: tuple[float, float],
+    *,
+    mapping: MapProjection | None = None,
 ) -> TractCodes:
     """Own codes for the tracts with room for one (:func:`code_anchors`), and cluster
     codes for the rest, as marker clustering on web maps does.
@@ -534,9 +622,14 @@ def tract_codes(
     the middle of its tracts' label points (placement moves it aside, on a pin, where
     another code stands). Crowded cells are split (:func:`_median_cut`). A cluster of
     one tract is that tract's own code, standing on its label point.
+
+    Tracts stand where ``mapping`` puts them on the wall (default: the flat map; on the
+    globe, where its camera shows them, :func:`code_anchors`); the cells stay the
+    plane's, sized at the middle of the wall's scale.
     """
-    project = projection(geometry, wall, view)
-    own = code_anchors(geometry, wall, view, code_side_mm, footprint_mm)
+    project = mapping or projection(geometry, wall, view)
+    anchors, room = project.anchors(geometry)
+    own = _own_codes(geometry, wall, anchors, room, code_side_mm, footprint_mm)
     width, height = (CLUSTER_CELL * side for side in footprint_mm)
     near = [grown(r, min(footprint_mm) / 2) for r in _free_rects(wall)]
     cells: dict[tuple[int, int], list[int]] = {}
@@ -545,8 +638,8 @@ def tract_codes(
     for index, (u, v) in enumerate(geometry.label_points):
         if geometry.geoids[index] in own:
             continue
-        x, y = project.point(u, v)
-        if not shows_map(near, (x, y)):
+        x, y = (float(c) for c in anchors[index])
+        if not shows_map(near, (x, y)):  # NaN (not on the wall) lies on none
             continue
         cell = (
             math.floor((u - minx) * project.scale / width),
@@ -556,7 +649,7 @@ def tract_codes(
     clusters = []
     parts = [part for key in sorted(cells) for part in _median_cut(cells[key], points)]
     for members in parts:
-        x, y = np.mean([project.point(*geometry.label_points[i]) for i in members], axis=0)
+        x, y = np.mean(anchors[members], axis=0)
         geoids = tuple(sorted(geometry.geoids[i] for i in members))
         if len(geoids) == 1:
             own[geoids[0]] = (float(x), float(y))

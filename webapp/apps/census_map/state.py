@@ -72,7 +72,7 @@ class CensusState(AppState):
     app: ClassVar[str] = APP
     # tiles fetch the map (the globe's camera: its picture)
     heavy: ClassVar[frozenset[str]] = frozenset({"dataset", "theme", "surface", "heading", "tilt"})
-    # codes stand on the data set's tracts; a turned globe takes the tracts' codes off
+    # codes stand on the data set's tracts where the surface and the globe's camera show them
     placing: ClassVar[frozenset[str]] = frozenset({"dataset", "surface", "heading", "tilt"})
 
     dataset: RowId | None = None  # the data set shown (None: not set up yet)
@@ -83,8 +83,15 @@ class CensusState(AppState):
     tour: Tour = Field(default_factory=Tour)
 
     @property
-    def turned(self) -> bool:
-        """The globe shown, turned or tilted: tracts no longer stand where the flat map
-        puts them, so no code or balloon points at one (codes follow the map only when
-        the globe looks straight down, north up)."""
-        return self.surface == "globe" and (self.heading != 0 or self.tilt != 0)
+    def camera(self) -> tuple[Surface, float, float]:
+        """Where the tiles show the map: the surface, and the globe's heading and tilt."""
+        return (self.surface, self.heading, self.tilt)
+
+    def moves_tracts(self, before: CensusState) -> bool:
+        """Whether the tracts stand elsewhere on the wall than ``before``: another
+        surface, or on the globe another heading or tilt (an open balloon would point
+        where its tract was)."""
+        if self.surface != before.surface:
+            return True
+        turned = (self.heading, self.tilt) != (before.heading, before.tilt)
+        return self.surface == "globe" and turned

@@ -1,23 +1,28 @@
 """The globe's camera and tours over HTTP, as the dashboard drives them: turn and tilt,
-fly to a place, keep and play a tour; the codes and balloons a turned globe takes off."""
+fly to a place, keep and play a tour; codes and balloons where a turned globe shows their
+tracts."""
 
 from __future__ import annotations
 
+import math
 import time
 from typing import Any
 
 import pytest
+import shapely
 from fastapi.testclient import TestClient
 
 from tests.conftest import operator_headers, register_student, services_of
 from tests.webapp.apps.census_map.test_app import (
     census_codes,
+    change,
     open_balloon,
+    placed,
     show_census,
     state_of,
 )
 from wall_client.layout import Wall
-from webapp.apps.census_map.globe import wall_middle
+from webapp.apps.census_map.globe import globe_projection, wall_middle
 from webapp.apps.census_map.maps import census_maps
 from webapp.apps.census_map.mapview import projection
 from webapp.apps.census_map.state import CensusState
@@ -44,35 +49,92 @@ def tract_codes(client: TestClient) -> set[str]:
     return {n for n in census_codes(client) if n.startswith(("census:tract:", "census:cluster:"))}
 
 
-def test_the_instructor_turns_and_tilts_the_globe_and_codes_leave_the_tracts(
+def test_on_a_turned_and_tilted_globe_codes_and_balloons_stand_on_their_tracts(
     client: TestClient,
 ) -> None:
     on_globe(client)
+    change(client, {"view": {"center": [0.5, 0.5], "zoom": 3}})  # tracts with room for codes
     straight = tract_codes(client)
     assert straight, "codes stand on the tracts while the globe looks straight down"
     register_student(client)
-    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
-    assert open_balloon(client, dataset.tracts[0].geoid).status_code == 200
+    services = services_of(client)
+    dataset = services.apps["census"].datasets.current(services.db)
+    shown = sorted(n.removeprefix("census:tract:") for n in straight if "tract:" in n)
+    assert open_balloon(client, shown[0]).status_code == 200
     assert state_of(client).balloons
 
     answer = post(client, "/camera", {"heading": 30, "tilt": 45})
     assert answer.status_code == 200, answer.text
     turned = census(client)
     assert (turned.heading, turned.tilt) == (30, 45)
-    assert not state_of(client).balloons, "balloons pointing at the flat map's places close"
-    assert not tract_codes(client), "no code points at the wrong tract"
+    assert not state_of(client).balloons, "balloons pointing where their tracts were close"
     assert {n for n in census_codes(client) if n.startswith("census:group:")}, "toggles stay"
-    refused = open_balloon(client, dataset.tracts[0].geoid)
-    assert refused.status_code == 409 and "turned or tilted" in refused.text
+
+    # every tract's own code wants to stand inside its tract as the tilted globe shows it
+    wall = services.walls["demo"]
+    geometry = services.apps["census"].geometry(dataset)
+    state = state_of(client)
+    seen = globe_projection(geometry, wall, state.view, 30, 45)
+    outline = {g: seen.outline(geometry.shapes[i]) for i, g in enumerate(geometry.geoids)}
+    by_code = {code: name for name, code in census_codes(client).items()}
+    own = {
+        by_code[p["code"]].removeprefix("census:tract:"): p["anchor"]
+        for p in placed(client, state)
+        if by_code.get(p["code"], "").startswith("census:tract:")
+    }
+    clusters = [n for n in tract_codes(client) if n.startswith("census:cluster:")]
+    assert len(own) >= 5 and clusters, (len(own), len(clusters))
+    for geoid, anchor in own.items():
+        assert outline[geoid].contains(shapely.Point(anchor)), geoid
+    # ... and with the flat map's anchors most would not: the globe moved the tracts
+    flat = projection(geometry, wall, state.view)
+    off = [
+        g
+        for g in own
+        if not outline[g].contains(
+            shapely.Point(flat.point(*geometry.label_points[geometry.geoids.index(g)]))
+        )
+    ]
+    assert len(off) >= len(own) / 2, (len(off), len(own))
+
+    # balloons open, each pointing at its tract where the globe shows it
+    with TestClient(client.app) as phone:
+        for geoid in sorted(own)[:3]:
+            change(client, {"balloons": []})
+            opened = open_balloon(phone, geoid)
+            assert opened.status_code == 200 and "on the wall for" in opened.text
+            [balloon] = state_of(client).balloons
+            dot = shapely.Point(balloon.anchor)
+            assert outline[geoid].buffer(0.5).covers(dot), (geoid, balloon.anchor)
 
     # every tile asks for the same camera: the globe's answer follows the state
-    cx, cy = state_of(client).view.center
-    query = {"dataset": turned.dataset, "cx": cx, "cy": cy, "zoom": 1, "heading": 30, "tilt": 45}
+    cx, cy = state.view.center
+    query = {"dataset": turned.dataset, "cx": cx, "cy": cy, "zoom": 3, "heading": 30, "tilt": 45}
     body = client.get("/api/walls/demo/census/globe", params=query).json()
     assert (body["camera"]["heading"], body["camera"]["tilt"]) == (30, 45)
 
     assert post(client, "/camera", {"heading": 0, "tilt": 0}).status_code == 200
     assert tract_codes(client) == straight, "the same codes come back straight down"
+
+
+def test_a_tract_the_globe_does_not_show_gets_no_balloon(client: TestClient) -> None:
+    """Zoomed in on the globe, a tract far beyond the wall's edge: the phone says the
+    globe looks elsewhere (409) rather than pointing a balloon at nothing."""
+    on_globe(client)
+    register_student(client)
+    services = services_of(client)
+    dataset = services.apps["census"].datasets.current(services.db)
+    geometry = services.apps["census"].geometry(dataset)
+    near = dataset.tracts[0].geoid
+    assert post(client, "/fly", {"tract": near, "zoom": 20}).status_code == 200
+    u, v = geometry.label_points[geometry.geoids.index(near)]
+    far = max(
+        geometry.geoids,
+        key=lambda g: math.dist((u, v), geometry.label_points[geometry.geoids.index(g)]),
+    )
+    refused = open_balloon(client, far)
+    assert refused.status_code == 409 and "looks elsewhere" in refused.text
+    assert open_balloon(client, near).status_code == 200
 
 
 @pytest.mark.parametrize(
@@ -101,6 +163,23 @@ def test_a_globe_asked_for_out_of_bounds_is_refused(
     dataset = census(client).dataset
     answer = client.get("/api/walls/demo/census/globe", params={"dataset": dataset, **query})
     assert answer.status_code == 422
+
+
+def test_the_colouring_is_asked_for_with_the_globe_s_camera(client: TestClient) -> None:
+    """The legend keeps off the tracts where the wall shows them: tiles on the globe
+    ask for the colouring with its camera, which is bounded as the globe's is."""
+    on_globe(client)
+    state = state_of(client)
+    theme = {"attribute": "HH_INC", "scheme": "YlOrRd", "method": "quantiles", "classes": 5}
+    cx, cy = state.view.center
+    query = {"dataset": census(client).dataset, "cx": cx, "cy": cy, "zoom": 1, **theme}
+    path = "/api/walls/demo/tiles/r2c2/census/theme"
+    for camera in ({}, {"surface": "globe", "heading": 30, "tilt": 45}):
+        answer = client.get(path, params={**query, **camera})
+        assert answer.status_code == 200, answer.text
+        assert answer.json()["legend"]["rect"] is not None
+    for camera in ({"surface": "sphere"}, {"surface": "globe", "tilt": 61}):
+        assert client.get(path, params={**query, **camera}).status_code == 422
 
 
 def test_the_camera_needs_the_map_on_the_wall(client: TestClient) -> None:
@@ -197,12 +276,11 @@ def test_a_tour_plays_its_steps_in_turn_then_ends(client: TestClient) -> None:
     assert CensusState.of(first).tour.playing and CensusState.of(first).tour.step == 0
     assert (first.view.center, first.view.zoom) == ((0.4, 0.5), 2)
     assert (CensusState.of(first).heading, CensusState.of(first).tilt) == (90, 30)
-    assert not tract_codes(client), "turned: no codes on the tracts"
     wait_for(lambda: census(client).tour.step == 1)
     second = state_of(client)
     assert (second.view.center, second.view.zoom) == ((0.6, 0.45), 3)
     assert (CensusState.of(second).heading, CensusState.of(second).tilt) == (0, 0)
-    assert tract_codes(client), "straight down again: the codes are back"
+    assert tract_codes(client), "straight down again: codes on the tracts"
     wait_for(lambda: not census(client).tour.playing)
     assert census(client).tour.note == "played all 2 steps"
     assert state_of(client).view == second.view, "the last view kept"

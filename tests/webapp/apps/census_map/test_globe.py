@@ -1,6 +1,8 @@
 """Each display's part of the wall's one camera, as ``static/frustum.js`` computes it
 (run by Node, the one home of the rule), against the wall's geometry here: the displays'
-frusta tile the wall's window exactly, the bezels' share between neighbours."""
+frusta tile the wall's window exactly, the bezels' share between neighbours. And the
+camera undone (``GlobeProjection``): where a place of the map appears on the wall, which
+codes and balloons are placed by, lands on the pixel each display draws it at."""
 
 from __future__ import annotations
 
@@ -13,14 +15,28 @@ from typing import Any
 
 import numpy as np
 import pytest
+import shapely
+from shapely.geometry import Polygon
 
 from tests.conftest import wall_files
 from tests.webapp.apps.census_map.conftest import sacramento
 from wall_client.config import load_wall
 from wall_client.layout import Rect, Wall, apply_affine, invert_affine
-from webapp.apps.census_map.earth import WGS84_A, WGS84_E2
-from webapp.apps.census_map.globe import globe_camera, wall_eye, wall_middle
-from webapp.apps.census_map.mapview import MapGeometry, looking_at, projection
+from webapp.apps.census_map.ellipsoid import WGS84_A, WGS84_E2
+from webapp.apps.census_map.globe import (
+    globe_camera,
+    globe_projection,
+    wall_eye,
+    wall_middle,
+    wall_window,
+)
+from webapp.apps.census_map.mapview import (
+    MapGeometry,
+    code_anchors,
+    looking_at,
+    projection,
+    tract_boxes,
+)
 from webapp.core.settings import PROJECT_ROOT
 from webapp.engine.wall_state import View
 
@@ -252,3 +268,192 @@ def test_a_view_flown_to_a_place_puts_it_under_the_camera() -> None:
     target = globe_camera(geometry, wall, view)["target"]
     assert (target["longitude"], target["latitude"]) == pytest.approx(geometry.to_lonlat(u, v))
     assert projection(geometry, wall, view).point(u, v) == pytest.approx(wall_middle(wall))
+
+
+# --- where a place of the map appears on the wall under the camera (GlobeProjection) --
+
+CAMERAS = [(0, 0), (30, 45), (90, 0), (225, 60), (359, 10)]
+
+
+def demo_and_sacramento() -> tuple[Wall, MapGeometry]:
+    return load_wall(wall_files("demo")[0]), MapGeometry.of(sacramento())
+
+
+def offset_place(longitude: float, latitude: float, east_m: float, north_m: float) -> list[float]:
+    """A place ``east_m`` east and ``north_m`` north of another (small offsets)."""
+    phi = np.radians(latitude)
+    n = WGS84_A / np.sqrt(1 - WGS84_E2 * np.sin(phi) ** 2)
+    m = n * (1 - WGS84_E2) / (1 - WGS84_E2 * np.sin(phi) ** 2)
+    return [
+        longitude + np.degrees(east_m / (n * np.cos(phi))),
+        latitude + np.degrees(north_m / m),
+    ]
+
+
+@pytest.mark.parametrize(("heading", "tilt"), CAMERAS)
+def test_the_camera_s_target_lands_at_the_middle_of_the_wall(heading: float, tilt: float) -> None:
+    wall, geometry = demo_and_sacramento()
+    view = View(zoom=2)
+    seen = globe_projection(geometry, wall, view, heading, tilt)
+    target = globe_camera(geometry, wall, view, heading, tilt)["target"]
+    u, v = geometry.from_lonlat(target["longitude"], target["latitude"])
+    assert seen.point(u, v) == pytest.approx(wall_middle(wall), abs=MM)
+
+
+@pytest.mark.parametrize(("heading", "tilt"), CAMERAS)
+def test_a_place_to_the_camera_s_right_lands_right_of_the_middle(
+    heading: float, tilt: float
+) -> None:
+    """The wall's right, as the top faces ``heading``: east turned by it (straight down,
+    north up, east is right; turned to 90, the top faces east and south is right)."""
+    wall, geometry = demo_and_sacramento()
+    view = View(zoom=2)
+    seen = globe_projection(geometry, wall, view, heading, tilt)
+    target = globe_camera(geometry, wall, view, heading, tilt)["target"]
+    h = np.radians(heading)
+    east, north = 5_000 * np.cos(h), -5_000 * np.sin(h)  # 5 km to the right
+    place = offset_place(target["longitude"], target["latitude"], east, north)
+    at = seen.point(*geometry.from_lonlat(*place))
+    assert at is not None
+    mx, my = wall_middle(wall)
+    assert at[0] - mx > 5, at
+    assert abs(at[1] - my) < 0.01 * (at[0] - mx), at  # level with the middle
+
+
+STRAIGHT_DOWN_SHARE = 0.03
+"""How far the straight-down globe puts a place from where the flat map does, as a share
+of its distance from the middle of the wall. Measured with the shipped tracts' label
+points at zoom 1 and 3: demo at most 2.4 % (25 mm, 40 px, 1.1 m from the middle),
+irregular 2.2 %, kl-3x3 1.7 %, hiperwall 2.9 % (91 mm at 3.1 m). The flat map is
+equirectangular (x = longitude · cos of the middle latitude), the globe a perspective of
+the curved ellipsoid: east-west distances differ by latitude, parallels curve."""
+
+
+@pytest.mark.parametrize("wall_name", ["demo", "irregular", "kl-3x3", "hiperwall"])
+@pytest.mark.parametrize("zoom", [1, 3])
+def test_straight_down_the_globe_puts_places_near_where_the_flat_map_does(
+    wall_name: str, zoom: float
+) -> None:
+    wall = load_wall(wall_files(wall_name)[0])
+    geometry = MapGeometry.of(sacramento())
+    view = View(zoom=zoom)
+    flat = projection(geometry, wall, view).points(geometry.label_points)
+    globe = globe_projection(geometry, wall, view).points(geometry.label_points)
+    shown = ~np.isnan(globe[:, 0])
+    assert shown.sum() > 300
+    apart = np.hypot(*(globe[shown] - flat[shown]).T)
+    from_middle = np.hypot(*(flat[shown] - wall_middle(wall)).T)
+    assert np.all(apart <= STRAIGHT_DOWN_SHARE * from_middle + MM), (apart / from_middle).max()
+    px = max(1 / d.mm_per_px for d in wall.displays)
+    print(f"{wall_name} zoom {zoom}: at most {apart.max():.1f} mm ({apart.max() * px:.0f} px)")
+
+
+def test_places_behind_the_horizon_or_beyond_the_wall_are_not_placed() -> None:
+    wall, geometry = demo_and_sacramento()
+    seen = globe_projection(geometry, wall, View(), 0, 60)
+    target = globe_camera(geometry, wall, View(), 0, 60)["target"]
+    lon, lat = target["longitude"], target["latitude"]
+    # the other side of the Earth, and far beyond the horizon ahead (north)
+    for place in ([lon + 180, -lat], [lon, lat + 40]):
+        u, v = geometry.from_lonlat(*place)
+        assert seen.point(u, v) is None
+        assert np.isnan(seen.seen(np.array([[u, v]]))).all()
+    # behind the camera (south of it, tilted north): not seen either
+    camera = globe_camera(geometry, wall, View(), 0, 60)
+    behind = geometry.from_lonlat(camera["longitude"], camera["latitude"] - 5)  # 550 km
+    assert np.isnan(seen.seen(np.array([behind]))).all()
+    # in front and above the horizon, but beyond the wall's edge: seen, not placed
+    aside = geometry.from_lonlat(*offset_place(lon, lat, 600_000, 0))
+    ((x, _),) = seen.seen(np.array([aside]))
+    assert x > wall_window(wall).right and seen.point(*aside) is None
+    assert seen.outline(Polygon.from_bounds(*aside, aside[0] + 0.01, aside[1] + 0.01)).is_empty
+
+
+def test_a_tilted_globe_foreshortens_tracts_far_up_the_wall_and_they_lose_their_codes() -> None:
+    """Tilted 60 degrees, tracts in the upper half of the wall lie far off and slanted:
+    their room (the widest circle in their outline as the wall shows it) is about half
+    what it is straight down, and tracts there that carried their own code straight down
+    share a cluster's instead."""
+    wall, geometry = demo_and_sacramento()
+    wall = dataclasses.replace(wall, id="open", screens={}, stage_ids=())  # all show the map
+    minx, miny, maxx, maxy = geometry.extent
+    middle = wall_middle(wall)
+    view = looking_at(geometry, wall, View(zoom=2), middle, (minx + maxx) / 2, (miny + maxy) / 2)
+    straight = globe_projection(geometry, wall, view)
+    tilted = globe_projection(geometry, wall, view, 0, 60)
+    (_, room), (at, tilted_room) = straight.anchors(geometry), tilted.anchors(geometry)
+    shown = ~np.isnan(at[:, 0])
+    upper, lower = shown & (at[:, 1] < middle[1] - 100), shown & (at[:, 1] > middle[1] + 100)
+    assert upper.sum() > 20 and lower.sum() > 20
+    share = tilted_room / np.maximum(room, 1e-9)
+    assert np.median(share[upper]) < 0.65 < np.median(share[lower]), (
+        np.median(share[upper]),
+        np.median(share[lower]),
+    )
+    side = 40.0
+    before = code_anchors(geometry, wall, view, side, mapping=straight)
+    after = code_anchors(geometry, wall, view, side, mapping=tilted)
+    index = {g: i for i, g in enumerate(geometry.geoids)}
+    lost = [
+        g for g in before if g not in after and upper[index[g]] and tilted_room[index[g]] < side / 2
+    ]
+    assert len(lost) >= 10, len(lost)
+    # every own code on the tilted globe stands inside its tract as the globe shows it
+    for geoid, anchor in after.items():
+        outline = tilted.outline(geometry.shapes[index[geoid]])
+        assert outline.buffer(0.5).contains(shapely.Point(anchor)), geoid
+
+
+@pytest.mark.parametrize("wall_name", ["demo", "irregular"])
+@pytest.mark.parametrize(("heading", "tilt"), [(0, 0), (30, 45), (200, 60)])
+def test_each_display_draws_a_place_at_the_pixel_its_code_is_placed_at(
+    wall_name: str, heading: float, tilt: float
+) -> None:
+    """The cross-check with what tiles draw: ``frustum.js`` (run by Node) gives each
+    display its off-centre frustum, turned as ``globe.js`` turns the camera's up for it;
+    a place projected through that frustum onto the display's pixels lands where the
+    wall's mapping (scene mm, then the display's ``to_pixels``) puts it."""
+    wall = load_wall(wall_files(wall_name)[0])
+    geometry = MapGeometry.of(sacramento())
+    view = View(zoom=2)
+    camera = globe_camera(geometry, wall, view, heading, tilt)
+    seen = globe_projection(geometry, wall, view, heading, tilt)
+    found = frusta(wall, camera["eye"])
+    position, direction, wall_up = (np.array(camera[k]) for k in ("position", "direction", "up"))
+    right = np.cross(direction, wall_up)
+    lonlat = np.array([geometry.to_lonlat(u, v) for u, v in geometry.label_points])
+    ground_points = np.array([ground(lon, lat) for lon, lat in lonlat])
+    mapped = seen.points(geometry.label_points)
+    checked = 0
+    for display in wall.displays:
+        frustum = found[display.id]
+        ur, uu = frustum["up"]
+        up = ur * right + uu * wall_up  # globe.js: the picture's up for this display
+        picture_right = np.cross(direction, up)  # Cesium: direction x up
+        towards = ground_points - position
+        depth = towards @ direction
+        across, upwards = towards @ picture_right / depth, towards @ up / depth
+        width, height = display.resolution
+        px = (across - frustum["left"]) / (frustum["right"] - frustum["left"]) * width
+        py = (frustum["top"] - upwards) / (frustum["top"] - frustum["bottom"]) * height
+        to_pixels = wall.viewport(display.id).to_pixels
+        for i in np.flatnonzero((px >= 0) & (px < width) & (py >= 0) & (py < height)):
+            assert not np.isnan(mapped[i]).any(), (display.id, i)
+            want = apply_affine(to_pixels, *mapped[i])
+            assert want == pytest.approx((px[i], py[i]), abs=0.01), (display.id, i)
+            checked += 1
+    assert checked > 100, checked
+
+
+def test_tract_boxes_on_the_globe_are_those_of_the_outlines_it_shows() -> None:
+    wall, geometry = demo_and_sacramento()
+    tilted = globe_projection(geometry, wall, View(zoom=3), 30, 45)
+    boxes = tract_boxes(geometry, wall, View(zoom=3), mapping=tilted)
+    outlines = [tilted.outline(shape) for shape in geometry.shapes]
+    shown = [o for o in outlines if not o.is_empty]
+    assert 0 < len(boxes) == len(shown) < len(geometry.shapes)
+    for box, outline in zip(boxes, shown, strict=True):
+        assert (box.x, box.y, box.right, box.bottom) == pytest.approx(outline.bounds)
+        window = wall_window(wall)
+        assert window.x <= box.x and box.right <= window.right
+        assert window.y <= box.y and box.bottom <= window.bottom

@@ -9,9 +9,9 @@ from fastapi import APIRouter, Form, Request, Response, status
 
 from webapp.apps.census_map import pages
 from webapp.apps.census_map.actions import (
-    GlobeTurned,
     GroupHidden,
     NoRoom,
+    OffTheWall,
     open_balloon,
 )
 from webapp.apps.census_map.maps import census_maps
@@ -72,8 +72,9 @@ async def show_on_wall(
 ) -> Response:
     """ "Show on the wall": the tract's balloon opens beside it on every tile. 409, with
     the reason and what to do, when the wall hides the tract's group (the balloon would
-    point at empty map), turns or tilts its globe (it would point at the wrong place)
-    or has no room for it clear of every code."""
+    point at empty map), looks away from the tract on its globe (beyond the wall's
+    edge or over the horizon: it would point at nothing) or has no room for it clear
+    of every code."""
     app = census_maps(context)
     _, dataset = await pages.shown_dataset(app, context, wall)
     tract = pages.tract_of(dataset, geoid)
@@ -95,7 +96,7 @@ async def show_on_wall(
             hidden=hidden.group,
             refused=True,
         )
-    except (GlobeTurned, NoRoom) as refused:
+    except (OffTheWall, NoRoom) as refused:
         return render(
             request,
             "census/balloon.html",
@@ -104,7 +105,7 @@ async def show_on_wall(
             tract=tract,
             title=title,
             placed=False,
-            turned=isinstance(refused, GlobeTurned),
+            off_the_wall=isinstance(refused, OffTheWall),
             seconds=seconds,
         )
     return render(

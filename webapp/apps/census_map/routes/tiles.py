@@ -12,13 +12,13 @@ from sqlalchemy import select
 
 from wall_client.layout import Rect, Wall
 from webapp.apps.census_map.dataset import DataSet
-from webapp.apps.census_map.globe import globe_view
+from webapp.apps.census_map.globe import globe_view, map_projection
 from webapp.apps.census_map.legend import theme_view
 from webapp.apps.census_map.maps import CensusMaps, census_maps
 from webapp.apps.census_map.mapview import tile_view, tract_boxes
 from webapp.apps.census_map.routes.common import MapViewDep
 from webapp.apps.census_map.rules import APP
-from webapp.apps.census_map.state import MAX_TILT
+from webapp.apps.census_map.state import MAX_TILT, Surface
 from webapp.apps.census_map.theme import kept_theme
 from webapp.choropleth.classes import Method, Theme
 from webapp.choropleth.palettes import SchemeName
@@ -121,10 +121,14 @@ async def tile_theme(
     classes: int,
     view: MapViewDep,
     layout: Annotated[int, Query(ge=0, le=ROW_ID_MAX)] = 0,
+    surface: Surface = "flat",
+    heading: Annotated[float, Query(ge=0, lt=360)] = 0.0,
+    tilt: Annotated[float, Query(ge=0, le=MAX_TILT)] = 0.0,
 ) -> Response:
     """The tracts' classes and the legend for the wall's theme (the state's ``theme``),
     the same for every tile of the wall: tiles fetch it before they answer ``ready``.
-    The view says where the map lies, which the legend keeps off where it can."""
+    The view, surface and globe's camera say where the map lies on the wall, which the
+    legend keeps off where it can."""
     try:
         theme = Theme(attribute=attribute, scheme=scheme, method=method, classes=classes)
     except ValidationError as error:
@@ -132,13 +136,14 @@ async def tile_theme(
             status.HTTP_422_UNPROCESSABLE_CONTENT, f"theme: {error.errors()[0]['msg']}"
         ) from None
     app = census_maps(context)
-    key = ("theme", wall.id, dataset, layout, view.center, view.zoom, theme)
+    camera = (surface, heading, tilt)
+    key = ("theme", wall.id, dataset, layout, view.center, view.zoom, camera, theme)
     return await _render_once(
         app,
         context,
         key,
         dataset,
-        lambda found: _theme_body(app, context, wall, found, layout, view, theme),
+        lambda found: _theme_body(app, context, wall, found, layout, view, camera, theme),
     )
 
 
@@ -149,6 +154,7 @@ def _theme_body(
     dataset: DataSet,
     layout_id: int,
     view: View,
+    camera: tuple[Surface, float, float],
     theme: Theme,
 ) -> bytes:
     if kept_theme(dataset, theme) is None:
@@ -161,7 +167,9 @@ def _theme_body(
     codes = [
         Rect(*PlacedCode.model_validate(p).footprint) for p in (record.placed if record else [])
     ]
-    on_map = tract_boxes(app.geometry(dataset), wall, view)
+    geometry = app.geometry(dataset)
+    mapping = map_projection(geometry, wall, view, *camera)
+    on_map = tract_boxes(geometry, wall, view, mapping=mapping)
     body = theme_view(shading, dataset.id, [t.geoid for t in dataset.tracts], wall, codes, on_map)
     return body.model_dump_json().encode()
 

@@ -35,15 +35,17 @@ export class CensusViews {
   }
 
   /** The query of the wall's theme (null: the plain map); the same for every tile.
-   * The view goes with it: the legend keeps off the map where it can. */
+   * The view, surface and globe's camera go with it: the legend keeps off the map, where
+   * the wall shows it, where it can. */
   static themeKeyOf(state) {
-    const {dataset, theme} = censusOf(state);
+    const {dataset, theme, surface, heading, tilt} = censusOf(state);
     if (state?.app !== "census" || !dataset || !theme) return null;
     const [cx, cy] = state.view?.center ?? [0.5, 0.5];
+    const camera = surface === "globe" ? {surface, heading, tilt} : {};
     return new URLSearchParams({
       dataset, layout: state.tag_layout ?? 0, cx, cy, zoom: state.view?.zoom ?? 1,
       attribute: theme.attribute, scheme: theme.scheme, method: theme.method,
-      classes: theme.classes,
+      classes: theme.classes, ...camera,
     }).toString();
   }
 

@@ -84,15 +84,15 @@ function showSurface() {
   $("census-surface-shown").textContent = SURFACES[surface] ?? surface;
 }
 
-// The globe's camera as the status says. Codes on tracts follow the map only while the
-// globe looks straight down, north up (the server takes them off otherwise).
+// The globe's camera as the status says. Codes and balloons stand where the globe shows
+// their tracts, however it is turned (the server places them through the camera).
 const MAX_TILT = 60;  // webapp/apps/census_map/state.py refuses more
 function showCamera() {
   const {surface, heading, tilt} = censusOf(state);
   const look = heading === 0 && tilt === 0 ? "Straight down, north up."
     : `Turned to ${heading}° from north, tilted ${tilt}° from straight down.`;
   const codes = surface !== "globe" ? " The flat map stays north up, straight down: the globe shows the turn."
-    : (heading || tilt ? " Codes on the tracts are off the wall until the globe looks straight down, north up again (the tract index reaches every tract)." : "");
+    : (heading || tilt ? " Codes and balloons stand where the globe shows their tracts." : "");
   $("census-camera-shown").textContent = look + codes;
 }
 
