@@ -74,6 +74,14 @@ class NoSuchValue(Exception):
     """The data set has no value by the name the colouring gives."""
 
 
+def shown_census(state: WallState) -> CensusState:
+    """The census slot of a wall that shows the census map; :class:`MapChanged` when it
+    shows another app (a change meant for the map must not land on it)."""
+    if state.app != APP:
+        raise MapChanged
+    return CensusState.of(state)
+
+
 async def colour_wall(
     context: AppContext, wall: Wall, dataset: DataSet, theme: Theme | None
 ) -> None:
@@ -85,7 +93,7 @@ async def colour_wall(
         raise NoSuchValue(theme.attribute)
 
     async def colour(state: WallState) -> Update:
-        if state.app != APP or CensusState.of(state).dataset != dataset.id:
+        if shown_census(state).dataset != dataset.id:
             raise MapChanged
         return lambda current: (
             CensusState.of(current).model_copy(update={"theme": theme}).put(current)
@@ -109,9 +117,7 @@ async def choose_surface(context: AppContext, wall: Wall, surface: Surface) -> N
     on the wall."""
 
     def switch(state: WallState) -> WallState:
-        if state.app != APP:
-            raise MapChanged
-        return with_census(state, CensusState.of(state).model_copy(update={"surface": surface}))
+        return with_census(state, shown_census(state).model_copy(update={"surface": surface}))
 
     await context.change_wall(wall, switch)
 
@@ -123,9 +129,7 @@ async def aim_camera(context: AppContext, wall: Wall, heading: float, tilt: floa
     wall."""
 
     def aim(state: WallState) -> WallState:
-        if state.app != APP:
-            raise MapChanged
-        census = CensusState.of(state)
+        census = shown_census(state)
         tour = census.tour.stopped("the instructor turned the camera")
         return with_census(
             state, census.model_copy(update={"heading": heading, "tilt": tilt, "tour": tour})
@@ -151,11 +155,9 @@ async def fly_to(
 
     def fly(state: WallState) -> WallState:
         nonlocal flown
-        if state.app != APP:
-            raise MapChanged
+        census = shown_census(state)
         view = state.view if zoom is None else state.view.model_copy(update={"zoom": zoom})
         flown = looking_at(geometry, wall, view, middle, *place)
-        census = CensusState.of(state)
         tour = census.tour.stopped("the instructor flew to a place")
         return census.model_copy(update={"tour": tour}).put(
             state.model_copy(update={"view": flown})

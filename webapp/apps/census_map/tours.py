@@ -20,7 +20,7 @@ import logging
 from collections.abc import Awaitable, Callable
 
 from wall_client.layout import Wall
-from webapp.apps.census_map.actions import MapChanged, with_census
+from webapp.apps.census_map.actions import shown_census, with_census
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.state import CensusState, Tour, TourStep
@@ -61,9 +61,7 @@ async def save_tour(context: AppContext, wall: Wall, steps: list[TourStep]) -> T
 
     def keep(state: WallState) -> WallState:
         nonlocal saved
-        if state.app != APP:
-            raise MapChanged
-        census = CensusState.of(state)
+        census = shown_census(state)
         saved = census.tour.stopped("the instructor changed the tour").model_copy(
             update={"steps": steps, "step": 0}
         )
@@ -83,9 +81,7 @@ async def play_tour(
 
     def start(state: WallState) -> WallState:
         nonlocal started
-        if state.app != APP:
-            raise MapChanged
-        census = CensusState.of(state)
+        census = shown_census(state)
         if not census.tour.steps:
             raise NoTour
         started = census.tour.model_copy(
