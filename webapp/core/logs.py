@@ -36,16 +36,14 @@ class RedactSecrets(logging.Filter):
 
 
 def uvicorn_log_config() -> dict[str, Any]:
-    """uvicorn's logging configuration with :class:`RedactSecrets` on every handler, and
-    tagwall's access log (the line already made, so it is written as it comes) in place
-    of uvicorn's (run it with ``access_log=False``)."""
+    """uvicorn's logging configuration with :class:`RedactSecrets` on its handlers, and
+    tagwall's access log in place of uvicorn's (run it with ``access_log=False``): its
+    lines come masked and formatted, so they are written as they come."""
     from uvicorn.config import LOGGING_CONFIG
 
     config: dict[str, Any] = copy.deepcopy(LOGGING_CONFIG)
-    config["formatters"]["access_line"] = {
-        "()": "uvicorn.logging.DefaultFormatter",
-        "fmt": "%(levelprefix)s %(message)s",
-    }
+    # uvicorn's formatters copy each record to colour it: a plain one, in uvicorn's columns
+    config["formatters"]["access_line"] = {"format": "%(levelname)s:     %(message)s"}
     config["handlers"]["access_line"] = {
         "formatter": "access_line",
         "class": "logging.StreamHandler",
@@ -57,8 +55,9 @@ def uvicorn_log_config() -> dict[str, Any]:
         "propagate": False,
     }
     config.setdefault("filters", {})["redact_secrets"] = {"()": f"{__name__}.RedactSecrets"}
-    for handler in config["handlers"].values():
-        handler.setdefault("filters", []).append("redact_secrets")
+    for name, handler in config["handlers"].items():
+        if name != "access_line":  # masked as the middleware makes it (one regex, not two)
+            handler.setdefault("filters", []).append("redact_secrets")
     return config
 
 

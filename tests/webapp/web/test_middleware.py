@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import logging.config
 from ipaddress import ip_network
 
 import pytest
@@ -91,11 +92,18 @@ def test_the_access_line_names_the_client_behind_a_trusted_proxy(
     assert [r.getMessage().split(" - ")[0] for r in caplog.records] == ["198.51.100.7:0"]
 
 
-def test_serve_writes_the_access_line_through_a_masking_handler() -> None:
-    """``tagwall serve``'s logging: the access lines have their own handler (uvicorn's
-    access formatter wants uvicorn's arguments), masked like every other one."""
+def test_serve_writes_the_access_line_once_in_uvicorns_columns() -> None:
+    """``tagwall serve``'s logging: the access lines have a handler of their own (uvicorn's
+    access formatter wants uvicorn's arguments) and come out as uvicorn's did; every
+    other handler masks secrets whatever logger the line came from."""
     config = uvicorn_log_config()
-    (handler,) = config["loggers"][ACCESS_LOGGER]["handlers"]
-    assert "redact_secrets" in config["handlers"][handler]["filters"]
-    assert config["filters"]["redact_secrets"]["()"].endswith(RedactSecrets.__name__)
     assert config["loggers"][ACCESS_LOGGER]["propagate"] is False  # written once
+    for name, handler in config["handlers"].items():
+        assert name == "access_line" or "redact_secrets" in handler["filters"]
+    assert config["filters"]["redact_secrets"]["()"].endswith(RedactSecrets.__name__)
+    formatter = logging.config.DictConfigurator(config).configure_formatter(
+        config["formatters"]["access_line"]
+    )
+    line = 'x - "GET / HTTP/1.1" 200 OK'
+    record = logging.LogRecord(ACCESS_LOGGER, logging.INFO, "", 0, line, None, None)
+    assert formatter.format(record) == f"INFO:     {line}"
