@@ -33,10 +33,12 @@ address are lifted (``LIMIT_SETTINGS``, recorded in the result).
 
 ``make bench`` runs ``RUNS``; ``python -m benchmarks.lecture_hall --help`` runs one
 scenario with other parameters (phones, period, workers, database, bus) and can
-record a py-spy profile of the server meanwhile. Several workers need PostgreSQL and
-``--bus redis`` (the server refuses otherwise); every tile then gets every event,
-whichever worker it is connected to and whichever published it (an event some tile
-never got counts in ``incomplete_events``).
+record a py-spy profile of the server meanwhile; ``--server-cpus 0 --load-cpus 1`` is
+issue 32's hall (the server on one core, everything else on the other; other work on
+the machine still shares both, ``other_cores_busy`` says how much). Several workers
+need PostgreSQL and ``--bus redis`` (the server refuses otherwise); every tile then
+gets every event, whichever worker it is connected to and whichever published it (an
+event some tile never got counts in ``incomplete_events``).
 """
 
 from __future__ import annotations
