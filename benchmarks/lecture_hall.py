@@ -33,10 +33,12 @@ address are lifted (``LIMIT_SETTINGS``, recorded in the result).
 
 ``make bench`` runs ``RUNS``; ``python -m benchmarks.lecture_hall --help`` runs one
 scenario with other parameters (phones, period, workers, database, bus) and can
-record a py-spy profile of the server meanwhile. Several workers need PostgreSQL and
-``--bus redis`` (the server refuses otherwise); every tile then gets every event,
-whichever worker it is connected to and whichever published it (an event some tile
-never got counts in ``incomplete_events``).
+record a py-spy profile of the server meanwhile; ``--server-cpus 0 --load-cpus 1`` is
+issue 32's hall (the server on one core, everything else on the other; other work on
+the machine still shares both, ``other_cores_busy`` says how much). Several workers
+need PostgreSQL and ``--bus redis`` (the server refuses otherwise); every tile then
+gets every event, whichever worker it is connected to and whichever published it (an
+event some tile never got counts in ``incomplete_events``).
 """
 
 from __future__ import annotations
@@ -528,6 +530,7 @@ class Scenario:
     generators: int = 1  # load-generator processes
     progress_pages: bool = True  # phones follow each answer to their progress page
     profile: Path | None = None  # a py-spy raw (collapsed stacks) profile of the server
+    server_cpus: str | None = None  # taskset's list: the server on these cores only
 
     @property
     def scaled_out(self) -> bool:
@@ -584,6 +587,9 @@ def hall_server(scenario: Scenario) -> Iterator[tuple[ServerProcess, HallCodes]]
             secret=SECRET,
             extra_env=server_env(scenario),
         )
+        if scenario.server_cpus is not None:  # the issue's hall: the server on a core of its own
+            tagwall = Path(sys.executable).with_name("tagwall")
+            server.command = ["taskset", "-c", scenario.server_cpus, str(tagwall), "serve"]
         server.start()
         try:
             with httpx.Client(timeout=120) as client:
@@ -683,6 +689,7 @@ def _load(
         "database": "postgresql" if scenario.database_url else "sqlite",
         "bus": scenario.bus,
         "generators": scenario.generators,
+        "server_cpus": scenario.server_cpus,  # None: not pinned
         "progress_pages": scenario.progress_pages,
         # cores kept busy meanwhile by processes other than the server and the load
         # generators (the tiles' process, py-spy, and whatever else shares the machine)
@@ -959,6 +966,15 @@ def summary(result: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def cpu_list(text: str) -> set[int]:
+    """taskset's CPU list (``0``, ``0,2``, ``1-3``) as a set of CPUs."""
+    cpus: set[int] = set()
+    for part in text.split(","):
+        first, _, last = part.partition("-")
+        cpus.update(range(int(first), int(last or first) + 1))
+    return cpus
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.lecture_hall", description=__doc__)
     parser.add_argument("--phones", type=int, default=1000)
@@ -982,8 +998,17 @@ def main(argv: list[str] | None = None) -> int:
         type=Path,
         help="write py-spy raw stacks of the server here (each step alone: steps/ beside it)",
     )
+    parser.add_argument(
+        "--server-cpus", help="taskset's CPU list for the server (the issue's hall: 0)"
+    )
+    parser.add_argument(
+        "--load-cpus",
+        help="CPU list for this process, the phones' generators and the tiles (the hall: 1)",
+    )
     parser.add_argument("--output", type=Path, help="write the JSON figures here too")
     args = parser.parse_args(argv)
+    if args.load_cpus:  # the processes started from here inherit it
+        os.sched_setaffinity(0, cpu_list(args.load_cpus))
     figures = measure(
         Scenario(
             phones=args.phones,
@@ -995,6 +1020,7 @@ def main(argv: list[str] | None = None) -> int:
             generators=args.generators,
             progress_pages=not args.no_progress_pages,
             profile=args.profile,
+            server_cpus=args.server_cpus,
         )
     )
     text = json.dumps({"limit_settings": LIMIT_SETTINGS, **figures}, indent=2)

@@ -11,6 +11,7 @@ from benchmarks.lecture_hall import (
     Published,
     Sample,
     arrivals,
+    cpu_list,
     step_figures,
     summarise_profile,
     tile_figures,
@@ -20,6 +21,12 @@ from benchmarks.lecture_hall import (
 
 def test_phones_arrive_uniformly_over_the_period() -> None:
     assert arrivals(4, 60.0, 1000.0) == [1000.0, 1015.0, 1030.0, 1045.0]
+
+
+def test_a_taskset_cpu_list_names_its_cpus() -> None:
+    """The hall pins its server with taskset and itself with the same list."""
+    assert cpu_list("0") == {0}
+    assert cpu_list("0,2-4") == {0, 2, 3, 4}
 
 
 def test_steps_count_failures_and_time_only_answers() -> None:

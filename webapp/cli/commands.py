@@ -129,6 +129,7 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
         ws_max_size=settings.max_frame_bytes,
         log_level="info",
         log_config=uvicorn_log_config(),
+        access_log=False,  # tagwall's own (webapp.web.middleware.AccessLogMiddleware)
         # Client addresses come from webapp.people.addresses, from TAGWALL_TRUSTED_PROXIES only:
         # uvicorn's own proxy headers would believe X-Forwarded-For from 127.0.0.1.
         proxy_headers=False,

@@ -1,7 +1,8 @@
 """Logging without secrets: tokens in URLs never reach a log file.
 
 Tile URLs and the operator's sign-in link carry their token in the query string, and
-uvicorn logs every request's path (access log) and every websocket's (error log).
+every request's path is logged (tagwall's own access log, :data:`ACCESS_LOGGER`, which
+masks them as it writes the line), as uvicorn logs every websocket's (error log).
 :class:`RedactSecrets` masks them on the handlers, whatever logger the line came from.
 """
 
@@ -14,6 +15,7 @@ from typing import Any
 
 _SECRET_QUERY = re.compile(r"((?:^|[?&;\s])(?:token|csrf)=)[^&;\s\"']+", re.IGNORECASE)
 REDACTED = "[redacted]"
+ACCESS_LOGGER = "tagwall.access"  # one line per HTTP response (webapp.web.middleware)
 
 
 def redact(text: str) -> str:
@@ -34,13 +36,28 @@ class RedactSecrets(logging.Filter):
 
 
 def uvicorn_log_config() -> dict[str, Any]:
-    """uvicorn's logging configuration with :class:`RedactSecrets` on every handler."""
+    """uvicorn's logging configuration with :class:`RedactSecrets` on its handlers, and
+    tagwall's access log in place of uvicorn's (run it with ``access_log=False``): its
+    lines come masked and formatted, so they are written as they come."""
     from uvicorn.config import LOGGING_CONFIG
 
     config: dict[str, Any] = copy.deepcopy(LOGGING_CONFIG)
+    # uvicorn's formatters copy each record to colour it: a plain one, in uvicorn's columns
+    config["formatters"]["access_line"] = {"format": "%(levelname)s:     %(message)s"}
+    config["handlers"]["access_line"] = {
+        "formatter": "access_line",
+        "class": "logging.StreamHandler",
+        "stream": "ext://sys.stdout",
+    }
+    config["loggers"][ACCESS_LOGGER] = {
+        "handlers": ["access_line"],
+        "level": "INFO",
+        "propagate": False,
+    }
     config.setdefault("filters", {})["redact_secrets"] = {"()": f"{__name__}.RedactSecrets"}
-    for handler in config["handlers"].values():
-        handler.setdefault("filters", []).append("redact_secrets")
+    for name, handler in config["handlers"].items():
+        if name != "access_line":  # masked as the middleware makes it (one regex, not two)
+            handler.setdefault("filters", []).append("redact_secrets")
     return config
 
 

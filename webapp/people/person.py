@@ -13,8 +13,8 @@ from __future__ import annotations
 import unicodedata
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cache
-from typing import Any
+from functools import cache, partial
+from typing import Any, ParamSpec, TypeVar
 
 from sqlalchemy import Connection, Insert, Row, Update, bindparam, insert, select, update
 from starlette.requests import HTTPConnection
@@ -46,6 +46,9 @@ GROUP_LABELS: dict[UserGroup, str] = {
     "research": "Research",
 }
 
+
+P = ParamSpec("P")
+T = TypeVar("T")
 
 MAX_DISPLAY_NAME = 40
 
@@ -330,3 +333,38 @@ async def person_of(
     person = await db.read(load_person, db, visitor, address, settings, rules.now)
     remember_person(request, person)
     return person
+
+
+async def person_with(
+    request: HTTPConnection,
+    db: Database,
+    settings: Settings,
+    address: str,
+    rules: AddressRules,
+    function: Callable[P, T],
+    *args: P.args,
+    **kwargs: P.kwargs,
+) -> tuple[Person, T]:
+    """The request's person (as :func:`person_of`) and ``function``'s read, in one
+    :meth:`~webapp.database.connection.Database.read`: on a database server each read
+    is a hand-off to a thread and back, and a scan asked for the class roll and the
+    person one after the other (issue 32)."""
+    known: Person | None = getattr(request.state, "person", None)
+    if known is not None:
+        return known, await db.read(function, *args, **kwargs)
+    visitor = visitor_of(request, settings.resolved_secret_key)
+    read = partial(function, *args, **kwargs)
+    person, value = await db.read(_person_and, db, visitor, address, settings, rules, read)
+    remember_person(request, person)
+    return person, value
+
+
+def _person_and(
+    db: Database,
+    visitor: Visitor,
+    address: str,
+    settings: Settings,
+    rules: AddressRules,
+    read: Callable[[], T],
+) -> tuple[Person, T]:
+    return load_person(db, visitor, address, settings, rules.now), read()

@@ -22,6 +22,7 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from wall_client.config import load_walls
 from webapp.apps.contract import heavy_keys, static_url
 from webapp.apps.discovery import installed_apps
+from webapp.core.logs import ACCESS_LOGGER
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.core.tasks import cancel_and_wait
 from webapp.core.threads import run_blocking
@@ -52,6 +53,7 @@ from webapp.server.routes import (
 from webapp.server.services import Services
 from webapp.web.deps import DEPENDENCY_ERRORS
 from webapp.web.middleware import (
+    AccessLogMiddleware,
     ClientAddressMiddleware,
     SecurityHeadersMiddleware,
     SessionCookieMiddleware,
@@ -118,6 +120,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.templates = make_templates([a.templates for a in apps.values() if a.templates])
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
+    app.add_middleware(AccessLogMiddleware, log=logging.getLogger(ACCESS_LOGGER))
     app.add_middleware(ClientAddressMiddleware, trusted=settings.trusted_proxies)  # outermost
     for wall_app in services.apps.values():  # before /static, which would take their paths
         if wall_app.static:

@@ -1,13 +1,17 @@
 """The middlewares, all plain ASGI (no per-request task or body copy), outermost first:
-the client's address, the security headers, the session cookie."""
+the client's address, the access log, the security headers, the session cookie."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
+from http import HTTPStatus
+from urllib.parse import quote
 
 from starlette.datastructures import Headers, MutableHeaders
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from webapp.core.logs import redact
 from webapp.people.addresses import Network, client_address, is_trusted_peer
 from webapp.people.visitors import Visitor, cookie_header
 from webapp.web.templating import IMPORT_MAP_HASH
@@ -25,6 +29,7 @@ HEADERS = {
     "referrer-policy": "same-origin",
 }
 _RAW = [(name.encode(), value.encode()) for name, value in HEADERS.items()]
+_PHRASES = {status.value: status.phrase for status in HTTPStatus}
 
 
 class ClientAddressMiddleware:
@@ -55,6 +60,42 @@ class ClientAddressMiddleware:
                         ("https" if secure else "http") if web else ("wss" if secure else "ws")
                     )
         await self.app(scope, receive, send)
+
+
+class AccessLogMiddleware:
+    """One line per HTTP response, as uvicorn's access log wrote it: the client (as
+    tagwall sees it, behind trusted proxies), the request line and the status. Secrets in
+    the query string are masked as the line is made. uvicorn's own access log passed
+    five arguments through the redaction filter and copied each record to format it:
+    3-5 % of a phone's request (issue 32)."""
+
+    def __init__(self, app: ASGIApp, log: logging.Logger) -> None:
+        self.app = app
+        self.log = log
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http" or not self.log.isEnabledFor(logging.INFO):
+            await self.app(scope, receive, send)
+            return
+
+        async def send_logged(message: Message) -> None:
+            if message["type"] == "http.response.start":
+                self.log.info(access_line(scope, message["status"]))
+            await send(message)
+
+        await self.app(scope, receive, send_logged)
+
+
+def access_line(scope: Scope, status: int) -> str:
+    """``client - "METHOD /path?query HTTP/1.1" 200 OK``, secrets in the query masked."""
+    client = scope.get("client")
+    who = f"{client[0]}:{client[1]}" if client else ""
+    raw = scope.get("raw_path")
+    path = raw.decode("latin-1") if raw else quote(scope["path"])
+    if query := scope["query_string"]:
+        path = f"{path}?{redact(query.decode('latin-1'))}"
+    request = f"{scope['method']} {path} HTTP/{scope['http_version']}"
+    return f'{who} - "{request}" {status} {_PHRASES.get(status, "")}'.rstrip()
 
 
 class SecurityHeadersMiddleware:

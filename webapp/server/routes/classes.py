@@ -28,7 +28,7 @@ from webapp.classes.roll import (
 from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import View, WallState, differing_fields, read_state
-from webapp.people.person import person_of
+from webapp.people.person import person_with
 from webapp.people.visitors import Visitor
 from webapp.server.deps import ServicesDep
 from webapp.server.schemas import ClassInfo, ClassStart, ExportLink
@@ -150,14 +150,20 @@ async def roll_call(
     its way to become an instructor."""
     if tag.app == REGISTRATION and tag.params.get("role") == "instructor":
         return None
-    # every scan asks: a short read, on the loop for SQLite (no hand-off to a thread)
-    now = await services.db.read(standing, services.db, tag.wall_id, visitor.id)
-    if now is None or now.joined:
-        return None
-    person = await person_of(
-        request, services.db, services.settings, address, services.address_rules
+    # Every scan asks, and its app's page wants the person: both in one short read (on
+    # the loop for SQLite; one hand-off to a thread, not two, for a database server).
+    person, now = await person_with(
+        request,
+        services.db,
+        services.settings,
+        address,
+        services.address_rules,
+        standing,
+        services.db,
+        tag.wall_id,
+        visitor.id,
     )
-    if person.is_staff:
+    if now is None or now.joined or person.is_staff:
         return None
     if now.session.names == "anonymous":
         with contextlib.suppress(ClassError):  # ended meanwhile: nothing to join
