@@ -284,6 +284,7 @@ async def tiles_and_publisher(
     listeners = [asyncio.create_task(listen(socket)) for socket in sockets]
     pipe.send("ready")
     published: list[Published] = []
+    refused: dict[str, list[str]] = {}  # status: the answers' texts
     stop = told_to_stop(pipe)
     async with httpx.AsyncClient(base_url=base_url, headers=operator, timeout=60) as client:
         tick = time.perf_counter()
@@ -293,8 +294,10 @@ async def tiles_and_publisher(
                 f"/api/walls/{TILE_WALL}/state",
                 json={"layers": {"grid": len(published) % 2 == 0}},
             )
-            answer.raise_for_status()
-            published.append(Published(int(answer.json()["version"]), sent, time.time()))
+            if answer.is_success:
+                published.append(Published(int(answer.json()["version"]), sent, time.time()))
+            else:  # the server refused a change under the hall's load: counted, not fatal
+                refused.setdefault(str(answer.status_code), []).append(answer.text[:200])
             tick = max(tick + PUBLISH_INTERVAL_S, time.perf_counter())
             with contextlib.suppress(TimeoutError):
                 await asyncio.wait_for(stop.wait(), tick - time.perf_counter())
@@ -310,6 +313,7 @@ async def tiles_and_publisher(
     pipe.send(
         {
             "published": [asdict(e) for e in published],
+            "refused": refused,
             "dropped": dropped,
             "cpu_s": usage.ru_utime + usage.ru_stime,
         }
@@ -722,6 +726,11 @@ def _load(
             "connected": len(TILES),
             "dropped": tile_result["dropped"],
             "publish_interval_s": PUBLISH_INTERVAL_S,
+            # changes the server refused (status: how many, and the first answer)
+            "refused": {
+                status: {"count": len(texts), "first": texts[0]}
+                for status, texts in tile_result["refused"].items()
+            },
             "client_cpu_s": round(tile_result["cpu_s"], 2),
             "idle": tile_figures(idle_events, len(TILES)),
             "under_load": tile_figures(load_events, len(TILES)),
@@ -957,6 +966,10 @@ def summary(result: dict[str, Any]) -> str:
             f"{steps} (p50/p99); "
             f"server {figures['server_cpu_ms_per_request']} ms CPU/request, "
             f"{figures['server_memory']['rss_mb']} MB; last tile p99 {load.get('p99')} ms"
+            + "".join(
+                f"; {r['count']} changes refused ({status})"
+                for status, r in figures["tiles"]["refused"].items()
+            )
         )
         alone = ", ".join(
             f"{name} {step['server_cpu_ms']} ms ({step['floor_multiple']} floors)"
