@@ -92,23 +92,20 @@ def change_frames(
     return [float(p.evaluate(script)) - sent for p in pages]
 
 
-def colour(server: ServerProcess, theme: dict[str, Any] | None) -> int:
+def post(server: ServerProcess, path: str, body: dict[str, Any], timeout: float) -> None:
+    """The operator's POST to the census map's API of the bench's wall."""
     server.http.post(
-        f"/api/census/walls/{WALL}/theme",
-        json={"theme": theme},
-        headers=server.operator(),
-        timeout=120,
+        f"/api/census/walls/{WALL}/{path}", json=body, headers=server.operator(), timeout=timeout
     ).raise_for_status()
+
+
+def colour(server: ServerProcess, theme: dict[str, Any] | None) -> int:
+    post(server, "theme", {"theme": theme}, timeout=120)
     return server.version(WALL)
 
 
 def surface(server: ServerProcess, name: str) -> None:
-    server.http.post(
-        f"/api/census/walls/{WALL}/surface",
-        json={"surface": name},
-        headers=server.operator(),
-        timeout=600,
-    ).raise_for_status()
+    post(server, "surface", {"surface": name}, timeout=600)
 
 
 def measure_round(

@@ -15,6 +15,7 @@ import time
 from collections.abc import Iterator
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
@@ -41,6 +42,26 @@ from webapp.people.security import operator_token
 TILES = ["r2c2", "r2c3"]  # side by side, a 7 mm bezel between them, both on the map
 
 
+def post(server: ServerProcess, wall: str, path: str, body: Any) -> Any:
+    """The operator's POST to the census map's API of ``wall``; its JSON answer."""
+    answer = httpx.post(
+        f"{server.url}/api/census/walls/{wall}/{path}",
+        json=body,
+        headers=server.operator(),
+        timeout=60,
+    )
+    assert answer.status_code == 200, answer.text
+    return answer.json()
+
+
+def shows_globe(page: Page, version: int) -> bool:
+    """The tile shows the wall's ``version`` on the globe (not the flat map)."""
+    return (
+        version_of(page) == version
+        and page.evaluate("document.body.dataset.censusSurface") == "globe"
+    )
+
+
 def on_globe(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProcess:
     """The demo wall showing the census map on the globe."""
     # Software GL prepares a globe picture in seconds (its first in tens): the wall waits
@@ -48,13 +69,7 @@ def on_globe(tmp_path: Path, database_url: str, **extra_env: str) -> ServerProce
     # default), so each change still swaps on both at one instant.
     process = serve(tmp_path, database_url, ("demo",), TAGWALL_SWAP_TIMEOUT_MS="60000", **extra_env)
     process.change("demo", {"app": "census"})
-    answer = httpx.post(
-        f"{process.url}/api/census/walls/demo/surface",
-        json={"surface": "globe"},
-        headers=process.operator(),
-        timeout=60,
-    )
-    assert answer.status_code == 200, answer.text
+    post(process, "demo", "surface", {"surface": "globe"})
     return process
 
 
@@ -107,11 +122,7 @@ def test_the_globe_runs_on_across_the_bezel_and_its_codes_scan(
     pages = open_tiles(browser, globe, "demo", TILES, native=True)
     version = globe.version("demo")
     wait_until(
-        lambda: all(
-            version_of(p) == version
-            and p.evaluate("document.body.dataset.censusSurface") == "globe"
-            for p in pages
-        ),
+        lambda: all(shows_globe(p, version) for p in pages),
         timeout=300,  # software GL: 12 s here when quiet; CI's machine runs up to twice slower
         what="both tiles to show the globe",
     )
@@ -160,11 +171,7 @@ def test_the_dashboard_turns_and_tilts_the_globe_on_every_tile_at_one_instant(
     pages = open_tiles(browser, globe, "demo", TILES, native=True)
 
     def shown(version: int) -> bool:
-        return all(
-            version_of(p) == version
-            and p.evaluate("document.body.dataset.censusSurface") == "globe"
-            for p in pages
-        )
+        return all(shows_globe(p, version) for p in pages)
 
     version = globe.version("demo")
     wait_until(lambda: shown(version), timeout=300, what="both tiles to show the globe")
@@ -232,19 +239,12 @@ def test_codes_stand_on_their_tracts_on_a_tilted_globe(
     globe.change("demo", {"view": {"center": [0.5, 0.5], "zoom": 3}})
     theme = {"attribute": "HSG_VAL", "scheme": "PuOr", "method": "natural", "classes": 7}
     for path, body in (("theme", {"theme": theme}), ("camera", {"heading": 30, "tilt": 45})):
-        answer = httpx.post(
-            f"{globe.url}/api/census/walls/demo/{path}",
-            json=body,
-            headers=globe.operator(),
-            timeout=60,
-        )
-        assert answer.status_code == 200, answer.text
+        post(globe, "demo", path, body)
     pages = open_tiles(browser, globe, "demo", TILES, native=True)
     version = globe.version("demo")
     wait_until(
         lambda: all(
-            version_of(p) == version
-            and p.evaluate("document.body.dataset.censusSurface") == "globe"
+            shows_globe(p, version)
             and p.evaluate("document.body.dataset.censusTheme") == "HSG_VAL 7"
             for p in pages
         ),
@@ -432,10 +432,7 @@ def globe_tile(browser: Browser, process: ServerProcess) -> tuple[Page, list[str
     page.on("request", lambda request: asked.append(request.url))
     version = process.version("demo")
     wait_until(
-        lambda: (
-            version_of(page) == version
-            and page.evaluate("document.body.dataset.censusSurface") == "globe"
-        ),
+        lambda: shows_globe(page, version),
         timeout=300,
         what="the tile to show the globe",
     )

@@ -39,8 +39,8 @@ from tests.browser.conftest import (
     ONE_INSTANT_MS,
     assert_applied_at_one_instant,
     serve,
-    version_of,
 )
+from tests.browser.test_census_globe import post, shows_globe
 from tests.conftest import wall_files
 from tests.webapp.apps.census_map.conftest import sacramento
 from tests.webapp.apps.census_map.test_globe import neighbours
@@ -103,17 +103,6 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ServerProcess]:
     process.stop()
 
 
-def post(server: ServerProcess, wall: str, path: str, body: Any) -> Any:
-    answer = httpx.post(
-        f"{server.url}/api/census/walls/{wall}/{path}",
-        json=body,
-        headers=server.operator(),
-        timeout=60,
-    )
-    assert answer.status_code == 200, answer.text
-    return answer.json()
-
-
 @pytest.fixture(scope="module")
 def globe_walls(browser: Browser, server: ServerProcess) -> Iterator[Callable[[str], GlobeWall]]:
     """A wall's tiles, each in a window of its native resolution, opened on first use
@@ -164,11 +153,7 @@ def wait_shown(server: ServerProcess, globe_wall: GlobeWall, wall: str) -> int:
     """Every tile shows the wall's version on the globe; returns the version."""
     version = server.version(wall)
     wait_until(
-        lambda: all(
-            version_of(page) == version
-            and page.evaluate("document.body.dataset.censusSurface") == "globe"
-            for page in globe_wall.tiles.values()
-        ),
+        lambda: all(shows_globe(page, version) for page in globe_wall.tiles.values()),
         timeout=300,  # software GL, six tiles at once: a minute when loaded
         what=f"every tile of {wall} to show version {version} on the globe",
     )
