@@ -16,7 +16,7 @@ from typing import Any, Literal, get_args
 from sqlalchemy import Row, and_, bindparam, func, select, update
 from sqlalchemy.exc import IntegrityError
 
-from webapp.database.connection import Database, as_utc
+from webapp.database.connection import Database, as_utc, is_row_id
 from webapp.database.models import ClassMemberRecord, ClassRecord
 from webapp.people.person import plain_text
 
@@ -141,6 +141,10 @@ def end_class(db: Database, wall_id: str, ended_by: str) -> ClassSession | None:
 
 
 def get_class(db: Database, class_id: int) -> ClassSession | None:
+    """The class ``class_id`` (from a join page's address: any number), None when
+    there is none."""
+    if not is_row_id(class_id):
+        return None
     with db.reading() as connection:
         row = connection.execute(
             select(ClassRecord.__table__).where(ClassRecord.id == class_id)
@@ -223,7 +227,7 @@ def join(db: Database, class_id: int, visitor_id: str, name: str = "") -> ClassS
 
 def _join(db: Database, class_id: int, visitor_id: str, name: str) -> ClassSession:
     with db.session() as session:
-        record = session.get(ClassRecord, class_id)
+        record = session.get(ClassRecord, class_id) if is_row_id(class_id) else None
         if record is None or record.ended_at is not None:
             raise ClassError("This class has ended.")
         held = _session(record)
