@@ -67,7 +67,11 @@ class AccessLogMiddleware:
     tagwall sees it, behind trusted proxies), the request line and the status. Secrets in
     the query string are masked as the line is made. uvicorn's own access log passed
     five arguments through the redaction filter and copied each record to format it:
-    3-5 % of a phone's request (issue 32)."""
+    3-5 % of a phone's request (issue 32).
+
+    An unhandled error's 500 is sent outside every middleware (by Starlette's
+    ``ServerErrorMiddleware``), so its line is written here as the error passes on the
+    way there, when no response had started."""
 
     def __init__(self, app: ASGIApp, log: logging.Logger) -> None:
         self.app = app
@@ -77,13 +81,21 @@ class AccessLogMiddleware:
         if scope["type"] != "http" or not self.log.isEnabledFor(logging.INFO):
             await self.app(scope, receive, send)
             return
+        started = False
 
         async def send_logged(message: Message) -> None:
+            nonlocal started
             if message["type"] == "http.response.start":
+                started = True
                 self.log.info(access_line(scope, message["status"]))
             await send(message)
 
-        await self.app(scope, receive, send_logged)
+        try:
+            await self.app(scope, receive, send_logged)
+        except Exception:
+            if not started:
+                self.log.info(access_line(scope, HTTPStatus.INTERNAL_SERVER_ERROR))
+            raise
 
 
 def access_line(scope: Scope, status: int) -> str:
