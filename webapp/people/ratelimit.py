@@ -25,6 +25,14 @@ def retry_after_s(wait: float) -> int:
 WallAction = Literal["scan", "publish", "balloon", "toggle", "group"]
 Scope = Literal["visitor", "new", "address", "wall"]
 
+FLIPS: tuple[WallAction, ...] = ("toggle", "group")
+FLIP_BURST = 2
+FLIP_BURST_S = 10.0
+"""What flips a setting of the whole wall (a census group, the audience the brain's pins
+are for) does so at most ``FLIP_BURST`` times in ``FLIP_BURST_S`` per phone, and per
+address for new phones together, beside the per-minute budgets: a phone's six fast taps
+show on the wall as on and off, never as six flickers."""
+
 
 @dataclass(frozen=True)
 class Actor:
@@ -73,7 +81,7 @@ class ActionLimits:
     ) -> None:
         self.counters = counters
         self.policies = dict(policies)
-        self._windows: dict[tuple[WallAction, Scope], SlidingWindow] = {}
+        self._windows: list[tuple[WallAction, Scope, SlidingWindow]] = []
         for kind, policy in self.policies.items():
             scopes: tuple[tuple[Scope, int | None], ...] = (
                 ("visitor", policy.per_visitor),
@@ -83,7 +91,12 @@ class ActionLimits:
             )
             for scope, limit in scopes:
                 if limit is not None:
-                    self._windows[kind, scope] = SlidingWindow(f"{kind}:{scope}", limit, window_s)
+                    window = SlidingWindow(f"{kind}:{scope}", limit, window_s)
+                    self._windows.append((kind, scope, window))
+            if kind in FLIPS:
+                for scope in ("visitor", "new"):
+                    burst = SlidingWindow(f"{kind}:{scope}:burst", FLIP_BURST, FLIP_BURST_S)
+                    self._windows.append((kind, scope, burst))
 
     async def hit(
         self, kind: WallAction, actor: Actor, wall_id: str, now: float | None = None
@@ -99,7 +112,7 @@ class ActionLimits:
         }
         hits: list[Hit] = [
             (window, key)
-            for (action, scope), window in self._windows.items()
+            for action, scope, window in self._windows
             if action == kind and (key := keys[scope]) is not None
         ]
         return await self.counters.hit(hits, now)
