@@ -62,7 +62,7 @@ METHODS = (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED)  # what an export writes
 OTHER_METHODS = {9: "deflate64", 12: "bzip2", 14: "lzma", 93: "zstandard"}
 """Compressions met in ZIPs from elsewhere (Windows' Explorer writes deflate64 for large
 files), by name in the line refusing them (APPNOTE 4.4.5)."""
-ENCRYPTED = 0x1  # the general purpose flag's bit 0 (APPNOTE 4.4.4)
+ENCRYPTED = 0x41  # the general purpose flag's bits 0 and 6, strong encryption (APPNOTE 4.4.4)
 
 
 class LessonRefused(ValueError):
@@ -156,7 +156,8 @@ def _member_problems(name: str, member: zipfile.ZipInfo) -> list[str]:
 def _unpacking(name: str, member: zipfile.ZipInfo) -> Iterator[None]:
     """Reading ``member``: data that does not match its checksum, or inflates past its
     declared size (zipfile stops there, and the checksum of what it read is wrong),
-    is a damaged file, said in one line."""
+    is a damaged file, and a feature zipfile does not read one a lesson file does not
+    use, each said in one line."""
     try:
         yield
     except (zipfile.BadZipFile, zlib.error, EOFError):
@@ -165,6 +166,10 @@ def _unpacking(name: str, member: zipfile.ZipInfo) -> Iterator[None]:
                 f"{name}: {member.filename!r} is damaged: its data does not match the "
                 "ZIP's checksum or size."
             ]
+        ) from None
+    except NotImplementedError as error:  # patched data: no lesson export writes it
+        raise LessonRefused(
+            [f"{name}: {member.filename!r} uses {error}, which a lesson file does not."]
         ) from None
 
 
@@ -183,6 +188,8 @@ def inspect(
         raise LessonRefused(
             [f"{name}: a damaged ZIP file (its directory cannot be read)."]
         ) from None
+    except NotImplementedError as error:  # a member needing a newer ZIP reader
+        raise LessonRefused([f"{name}: a ZIP of a kind a lesson file is not ({error})."]) from None
     with archive:
         members = archive.infolist()
         problems = [line for m in members for line in _member_problems(name, m)]

@@ -114,6 +114,7 @@ def test_a_bad_lesson_is_refused_with_its_line_and_nothing_stored(
 
 # Offsets of a member's fields in its local header and in its central directory entry
 # (APPNOTE 4.3.7 and 4.3.12), to make by hand the ZIPs no writer makes.
+LOCAL_VERSION, CENTRAL_VERSION = 4, 6  # the version needed to extract
 LOCAL_FLAGS, CENTRAL_FLAGS = 6, 8
 LOCAL_METHOD, CENTRAL_METHOD = 8, 10
 LOCAL_SIZE, CENTRAL_SIZE = 22, 24  # the uncompressed size
@@ -164,6 +165,20 @@ def deflate64() -> bytes:
     return patched(zipped(GOOD), "cell.png", LOCAL_METHOD, CENTRAL_METHOD, 9, 2)
 
 
+def strongly_encrypted() -> bytes:
+    return patched(zipped(GOOD), "cell.png", LOCAL_FLAGS, CENTRAL_FLAGS, 0x40, 2)
+
+
+def patched_data() -> bytes:
+    """Flag bit 5, compressed patched data (a ZIP 2.7 feature Python does not read)."""
+    return patched(zipped(GOOD), "cell.png", LOCAL_FLAGS, CENTRAL_FLAGS, 0x20, 2)
+
+
+def newer_version() -> bytes:
+    """A member needing a ZIP reader of version 9.9 to extract it."""
+    return patched(zipped(GOOD), "cell.png", LOCAL_VERSION, CENTRAL_VERSION, 99, 2)
+
+
 def lying_bomb() -> bytes:
     """A picture declaring 1,000 bytes that inflates to 50 MB (its checksum of the
     50 MB): the declared sizes pass, the data does not."""
@@ -192,6 +207,22 @@ HANDMADE: list[tuple[str, Any, str]] = [
         "encrypted",
         encrypted,
         "cell.tagwall-lesson: 'cell.png' is encrypted; a lesson file is not.",
+    ),
+    (
+        "strongly encrypted",
+        strongly_encrypted,
+        "cell.tagwall-lesson: 'cell.png' is encrypted; a lesson file is not.",
+    ),
+    (
+        "patched data",
+        patched_data,
+        "cell.tagwall-lesson: 'cell.png' uses compressed patched data (flag bit 5), which "
+        "a lesson file does not.",
+    ),
+    (
+        "newer version",
+        newer_version,
+        "cell.tagwall-lesson: a ZIP of a kind a lesson file is not (zip file version 9.9).",
     ),
     (
         "deflate64",
