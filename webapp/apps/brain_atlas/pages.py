@@ -30,7 +30,7 @@ from webapp.apps.brain_atlas.rules import (
     set_of_group,
     set_on_wall,
 )
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.core.markdown import markdown_html
 from webapp.core.roles import USER_GROUPS, UserGroup
 from webapp.core.threads import run_blocking
@@ -77,11 +77,6 @@ async def tag_of(context: AppContext, wall: Wall, code: str) -> TagRecord:
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a pin of this wall's brain.")
     return tag
-
-
-async def wall_state(context: AppContext, wall: Wall) -> WallState:
-    _, state = await context.db.read(read_state, context.db, wall.id)
-    return state
 
 
 def current_round(app: Atlas, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
@@ -475,7 +470,7 @@ async def join_group(
         if from_menu
         else None
     )
-    state = await wall_state(context, wall)
+    state = await context.state(wall)
     return render(
         request,
         "brain/group.html",

@@ -127,7 +127,7 @@ async def _take_upload(
 
 
 @router.post(
-    "/api/image/images",
+    "/api/apps/image/images",
     dependencies=[Depends(upload_within_limit), StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -155,7 +155,7 @@ async def upload(request: Request, context: ContextDep) -> ImageManifest:
 
 
 @router.post(
-    "/api/image/lessons",
+    "/api/apps/image/lessons",
     dependencies=[Depends(upload_within_limit), StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -180,7 +180,7 @@ async def import_lesson(request: Request, context: ContextDep) -> ImageManifest:
 
 
 @router.get(
-    "/api/image/images/{image_id}/lesson",
+    "/api/apps/image/images/{image_id}/lesson",
     dependencies=[StaffOnly],
     response_class=FileResponse,
     responses={**errors(404, 503), 200: {"content": {"application/zip": {}}}},
@@ -205,7 +205,7 @@ async def export_lesson(image_id: str, context: ContextDep) -> FileResponse:
     )
 
 
-@router.get("/api/image/images", dependencies=[StaffOnly])
+@router.get("/api/apps/image/images", dependencies=[StaffOnly])
 async def list_images(context: ContextDep) -> list[ImageManifest]:
     """The stored images, newest first."""
     return await run_blocking(store_of(context).images)
@@ -217,7 +217,7 @@ class ImageTitle(BaseModel):
     title: str = Field(min_length=1, max_length=MAX_IMAGE_TITLE)
 
 
-@router.patch("/api/image/images/{image_id}", dependencies=[StaffOnly], responses=errors(404))
+@router.patch("/api/apps/image/images/{image_id}", dependencies=[StaffOnly], responses=errors(404))
 async def retitle(image_id: str, change: ImageTitle, context: ContextDep) -> ImageManifest:
     """Give the image another title (what the dashboard and its lesson file call it);
     422 for an empty one or one longer than an upload's."""
@@ -228,7 +228,7 @@ async def retitle(image_id: str, change: ImageTitle, context: ContextDep) -> Ima
 
 
 @router.delete(
-    "/api/image/images/{image_id}",
+    "/api/apps/image/images/{image_id}",
     dependencies=[StaffOnly],
     responses={**errors(404), 409: {"description": "A wall shows the image."}},
 )
@@ -251,7 +251,9 @@ class ShowImage(BaseModel):
     image: str = Field(min_length=1, max_length=64)
 
 
-@router.post("/api/image/walls/{wall_id}/show", dependencies=[StaffOnly], responses=errors(404))
+@router.post(
+    "/api/apps/image/walls/{wall_id}/show", dependencies=[StaffOnly], responses=errors(404)
+)
 async def show(wall: WallDep, choice: ShowImage, context: ContextDep) -> ShowImage:
     """Put the image app on the wall showing ``image``, at the whole stage; every tile
     changes at the same instant once each holds the image's coarse level."""
@@ -322,7 +324,7 @@ async def _replace_codes(context: AppContext, image_id: str) -> None:
 
 
 @router.get(
-    "/api/image/images/{image_id}/hotspots", dependencies=[StaffOnly], responses=errors(404)
+    "/api/apps/image/images/{image_id}/hotspots", dependencies=[StaffOnly], responses=errors(404)
 )
 async def list_hotspots(image_id: str, context: ContextDep) -> list[Hotspot]:
     """An image's hotspots, in the order they were added."""
@@ -330,7 +332,7 @@ async def list_hotspots(image_id: str, context: ContextDep) -> list[Hotspot]:
 
 
 @router.post(
-    "/api/image/images/{image_id}/hotspots",
+    "/api/apps/image/images/{image_id}/hotspots",
     dependencies=[StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -347,7 +349,7 @@ async def add_hotspot(image_id: str, fields: HotspotFields, context: ContextDep)
 
 
 @router.put(
-    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
     dependencies=[StaffOnly],
     responses={**errors(404), 422: {"description": "As adding: refused, nothing changed."}},
 )
@@ -361,7 +363,7 @@ async def edit_hotspot(
 
 
 @router.delete(
-    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
     dependencies=[StaffOnly],
     responses=errors(404),
 )
@@ -476,13 +478,13 @@ def _quiz_status(context: AppContext, wall_id: str) -> QuizStatus:
     )
 
 
-@router.get("/api/walls/{wall_id}/image")
+@router.get("/api/apps/image/walls/{wall_id}")
 async def quiz_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """The image's quiz on a wall: its round and the class's results so far."""
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.post("/api/walls/{wall_id}/image/quiz/start", responses=errors(409))
+@router.post("/api/apps/image/walls/{wall_id}/quiz/start", responses=errors(409))
 async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """A new round on the image on the wall: the one before closes (its students see
     the answers), its questions get new numbers and codes on every tile at once."""
@@ -501,7 +503,7 @@ async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.post("/api/walls/{wall_id}/image/quiz/close", responses=errors(409))
+@router.post("/api/apps/image/walls/{wall_id}/quiz/close", responses=errors(409))
 async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """Close the round on the wall: answers stop counting and students see the answers."""
     now = await run_blocking(_quiz_status, context, wall.id)
@@ -511,7 +513,7 @@ async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.get("/api/walls/{wall_id}/image/answers.csv", responses=errors(404))
+@router.get("/api/apps/image/walls/{wall_id}/answers.csv", responses=errors(404))
 async def answers_csv(
     wall: WallDep,
     context: ContextDep,

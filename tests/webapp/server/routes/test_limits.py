@@ -183,9 +183,9 @@ def test_a_cookie_dropper_cannot_keep_switching_the_brains_pins(defaults: Settin
             "/api/walls/demo/state", json={"app": "brain"}, headers=staff
         ).is_success
         assert spammer.post(
-            "/api/walls/demo/brain", json={"audience_switches": True}, headers=staff
+            "/api/apps/brain/walls/demo", json={"audience_switches": True}, headers=staff
         ).is_success
-        assert spammer.post("/api/walls/demo/brain/quiz/close", headers=staff).is_success
+        assert spammer.post("/api/apps/brain/walls/demo/quiz/close", headers=staff).is_success
         codes = {t.name: t.code for t in wall_tags(services_of(spammer).db, "demo") if t.name}
         switches = 0
         for group in ["k5", "medical"] * 10:
