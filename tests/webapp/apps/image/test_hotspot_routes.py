@@ -155,9 +155,10 @@ def test_a_phone_reads_a_hotspot_and_answers_its_question_in_a_round(client: Tes
     assert exported.status_code == 200
     assert f"round-{number}" in exported.headers["content-disposition"]
     rows = list(csv.DictReader(io.StringIO(exported.text)))
-    assert [(r["region"], r["answer"], r["correct"]) for r in rows] == [
-        (nucleus["id"], "CELL-nucleus!", "yes")
-    ]
+    assert [
+        (r["image"], r["hotspot"], r["title"], r["question"], r["answer"], r["correct"])
+        for r in rows
+    ] == [(image, nucleus["id"], "Nucleus", "What is this part called?", "CELL-nucleus!", "yes")]
     assert client.get("/api/walls/demo/image/answers.csv?round=99", headers=operator)\
         .status_code == 404  # fmt: skip
 
