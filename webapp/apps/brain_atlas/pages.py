@@ -25,6 +25,7 @@ from webapp.apps.brain_atlas.rules import (
     GROUP_LABELS,
     TAG_SETS,
     mode_of,
+    pin_question,
     quiz_of,
     reveals_answers,
     set_of_group,
@@ -38,7 +39,7 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.visitors import Visitor
-from webapp.quiz.engine import Progress, QuizError, Round
+from webapp.quiz.engine import Progress, Question, QuizError, Round
 from webapp.web.context import AppContext
 from webapp.web.templating import render
 
@@ -58,6 +59,10 @@ class Pin:
     region: Region
     round: Round
     state: WallState
+
+    @property
+    def question(self) -> Question:
+        return pin_question(self.region, self.tag_set)
 
 
 class RoundChanged(Exception):
@@ -190,6 +195,7 @@ def question_page(
         number=pin.number,
         tag_set=pin.tag_set,
         words=wording(pin.tag_set),
+        question=pin.question,
         round_open=pin.round.open,
         previous=mine.text if mine else "",
         right=bool(mine and mine.correct) if shown else None,
@@ -243,7 +249,7 @@ def store_answer(
             pin.round.number,
             person.visitor.id,
             pin.tag_set,
-            pin.region.id,
+            pin.question,
             text,
             correct,
         )

@@ -20,6 +20,7 @@ from webapp.apps.brain_atlas.rules import (
     TAG_SETS,
     Mode,
     mode_of,
+    pin_question,
     quiz_of,
     set_on_wall,
 )
@@ -196,9 +197,9 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
     for tag_set in TAG_SETS if quiz_round is not None else ():
         assert quiz_round is not None
         numbered = sorted(app.pins(quiz_round, tag_set).items())
-        regions = [region for _, region in numbered]
+        questions = [pin_question(region, tag_set) for _, region in numbered]
         stats = await run_blocking(
-            quiz_of(context).statistics, wall.id, quiz_round.number, tag_set, regions
+            quiz_of(context).statistics, wall.id, quiz_round.number, tag_set, questions
         )
         quiz[tag_set] = SetStats(
             participants=stats.participants,

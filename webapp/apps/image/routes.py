@@ -22,7 +22,15 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from webapp.apps.image import hotspots, lesson, pages
 from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
 from webapp.apps.image.library import ImageShown, image_library, remove_image
-from webapp.apps.image.questions import asked, fresh_orders, numbers, quiz_of, round_on_wall
+from webapp.apps.image.questions import (
+    asked,
+    described,
+    fresh_orders,
+    numbers,
+    question_of,
+    quiz_of,
+    round_on_wall,
+)
 from webapp.apps.image.state import APP, ImageState, walls_showing
 from webapp.apps.image.store import (
     MAX_IMAGE_TITLE,
@@ -457,7 +465,8 @@ def _quiz_status(context: AppContext, wall_id: str) -> QuizStatus:
     numbered = sorted((n, hid) for hid, n in numbers(quiz_round, image_id, spots).items())
     by_id = {spot.id: spot for spot in spots}
     ordered = [by_id[hid] for _, hid in numbered]
-    stats = quiz_of(context).statistics(wall_id, quiz_round.number, image_id, ordered)
+    questions = [question_of(spot) for spot in ordered]
+    stats = quiz_of(context).statistics(wall_id, quiz_round.number, image_id, questions)
     return status_now.model_copy(
         update={
             "participants": stats.participants,
@@ -520,11 +529,13 @@ async def answers_csv(
     staff: StaffDep,
     round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
-    """Every answer of a round (default: the one on the wall), for a spreadsheet, in a
-    file named by the wall, the round's class, the round and its day."""
+    """Every answer of a round (default: the one on the wall), for a spreadsheet, each
+    named by its image and hotspot, the hotspot's title and question, in a file named
+    by the wall, the round's class, the round and its day."""
     quiz = quiz_of(context)
     if round_number is None:
         now = await run_blocking(_quiz_status, context, wall.id)
         round_number = now.round.number if now.round is not None else None
     quiz_round = await run_blocking(quiz.get_round, wall.id, round_number) if round_number else None
-    return await answers_download(quiz, wall, quiz_round)
+    about = await run_blocking(described, store_of(context), quiz_round) if quiz_round else None
+    return await answers_download(quiz, wall, quiz_round, about)

@@ -86,7 +86,7 @@ async def begin(
         await services.change_wall(wall, lambda s: s.model_copy(update={"app": app.name}))
     try:
         held = await run_blocking(
-            start_class, services.db, wall.id, choice.title, choice.names, staff
+            start_class, services.db, wall.id, choice.title, choice.names, staff, wall.time_zone
         )
     except ClassError as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error

@@ -704,7 +704,9 @@ def test_the_csv_export_lists_the_rounds_answers(on_wall: TestClient) -> None:
 
     assert export.status_code == 200
     assert export.headers["content-type"].startswith("text/csv")
-    assert "thalamus" in export.text
+    header, row = export.text.splitlines()
+    assert header == "round,visitor,name,tag_set,region,answer,correct,answered_at,class"
+    assert row.split(",")[5:7] in (["thalamus", "yes"], ["thalamus", "no"])
 
 
 def test_controls_refuse_when_the_brain_is_not_on_the_wall(client: TestClient) -> None:

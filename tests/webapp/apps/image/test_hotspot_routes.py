@@ -8,14 +8,27 @@ from __future__ import annotations
 import csv
 import io
 import re
+from datetime import datetime
+from pathlib import Path
 from typing import Any
+from zoneinfo import ZoneInfo
 
 from fastapi.testclient import TestClient
 
-from tests.conftest import csrf_of, operator_headers, register_student, services_of, sign_in
+from tests.conftest import (
+    csrf_of,
+    migrate,
+    operator_headers,
+    register_student,
+    services_of,
+    sign_in,
+    wall_files,
+)
 from tests.webapp.apps.image.test_routes import png_bytes, upload
 from webapp.apps.image.state import ImageState
+from webapp.core.settings import Settings
 from webapp.engine.wall_state import read_state
+from webapp.server.app import create_app
 from webapp.tags.registry import get_layout, wall_tags
 
 NUCLEUS: dict[str, Any] = {
@@ -155,9 +168,10 @@ def test_a_phone_reads_a_hotspot_and_answers_its_question_in_a_round(client: Tes
     assert exported.status_code == 200
     assert f"round-{number}" in exported.headers["content-disposition"]
     rows = list(csv.DictReader(io.StringIO(exported.text)))
-    assert [(r["region"], r["answer"], r["correct"]) for r in rows] == [
-        (nucleus["id"], "CELL-nucleus!", "yes")
-    ]
+    assert [
+        (r["image"], r["hotspot"], r["title"], r["question"], r["answer"], r["correct"])
+        for r in rows
+    ] == [(image, nucleus["id"], "Nucleus", "What is this part called?", "CELL-nucleus!", "yes")]
     assert client.get("/api/apps/image/walls/demo/answers.csv?round=99", headers=operator)\
         .status_code == 404  # fmt: skip
 
@@ -188,3 +202,42 @@ def test_a_class_runs_a_fresh_round_closes_it_and_offers_its_answers(client: Tes
     assert ended.json()["exports"] == [{"label": f"Round {number} answers (CSV)", "url": url}]
     assert not client.get("/api/apps/image/walls/demo", headers=operator).json()["round"]["open"]
     assert client.get(url, headers=operator).status_code == 200
+
+
+def test_an_untitled_class_is_named_in_the_walls_time_zone_as_its_answers_are(
+    settings: Settings, tmp_path: Path
+) -> None:
+    """Issue 41: an untitled class was named by its start in UTC while the dashboard and
+    the export read the wall's time; its title, the CSV's class column and the file's
+    name now agree, and the file's name says the day once."""
+    [demo] = wall_files("demo")
+    config = tmp_path / "demo.toml"
+    config.write_text('time_zone = "Asia/Kolkata"\n' + demo.read_text())
+    zoned = settings.model_copy(update={"wall_configs": [config]})
+    migrate(zoned.resolved_database_url)
+    with TestClient(create_app(zoned)) as client:
+        image = shown_image(client)
+        operator = operator_headers(client)
+        url = f"/api/apps/image/images/{image}/hotspots"
+        nucleus = client.post(url, json=NUCLEUS, headers=operator).json()
+        began = client.post("/api/walls/demo/class", json={"app": "image"}, headers=operator)
+        held = began.json()
+        register_student(client)
+        code = hotspot_codes(client)[nucleus["id"]]
+        answer = {"csrf": csrf_of(client), "answer": "nucleus"}
+        assert client.post(f"/apps/image/demo/hotspots/{code}/answer", data=answer).is_success
+        ended = client.post("/api/walls/demo/class/end", headers=operator).json()
+        exported = client.get(ended["exports"][0]["url"], headers=operator)
+
+    local = datetime.fromisoformat(held["started_at"]).astimezone(ZoneInfo("Asia/Kolkata"))
+    assert held["title"] == f"Class of {local:%Y-%m-%d %H:%M}"
+    [row] = csv.DictReader(io.StringIO(exported.text))
+    assert (row["class"], row["title"], row["answered_at"][-6:]) == (
+        held["title"],
+        "Nucleus",
+        "+05:30",
+    )
+    number = row["round"]
+    assert exported.headers["content-disposition"] == (
+        f'attachment; filename="demo-class-of-{local:%Y-%m-%d-%H-%M}-round-{number}.csv"'
+    )
