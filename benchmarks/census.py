@@ -65,7 +65,7 @@ def _codes(db: Database, wall: Wall, dataset_id: int, total: int, view: View) ->
     chosen = time.perf_counter()
     declare(db, wall.id, "core", RegistrationApp().declare_tags(services, wall, state))  # type: ignore[arg-type]
     declare(db, wall.id, APP, specs)
-    layout = get_layout(db, wall.id, layout_for(db, wall, CENSUS_SET, BASE_URL))
+    layout = get_layout(db, wall.id, layout_for(db, wall, CENSUS_SET, BASE_URL, ("core", APP)))
     placed_at = time.perf_counter()
     assert layout is not None
     placed = {p["code"] for p in layout.placed}

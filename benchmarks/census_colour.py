@@ -79,7 +79,7 @@ def _busiest(server: ServerProcess, wall: str, query: dict[str, Any]) -> tuple[s
     displays = httpx.get(f"{server.url}/api/walls/{wall}", timeout=60).json()["displays"]
     views = {
         d["id"]: httpx.get(
-            f"{server.url}/api/walls/{wall}/tiles/{d['id']}/census",
+            f"{server.url}/api/apps/census/walls/{wall}/tiles/{d['id']}",
             params={**query, "cx": 0.5, "cy": 0.5, "zoom": 1},
             timeout=60,
         )
@@ -92,7 +92,7 @@ def _tile(server: ServerProcess, page: Page, wall: str) -> dict[str, Any]:
     """The body tiles fetch for the theme, and the draw time of the busiest tile."""
     server.change(wall, {"app": "census"})
     coloured_wall = httpx.post(
-        f"{server.url}/api/census/walls/{wall}/theme",
+        f"{server.url}/api/apps/census/walls/{wall}/theme",
         json={"theme": THEME},
         headers=server.operator(),
         timeout=60,
@@ -101,7 +101,7 @@ def _tile(server: ServerProcess, page: Page, wall: str) -> dict[str, Any]:
     state = server.status(wall)["state"]
     query = {"dataset": state["apps"]["census"]["dataset"], "layout": state["tag_layout"]}
     tile, view = _busiest(server, wall, query)
-    base = f"{server.url}/api/walls/{wall}/tiles/{tile}/census"
+    base = f"{server.url}/api/apps/census/walls/{wall}/tiles/{tile}"
     with httpx.Client(timeout=60) as client:  # one connection: the fetch, not the setup
         client.get(f"{server.url}/healthz")
         started = time.perf_counter()

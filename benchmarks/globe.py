@@ -95,7 +95,10 @@ def change_frames(
 def post(server: ServerProcess, path: str, body: dict[str, Any], timeout: float) -> None:
     """The operator's POST to the census map's API of the bench's wall."""
     server.http.post(
-        f"/api/census/walls/{WALL}/{path}", json=body, headers=server.operator(), timeout=timeout
+        f"/api/apps/census/walls/{WALL}/{path}",
+        json=body,
+        headers=server.operator(),
+        timeout=timeout,
     ).raise_for_status()
 
 

@@ -293,7 +293,7 @@ def keep_alive(base_url: str) -> httpx.Client:
 def show(tagwall: httpx.Client, operator: Mapping[str, str], wall: str, image: str) -> View:
     """Show ``image`` on ``wall`` as the dashboard does; the view it is shown at."""
     tagwall.post(
-        f"/api/image/walls/{wall}/show", json={"image": image}, headers=operator
+        f"/api/apps/image/walls/{wall}/show", json={"image": image}, headers=operator
     ).raise_for_status()
     status = tagwall.get(f"/api/walls/{wall}/status", headers=operator)
     status.raise_for_status()

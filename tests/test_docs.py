@@ -12,12 +12,14 @@ from fastapi.testclient import TestClient
 
 from tests.conftest import routes_of
 from wall_client.config import config_keys
-from webapp.apps.contract import WallApp, heavy_keys
 from webapp.apps.discovery import installed_apps
+from webapp.apps.hooks import ATTRIBUTES, HOOKS, WallApp
+from webapp.apps.installed import heavy_keys
 from webapp.cli.commands import main
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.engine import protocol
 from webapp.engine.wall_state import CORE_HEAVY_KEYS, WallState
+from webapp.web.context import AppContext
 
 DOCS = PROJECT_ROOT / "docs"
 
@@ -139,3 +141,19 @@ def test_documented_wall_config_keys_are_accepted() -> None:
     text = (DOCS / "wall-config.md").read_text()
     rows = re.findall(r"^\| `([a-z_.]+)` \|", text, flags=re.MULTILINE)
     assert rows and set(rows) == set(config_keys())
+
+
+@pytest.mark.parametrize("name", [*ATTRIBUTES, *HOOKS])
+def test_every_hook_and_attribute_of_an_app_is_documented(name: str) -> None:
+    body = section((DOCS / "apps.md").read_text(), "The hooks")
+    assert re.search(rf"^\| `(async )?{name}[`(]", body, re.MULTILINE), (
+        f"{name} is not in docs/apps.md's table of hooks"
+    )
+
+
+@pytest.mark.parametrize(
+    "name", [n for n in dir(AppContext) if not n.startswith("_")] + list(AppContext.__annotations__)
+)
+def test_everything_an_app_is_handed_is_documented(name: str) -> None:
+    body = section((DOCS / "apps.md").read_text(), "What an app is handed")
+    assert re.search(rf"`(await )?{name}[`(]", body), f"AppContext.{name} is not in docs/apps.md"

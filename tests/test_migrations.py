@@ -182,3 +182,38 @@ def test_0013_moves_the_brains_quiz_into_the_shared_engine_and_back(database_url
         ("k5", "a", "Alpha")
     ]
     assert _rows(database_url, "SELECT tag_set FROM brain_quiz_finishes") == [("k5",)]
+
+
+def test_0014_keeps_answers_judged_and_changeable_and_back(database_url: str) -> None:
+    """Answers from before stay as judged and may still change (not final); going back,
+    a poll's unjudged answer counts as wrong (the column held no NULL before)."""
+    upgrade(database_url, "0013")
+    engine = make_engine(database_url)
+    with engine.begin() as connection:
+        connection.execute(
+            text(
+                "INSERT INTO quiz_answers (app, wall_id, round, visitor_id, set_name, item_id,"
+                " answer, correct, answered_at) VALUES ('brain', 'demo', 1, 'v1', 'k5', 'a',"
+                " 'Alpha', true, CURRENT_TIMESTAMP)"
+            )
+        )
+    engine.dispose()
+    upgrade(database_url)
+    assert _rows(database_url, "SELECT answer, correct, final FROM quiz_answers") == [
+        ("Alpha", True, False)
+    ]
+    engine = make_engine(database_url)
+    with engine.begin() as connection:
+        connection.execute(
+            text(
+                "INSERT INTO quiz_answers (app, wall_id, round, visitor_id, set_name, item_id,"
+                " answer, correct, final, answered_at) VALUES ('poll', 'demo', 1, 'v1', 'p',"
+                " 'q', 'Yes', NULL, true, CURRENT_TIMESTAMP)"
+            )
+        )
+    engine.dispose()
+    command.downgrade(alembic_config(database_url), "0013")
+    assert _rows(database_url, "SELECT answer, correct FROM quiz_answers ORDER BY id") == [
+        ("Alpha", True),
+        ("Yes", False),
+    ]

@@ -129,14 +129,12 @@ export function drawCodes(ctx, layout, matrix, display) {
   drawCaptions(ctx, codes, matrix);
 }
 
-/** The codes layer, shared by every app: the layout the wall state names (a tile gets
- * what its display draws of it, the overview all of it). */
-export function createLayer({wall, displays}) {
-  const layouts = new CodeLayouts(wall.id, displays.length === 1 ? displays[0].id : null);
+/** The codes layer, shared by every app: the layout the wall state names as the layers
+ * adjust it (the layer stack loads it: a tile gets what its display draws of it, the
+ * overview all of it). */
+export function createLayer() {
   return {
     name: "codes",
-    load: (state) => layouts.load(state.tag_layout),
-    draw: (ctx, frame) => drawCodes(ctx, frame.codes(layouts.get(frame.state.tag_layout)),
-      frame.matrix, frame.display),
+    draw: (ctx, frame) => drawCodes(ctx, frame.layout, frame.matrix, frame.display),
   };
 }

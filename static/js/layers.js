@@ -9,14 +9,18 @@
 //   load(state) -> Promise       fetch what the state needs, before it is shown
 //   draw(ctx, frame)             draw one display's part; frame = {state, display, clock,
 //                                matrix: scene mm -> canvas px, native: the display's
-//                                native px -> canvas px, codes(layout): the layout as
-//                                the layers below adjust it}
+//                                native px -> canvas px, layout: the placed codes as
+//                                the layers adjust them, keepClear: the scene-mm boxes
+//                                {x, y, width, height, what: "code"|"screen", role}
+//                                of the codes (with captions) and of the designated
+//                                screens, which an app's drawing keeps clear of}
 //   codes(layout, frame)         optional: adjust the codes drawn (hide, relabel)
 //   shown(state, redraw)         optional: after a frame is shown (refine an image)
 //   due(state, now)              optional: server ms when the picture changes by itself
 //   marks(state)                 optional: {key: text} a tile shows in its data-* marks
 //   notes(state)                 optional: [text] what it shows otherwise than asked
 //                                (a fallback), for the dashboard ("shows ... : why")
+import {CodeLayouts} from "./codes.js";
 import {inverse, multiply} from "./matrix.js";
 
 export class LayerStack {
@@ -27,13 +31,17 @@ export class LayerStack {
     const layers = new Map(await Promise.all(
       urls.map(async (url) => [url, (await import(url)).createLayer(scene)]),
     ));
-    return new LayerStack(apps, shared, layers);
+    const one = scene.displays.length === 1 ? scene.displays[0].id : null;
+    return new LayerStack(apps, shared, layers, new CodeLayouts(scene.wall.id, one),
+      screenBoxes(scene.wall));
   }
 
-  constructor(apps, shared, layers) {
+  constructor(apps, shared, layers, layouts, screens) {
     this.apps = apps;
     this.shared = shared;
     this.layers = layers;
+    this.layouts = layouts;
+    this.screens = screens;
   }
 
   /** The layers the state's app shows, bottom first. */
@@ -42,7 +50,10 @@ export class LayerStack {
   }
 
   load(state) {
-    return Promise.all(this.of(state).map((layer) => layer.load?.(state)));
+    return Promise.all([
+      this.layouts.load(state.tag_layout),
+      ...this.of(state).map((layer) => layer.load?.(state)),
+    ]);
   }
 
   shown(state, redraw) {
@@ -79,16 +90,26 @@ export class LayerStack {
    */
   draw(ctx, state, display, matrix, clock) {
     const layers = this.of(state);
+    const placed = this.layouts.get(state.tag_layout);
+    const screens = this.screens;
+    let adjusted;
     const frame = {
       state,
       display,
       clock,
       matrix,
       native: multiply(matrix, inverse(display.to_pixels)),
-      codes: (layout) => layers.reduce(
-        (adjusted, layer) => (adjusted && layer.codes ? layer.codes(adjusted, frame) : adjusted),
-        layout,
-      ),
+      get layout() {
+        if (adjusted === undefined) {
+          adjusted = layers.reduce(
+            (codes, layer) => (codes && layer.codes ? layer.codes(codes, frame) : codes), placed,
+          ) ?? null;
+        }
+        return adjusted;
+      },
+      get keepClear() {
+        return [...screens, ...codeBoxes(this.layout)];
+      },
     };
     for (const layer of layers) {
       ctx.save();
@@ -96,6 +117,27 @@ export class LayerStack {
       ctx.restore();
     }
   }
+}
+
+/** The designated screens' boxes in scene mm: whole displays (their roles). */
+function screenBoxes(wall) {
+  return wall.displays.flatMap((d) => d.roles.map((role) => {
+    const [x, y, width, height] = d.scene_rect;
+    return {x, y, width, height, what: "screen", role};
+  }));
+}
+
+/** Each placed code's box in scene mm, its caption's strip included. */
+function codeBoxes(layout) {
+  return (layout?.placed ?? []).map((code) => {
+    const [x, y, side] = code.rect;
+    const [cx, cy, cw, ch] = code.caption ?? [x, y, side, side];
+    const left = Math.min(x, cx);
+    const top = Math.min(y, cy);
+    const width = Math.max(x + side, cx + cw) - left;
+    const height = Math.max(y + side, cy + ch) - top;
+    return {x: left, y: top, width, height, what: "code", role: null};
+  });
 }
 
 /** Redraw when the picture changes by itself (a balloon closing), then look again. */

@@ -67,13 +67,13 @@ def settle(server: ServerProcess, tiles: dict[str, Page]) -> None:
 
 def control(server: ServerProcess, **choice: Any) -> None:
     response = server.http.post(
-        "/api/walls/demo/brain", json=choice, headers=server.operator(), timeout=60
+        "/api/apps/brain/walls/demo", json=choice, headers=server.operator(), timeout=60
     )
     response.raise_for_status()
 
 
 def brain_status(server: ServerProcess) -> dict[str, Any]:
-    response = server.http.get("/api/walls/demo/brain", headers=server.operator())
+    response = server.http.get("/api/apps/brain/walls/demo", headers=server.operator())
     response.raise_for_status()
     result: dict[str, Any] = response.json()
     return result
@@ -81,7 +81,7 @@ def brain_status(server: ServerProcess) -> dict[str, Any]:
 
 def quiz_post(server: ServerProcess, action: str, **body: Any) -> None:
     response = server.http.post(
-        f"/api/walls/demo/brain/quiz/{action}",
+        f"/api/apps/brain/walls/demo/quiz/{action}",
         json=body,
         headers=server.operator(),
         timeout=60,

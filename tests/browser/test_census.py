@@ -295,7 +295,7 @@ def test_tract_outlines_stand_out_from_the_fill_on_a_tile(
     picture = screenshot(tile).astype(float)
     state = census.status("demo")["state"]
     view = httpx.get(
-        f"{census.url}/api/walls/demo/tiles/r2c2/census", params=map_query(state)
+        f"{census.url}/api/apps/census/walls/demo/tiles/r2c2", params=map_query(state)
     ).json()
     fill = np.array([int(COLOURS["fill"][i : i + 2], 16) for i in (1, 3, 5)])
     height, width = picture.shape[:2]
@@ -386,7 +386,7 @@ def test_tract_numbers_and_captions_read_upright_as_the_portrait_panel_hangs(
         (cx, cy), zoom = PORTRAIT_VIEW["center"], PORTRAIT_VIEW["zoom"]
         query = {"dataset": state["apps"]["census"]["dataset"], "layout": state["tag_layout"]}
         share = httpx.get(
-            f"{server.url}/api/walls/irregular/tiles/portrait/census",
+            f"{server.url}/api/apps/census/walls/irregular/tiles/portrait",
             params={**query, "cx": cx, "cy": cy, "zoom": zoom},
         ).json()
         labels = [
@@ -477,7 +477,7 @@ def colour_share(picture: np.ndarray, hex_colour: str, within: int = 24) -> floa
 
 def colour_wall(server: ServerProcess, theme: dict[str, object] | None) -> None:
     httpx.post(
-        f"{server.url}/api/census/walls/demo/theme",
+        f"{server.url}/api/apps/census/walls/demo/theme",
         json={"theme": theme},
         headers=server.operator(),
     ).raise_for_status()
@@ -487,7 +487,7 @@ def legend_picture(server: ServerProcess, tiles: dict[str, Page], wall: Wall) ->
     """The legend as its tile shows it, cut out of the tile's screenshot."""
     state = server.status("demo")["state"]
     body = httpx.get(
-        f"{server.url}/api/walls/demo/tiles/r1c1/census/theme",
+        f"{server.url}/api/apps/census/walls/demo/tiles/r1c1/theme",
         params={**map_query(state), **state["apps"]["census"]["theme"]},
     ).json()
     x, y, w, h = body["legend"]["rect"]

@@ -45,7 +45,7 @@ TILES = ["r2c2", "r2c3"]  # side by side, a 7 mm bezel between them, both on the
 def post(server: ServerProcess, wall: str, path: str, body: Any) -> Any:
     """The operator's POST to the census map's API of ``wall``; its JSON answer."""
     answer = httpx.post(
-        f"{server.url}/api/census/walls/{wall}/{path}",
+        f"{server.url}/api/apps/census/walls/{wall}/{path}",
         json=body,
         headers=server.operator(),
         timeout=60,
@@ -261,7 +261,7 @@ def test_codes_stand_on_their_tracts_on_a_tilted_globe(
     state = globe.status("demo")["state"]
     cx, cy = state["view"]["center"]
     classes = httpx.get(
-        f"{globe.url}/api/walls/demo/tiles/r2c2/census/theme",
+        f"{globe.url}/api/apps/census/walls/demo/tiles/r2c2/theme",
         params={
             "dataset": state["apps"]["census"]["dataset"],
             "layout": state["tag_layout"],

@@ -253,7 +253,7 @@ class Reference:
 DRAW_REFERENCE = """async ({wall, query, display, fill, line}) => {
   const {Globe} = await import("/static/apps/census/globe.js");
   const globe = await Globe.create(display);
-  const answer = await fetch(`/api/walls/${wall}/census/globe?${query}`);
+  const answer = await fetch(`/api/apps/census/walls/${wall}/globe?${query}`);
   globe.show(await answer.json(), () => ({fill, line, shown: true}));
   await globe.settle();
   return globe.canvas.toDataURL("image/png");
@@ -543,7 +543,7 @@ def test_a_colouring_a_flight_and_a_tour_reach_every_tile_of_the_globe_at_one_in
         {**here, "dwell_s": 2},
     ]
     answer = httpx.put(
-        f"{server.url}/api/census/walls/{wall_id}/tour",
+        f"{server.url}/api/apps/census/walls/{wall_id}/tour",
         json={"steps": steps},
         headers=server.operator(),
         timeout=60,

@@ -185,7 +185,7 @@ def test_the_brain_is_framed_clear_of_the_panels_with_codes_beside_their_pins(
     designated = demo.designated()
     for preset in ("left-side", "deep-axial"):
         response = httpx.post(
-            f"{server.url}/api/walls/demo/brain",
+            f"{server.url}/api/apps/brain/walls/demo",
             json={"preset": preset},
             headers=server.operator(),
             timeout=60,

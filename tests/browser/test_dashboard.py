@@ -195,10 +195,12 @@ def test_the_instructor_puts_a_text_of_their_own_at_a_hotspot(
     read off a native tile of the stage; the list says where it stands."""
     with httpx.Client(base_url=server.url, headers=server.operator(), timeout=60) as api:
         upload = {"file": ("cells.png", png_bytes(), "image/png")}
-        image = api.post("/api/image/images", files=upload, data={"title": "Cells"}).json()["id"]
-        api.post("/api/image/walls/demo/show", json={"image": image}).raise_for_status()
+        image = api.post("/api/apps/image/images", files=upload, data={"title": "Cells"}).json()[
+            "id"
+        ]
+        api.post("/api/apps/image/walls/demo/show", json={"image": image}).raise_for_status()
         middle = {"x": 300, "y": 200, "title": "Middle"}
-        api.post(f"/api/image/images/{image}/hotspots", json=middle).raise_for_status()
+        api.post(f"/api/apps/image/images/{image}/hotspots", json=middle).raise_for_status()
         [place] = api.get("/api/walls/demo/places").json()
     stage = ["r2c2", "r2c3"]  # the demo's stage, where the image and its hotspots are
     tiles = dict(zip(stage, open_tiles(browser, server, "demo", stage, native=True), strict=True))

@@ -145,7 +145,9 @@ def test_nothing_acknowledged_is_lost_to_a_kill_9(
         server.start()
 
         exported = httpx.get(
-            f"{server.url}/api/walls/demo/brain/answers.csv", headers=server.operator(), timeout=30
+            f"{server.url}/api/apps/brain/walls/demo/answers.csv",
+            headers=server.operator(),
+            timeout=30,
         )
         assert exported.status_code == 200
         stored = {

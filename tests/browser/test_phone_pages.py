@@ -336,14 +336,14 @@ def brain_pages(tour: Tour, student: Page, instructor: Page, retired: str) -> No
     tour.look("revealed", instructor)
 
     httpx.post(
-        f"{url}/api/walls/{WALL}/brain/quiz/close", headers=server.operator()
+        f"{url}/api/apps/brain/walls/{WALL}/quiz/close", headers=server.operator()
     ).raise_for_status()
     student.goto(f"{url}/apps/brain/{WALL}/quiz/full")
     expect(student.locator("#score")).to_be_visible()
     tour.look("quiz-results", student)
 
     httpx.post(
-        f"{url}/api/walls/{WALL}/brain", json={"mode": "tutor"}, headers=server.operator()
+        f"{url}/api/apps/brain/walls/{WALL}", json={"mode": "tutor"}, headers=server.operator()
     ).raise_for_status()
     for group in ("k5", "undergraduate", "medical", "research"):
         choose(student, url, "user_group", group)
@@ -356,7 +356,7 @@ def brain_pages(tour: Tour, student: Page, instructor: Page, retired: str) -> No
     tour.look("literature", student)
 
     httpx.post(
-        f"{url}/api/walls/{WALL}/brain", json={"mode": "quiz"}, headers=server.operator()
+        f"{url}/api/apps/brain/walls/{WALL}", json={"mode": "quiz"}, headers=server.operator()
     ).raise_for_status()
     student.goto(first)  # a code of the round before
     expect(student.locator("h1")).to_have_text("A new round has started")
@@ -365,11 +365,13 @@ def brain_pages(tour: Tour, student: Page, instructor: Page, retired: str) -> No
 
 def all_pin_codes(server: ServerProcess) -> dict[int, str]:
     """Every full-set pin's URL, collected by turning the brain through its presets."""
-    status = httpx.get(f"{server.url}/api/walls/{WALL}/brain", headers=server.operator()).json()
+    status = httpx.get(
+        f"{server.url}/api/apps/brain/walls/{WALL}", headers=server.operator()
+    ).json()
     pins: dict[int, str] = {}
     for preset in status["presets"]:
         httpx.post(
-            f"{server.url}/api/walls/{WALL}/brain",
+            f"{server.url}/api/apps/brain/walls/{WALL}",
             json={"preset": preset["id"]},
             headers=server.operator(),
         ).raise_for_status()

@@ -338,7 +338,7 @@ def test_the_long_brocas_area_tutor_page_shows_whole(
     server.change(WALL, {"app": "brain"})
     for change in ({"preset": "left-side"}, {"mode": "tutor"}):
         httpx.post(
-            f"{server.url}/api/walls/{WALL}/brain", json=change, headers=server.operator(),
+            f"{server.url}/api/apps/brain/walls/{WALL}", json=change, headers=server.operator(),
             timeout=60,
         ).raise_for_status()  # fmt: skip
     tiles = public_tiles(browser, server, contexts)

@@ -46,7 +46,7 @@ def test_tiles_reconnect_after_a_server_restart_with_the_same_state(
 ) -> None:
     pages = open_tiles(browser, server, "demo", DEMO_TILES[:3])
     wait_until(lambda: all_at(pages, server.version("demo")), what="tiles to start")
-    version = server.change("demo", {"layers": {"diagonals": False}, "mode": "setup"})
+    version = server.change("demo", {"layers": {"diagonals": False, "setup": True}})
     wait_until(lambda: all_at(pages, version), what="tiles to apply the change")
     drawn = [canvas_image(page) for page in pages]
 

@@ -197,7 +197,10 @@ def walls(browser: Browser, server: ServerProcess) -> Iterator[Callable[[WallCas
 
 def brain(server: ServerProcess, wall: str, **choice: str) -> None:
     response = httpx.post(
-        f"{server.url}/api/walls/{wall}/brain", json=choice, headers=server.operator(), timeout=120
+        f"{server.url}/api/apps/brain/walls/{wall}",
+        json=choice,
+        headers=server.operator(),
+        timeout=120,
     )
     response.raise_for_status()
 
@@ -227,7 +230,7 @@ def show(browser: Browser, server: ServerProcess, case: WallCase, scene: str) ->
         server.change(wall, {"app": "census", "view": view, "balloons": []})
         theme = THEME if scene == "census-coloured" else None
         httpx.post(
-            f"{server.url}/api/census/walls/{wall}/theme",
+            f"{server.url}/api/apps/census/walls/{wall}/theme",
             json={"theme": theme},
             headers=server.operator(),
         ).raise_for_status()

@@ -2,7 +2,7 @@
 
 The rules live in :mod:`tag_service.fit` (the server's own placement, asked again at
 nearer distances); this module hands it the codes: the registration app's (the core's,
-which every wall must carry) and each app's :meth:`~webapp.apps.contract.WallApp.screen_tags`,
+which every wall must carry) and each app's :meth:`~webapp.apps.hooks.WallApp.screen_tags`,
 sized as the server sizes them for the URL they will carry. ``tagwall config check``,
 ``tagwall serve`` and the dashboard all say what :func:`wall_fit` finds, so they agree.
 """
@@ -14,7 +14,8 @@ from collections.abc import Mapping, Sequence
 from tag_service.codes import modules_across, symbol_variants
 from tag_service.fit import FitProblem, SlotCode, check_fit
 from wall_client.layout import Wall
-from webapp.apps.contract import REGISTRATION, WallApp
+from webapp.apps.hooks import WallApp
+from webapp.apps.installed import REGISTRATION
 from webapp.tags.registry import TagSpec, content_payload, url_code_sizes
 
 

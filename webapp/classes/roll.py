@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal, get_args
+from zoneinfo import ZoneInfo
 
 from sqlalchemy import Row, and_, bindparam, func, select, update
 from sqlalchemy.exc import IntegrityError
@@ -76,10 +77,12 @@ def _session(row: ClassRecord | Row[Any]) -> ClassSession:
     )
 
 
-def clean_title(text: str, when: datetime) -> str:
-    """A class's title as kept: plain text, bounded; none given names it by its date."""
+def clean_title(text: str, local_start: datetime) -> str:
+    """A class's title as kept: plain text, bounded; none given names it by its start
+    as people at the wall read it (``local_start``, in the wall's time zone), so the
+    title agrees with the dashboard's start time and the export's day."""
     title = plain_text(text)[:MAX_TITLE].strip()
-    return title or f"Class of {when:%Y-%m-%d %H:%M}"
+    return title or f"Class of {local_start:%Y-%m-%d %H:%M}"
 
 
 def clean_name(text: str, names: NameMode) -> str:
@@ -98,10 +101,15 @@ def clean_name(text: str, names: NameMode) -> str:
 
 
 def start_class(
-    db: Database, wall_id: str, title: str, names: NameMode, started_by: str
+    db: Database,
+    wall_id: str,
+    title: str,
+    names: NameMode,
+    started_by: str,
+    time_zone: str = "UTC",
 ) -> ClassSession:
-    """A new class at ``wall_id``; the class running there ends (two starts at once:
-    one wins, the other is told to try again)."""
+    """A new class at ``wall_id`` (whose clock reads ``time_zone``); the class running
+    there ends (two starts at once: one wins, the other is told to try again)."""
     now = datetime.now(UTC)
     try:
         with db.session() as session:
@@ -112,7 +120,7 @@ def start_class(
             )
             record = ClassRecord(
                 wall_id=wall_id,
-                title=clean_title(title, now),
+                title=clean_title(title, now.astimezone(ZoneInfo(time_zone))),
                 names=names,
                 started_at=now,
                 started_by=started_by,

@@ -13,6 +13,7 @@ from typing import Any
 import click
 import httpx
 import uvicorn
+from alembic.util import CommandError
 from sqlalchemy.exc import SQLAlchemyError
 
 from tag_service.fit import fits_display, largest_distance
@@ -20,9 +21,10 @@ from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
 from wall_client.config import WallConfigError, load_wall
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
-from webapp.apps.contract import WallApp, wall_apps
 from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.apps.fitting import fit_lines, wall_fit
+from webapp.apps.hooks import WallApp
+from webapp.apps.installed import wall_apps
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -37,7 +39,7 @@ from webapp.cli.console import (
 from webapp.core.logs import redact, redact_root_handlers, uvicorn_log_config
 from webapp.core.settings import Settings, lan_address
 from webapp.database.connection import Database, database_problem
-from webapp.database.migrate import upgrade
+from webapp.database.migrate import downgrade, downgrade_app, upgrade
 from webapp.people.accounts import (
     AccountError,
     add_account,
@@ -57,13 +59,23 @@ logger = logging.getLogger(__name__)
 
 
 class CommandsWithApps(click.Group):
-    """The core's commands and those each app contributes (``WallApp.commands``)."""
+    """The core's commands and those each app contributes (``WallApp.commands``).
+
+    An app that cannot be loaded leaves the core's commands (and ``--help``) working:
+    its problems are printed, with how to switch it off, in place of its commands."""
 
     def _apps_commands(self) -> dict[str, click.Command]:
         try:
-            apps = installed_apps()
+            apps = installed_apps(load_settings().apps)
         except AppLoadError as error:
-            fail(str(error))
+            for problem in error.problems:
+                click.echo(f"warning: {problem}", err=True)
+            click.echo(
+                "warning: apps' commands are left out; TAGWALL_APPS=name,... loads only "
+                "the apps named",
+                err=True,
+            )
+            return {}
         return {
             command.name: command
             for app in apps.values()
@@ -81,7 +93,7 @@ class CommandsWithApps(click.Group):
 def check_apps(settings: Settings) -> None:
     """Stop with one line when an installed app cannot be loaded, or the first app a
     wall shows (``TAGWALL_FIRST_APP``) is not installed."""
-    shown = wall_apps(_apps())
+    shown = wall_apps(_apps(settings))
     if settings.first_app not in shown:
         names = ", ".join(sorted(shown))
         fail(f"TAGWALL_FIRST_APP={settings.first_app!r} is not an installed app (apps: {names})")
@@ -110,7 +122,7 @@ def serve(host: str | None, port: int | None, workers: int | None) -> None:
     walls = load_configured_walls(settings)
     pick_wall(walls, None, settings)
     check_apps(settings)
-    open_database(settings).dispose()
+    open_database(settings, app_migrations(_apps(settings))).dispose()
     check_bus(settings)
     for line in settings.content_fallbacks():
         click.echo(line)
@@ -322,12 +334,14 @@ def config_check(files: tuple[Path, ...]) -> None:
         sys.exit(1)
 
 
-def _apps() -> dict[str, WallApp]:
-    """The installed apps, or one line and exit 2 when one cannot be loaded."""
+def _apps(settings: Settings | None = None) -> dict[str, WallApp]:
+    """The apps ``TAGWALL_APPS`` loads, or one line per problem and exit 2."""
     try:
-        return installed_apps()
+        return installed_apps((settings or load_settings()).apps)
     except AppLoadError as error:
-        fail(str(error))
+        for problem in error.problems:
+            click.echo(f"error: {problem}", err=True)
+        sys.exit(EXIT_USAGE)
 
 
 @main.group()
@@ -445,16 +459,47 @@ def db() -> None:
 
 
 @db.command("upgrade")
-@click.option("--revision", default="head", show_default=True)
+@click.option("--revision", default="head", show_default=True, help="The core's revision.")
 def db_upgrade(revision: str) -> None:
-    """Apply migrations up to REVISION (serve does this by itself)."""
-
+    """Apply the core's migrations up to REVISION and every app's own (serve does this
+    by itself)."""
     settings = load_settings()
+    migrations = app_migrations(_apps(settings))
     try:
-        upgrade(settings.resolved_database_url, revision)
+        upgrade(settings.resolved_database_url, revision, migrations)
     except SQLAlchemyError as error:
         fail(database_problem(error, settings.resolved_database_url))
-    click.echo(f"database at {revision}")
+    apps = "".join(f", {name} at its head" for name in sorted(migrations))
+    click.echo(f"database at {revision}{apps}")
+
+
+@db.command("downgrade")
+@click.argument("revision")
+@click.option("--app", "app_name", help="Only this app's own tables, to its REVISION.")
+def db_downgrade(revision: str, app_name: str | None) -> None:
+    """Take the tables down to REVISION: the core's, with every app's own tables before
+    them (they stand on the core's), or with --app one app's alone."""
+    settings = load_settings()
+    migrations = app_migrations(_apps(settings))
+    url = settings.resolved_database_url
+    if app_name is not None and app_name not in migrations:
+        having = ", ".join(migrations) or "none"
+        fail(f"no installed app {app_name!r} has tables of its own (apps that have: {having})")
+    try:
+        if app_name is not None:
+            downgrade_app(url, app_name, migrations[app_name], revision)
+        else:
+            downgrade(url, revision, migrations)
+    except SQLAlchemyError as error:
+        fail(database_problem(error, url))
+    except CommandError as error:
+        fail(str(error))
+    click.echo(f"{app_name or 'database'} at {revision}")
+
+
+def app_migrations(apps: dict[str, WallApp]) -> dict[str, Path]:
+    """The folders of the apps' own revisions, by app."""
+    return {name: app.migrations for name, app in apps.items() if app.migrations is not None}
 
 
 @main.group()

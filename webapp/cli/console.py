@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import asyncio
 import sys
+from collections.abc import Mapping
+from pathlib import Path
 from typing import Any, NoReturn
 
 import click
@@ -71,13 +73,16 @@ def pick_wall(walls: dict[str, Wall], wall_id: str | None, settings: Settings) -
     return walls[chosen]
 
 
-def open_database(settings: Settings, *, migrate: bool = True) -> Database:
-    """The database, migrated first unless told not to; exit 2 with one line saying
-    what is wrong when it cannot be reached or used."""
+def open_database(
+    settings: Settings, apps: Mapping[str, Path] | None = None, *, migrate: bool = True
+) -> Database:
+    """The database, migrated first unless told not to (the core's tables, and the own
+    tables of ``apps``: {name: its revisions' folder}); exit 2 with one line saying what
+    is wrong when it cannot be reached or used."""
     url = settings.resolved_database_url
     try:
         if migrate:
-            upgrade(url)
+            upgrade(url, apps=apps)
         return Database(url)
     except SQLAlchemyError as error:
         fail(database_problem(error, url))

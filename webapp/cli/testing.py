@@ -144,7 +144,8 @@ class ServerProcess:
         response = post(
             f"{self.url}/api/walls/{wall}/state", json=patch, headers=self.operator(), timeout=60
         )
-        response.raise_for_status()
+        if response.is_error:
+            raise RuntimeError(f"{patch} answered {response.status_code}: {response.text}")
         return int(response.json()["version"])
 
     def status(self, wall: str) -> dict[str, Any]:

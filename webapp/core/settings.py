@@ -61,6 +61,8 @@ class Settings(BaseSettings):
     default_wall: str = "demo"
     # The app a wall shows before anyone chose one (an installed app's name).
     first_app: str = Field(default="pattern", min_length=1, max_length=64)
+    # The installed apps to load (empty: all of them); the registration codes' always.
+    apps: Annotated[list[str], NoDecode] = Field(default_factory=list)
     workers: int = Field(default=1, ge=1, le=256)
     bus: Literal["memory", "redis"] = "memory"
     redis_url: str = Field(default="redis://127.0.0.1:6379/0", pattern=r"^(redis|rediss|unix)://")
@@ -130,10 +132,10 @@ class Settings(BaseSettings):
             )
         return value
 
-    @field_validator("trusted_proxies", mode="before")
+    @field_validator("trusted_proxies", "apps", mode="before")
     @classmethod
-    def _split_networks(cls, value: object) -> object:
-        """Accept ``10.0.0.1, 10.1.0.0/16`` as well as a list."""
+    def _split_commas(cls, value: object) -> object:
+        """Accept ``10.0.0.1, 10.1.0.0/16`` (``brain, census``) as well as a list."""
         if isinstance(value, str):
             return [part.strip() for part in value.split(",") if part.strip()]
         return value

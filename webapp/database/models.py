@@ -346,7 +346,7 @@ class QuizRoundRecord(Base):
 
 class QuizAnswerRecord(Base):
     """A visitor's answer for one item of a set, in one round (changeable until the
-    visitor finishes that set)."""
+    visitor finishes that set, unless given final: a poll's)."""
 
     __tablename__ = "quiz_answers"
     __table_args__ = (
@@ -361,7 +361,8 @@ class QuizAnswerRecord(Base):
     set_name: Mapped[str] = mapped_column(String(64), nullable=False)
     item_id: Mapped[str] = mapped_column(String(64), nullable=False)
     answer: Mapped[str] = mapped_column(String(200), nullable=False)
-    correct: Mapped[bool] = mapped_column(nullable=False)
+    correct: Mapped[bool | None] = mapped_column(nullable=True)  # None: not judged (a poll)
+    final: Mapped[bool] = mapped_column(nullable=False, default=False)  # never changed
     answered_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, onupdate=_utcnow, nullable=False
     )

@@ -18,17 +18,19 @@ A change:
 4. drops the cached code look-ups when tags were declared or placed;
 5. commits (bumping the version) and publishes to the tiles, through the hub.
 
-The door stands above the engine, the tags and the apps' contract: it calls apps'
+The door stands above the engine, the tags and the apps' hooks: it calls apps'
 ``settle``, ``leave``, ``declare_tags`` and ``places`` with the context apps are given.
 """
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from typing import Any
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp, places_shown, placing_keys, wall_apps
+from webapp.apps.hooks import WallApp
+from webapp.apps.installed import places_shown, placing_keys, wall_apps
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import (
     Change,
@@ -38,8 +40,10 @@ from webapp.engine.wall_state import (
     differing_keys,
     read_state,
 )
-from webapp.tags.registry import declare, layout_for, stand_at_places
+from webapp.tags.registry import active_tags_per_app, declare, layout_for, stand_at_places
 from webapp.web.context import AppContext, Plan, Update
+
+log = logging.getLogger(__name__)
 
 
 def unchanged(state: WallState) -> WallState:
@@ -137,6 +141,14 @@ class WallDoor:
 
     def _opening_fields(self, wall: Wall, current: WallState) -> dict[str, Any]:
         """What a wall's state needs at start (see :meth:`open`)."""
+        for gone, count in sorted(active_tags_per_app(self.context.db, wall.id).items()):
+            if gone not in self.apps:
+                log.info(
+                    "app %r is not installed: its %d codes leave wall %r until it is again",
+                    gone,
+                    count,
+                    wall.id,
+                )
         state = current
         showable = wall_apps(self.apps)
         arriving = state.app not in showable and self.first_app in showable
@@ -160,6 +172,6 @@ class WallDoor:
         for app in apps:
             declare(db, wall.id, app.name, app.declare_tags(self.context, wall, state))
         stand_at_places(db, wall.id, places_shown(self.apps, self.context, wall, state))
-        layout_id = layout_for(db, wall, tag_set, self.base_url())
+        layout_id = layout_for(db, wall, tag_set, self.base_url(), self.apps)
         self.context.codes.forget()
         return {"tag_set": tag_set, "tag_layout": layout_id}

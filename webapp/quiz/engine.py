@@ -1,8 +1,10 @@
 """A quiz as stored, for any app: rounds, each visitor's answers, who finished.
 
 An app asks questions about items it shows (the brain atlas its regions, each marked by
-a pin; an image its hotspots), in named sets (the brain's K-5 and full sets), and
-judges each answer itself; this engine keeps the rounds and answers, per app and wall.
+a pin; an image its hotspots), in named sets (the brain's K-5 and full sets); this
+engine keeps the rounds and answers, per app and wall, judges the answer to a choice
+question and counts the class's answers. A free-text answer is judged by its app. The
+public API, for any plug-in app, is described in docs/quiz.md.
 
 The answer key is the dissertation's example of confidential data, so a round guards
 it three ways. Each round numbers its items in a fresh random order (question 1 is no
@@ -11,7 +13,8 @@ item of a set once in a round, changing answers until they finish; finishing mak
 final. Correct answers reach students only when the instructor closes the round (the
 default) or, when the instructor chose that for the round, at finishing. A throw-away
 visitor who finishes at once therefore learns nothing while answers still count; and
-once the round is closed, no answer is taken any more.
+once the round is closed, no answer is taken any more. A poll's answer is final as it
+is given (:meth:`Quiz.answer_once`): there is nothing to change or finish.
 
 Rounds are numbered per app and wall; the app's slot of the wall state names the round
 the wall shows, so starting one goes through the one door for state changes and its
@@ -24,7 +27,7 @@ import csv
 import io
 import secrets
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal, Protocol, TypeVar, get_args
@@ -48,6 +51,7 @@ COMMON_WRONG = 3  # wrong answers listed per item on the dashboard
 MAX_ANSWER_LENGTH = 200
 """Longer answers are refused outright: no name is that long, and it bounds the cost of
 judging them."""
+MAX_ITEM_ID = 64  # as the answers' table keeps an item's id
 Reveal = Literal["close", "finish"]
 REVEALS: tuple[Reveal, ...] = get_args(Reveal)
 
@@ -57,13 +61,58 @@ class QuizError(Exception):
 
 
 class Item(Protocol):
-    """What a quiz asks about: anything with a stable id (a region, a hotspot)."""
+    """What a quiz asks about: anything with a stable id (a region, a hotspot, a
+    :class:`Question`), numbered in a round and counted for finishing."""
 
     @property
     def id(self) -> str: ...
 
 
 ItemT = TypeVar("ItemT", bound=Item)
+
+
+@dataclass(frozen=True)
+class Question:
+    """What is asked about an item (``id``, the item's), and how an answer is judged.
+
+    With ``choices`` the visitor picks one of them and the engine judges it: right when
+    among ``right``; with ``right`` None nothing is right or wrong (a poll). Without
+    choices the answer is typed and its app judges it (the brain's answer key,
+    :func:`webapp.quiz.matching.matches`), or nobody does (a free-text poll).
+    ``text`` is the question as the phone asks it.
+    """
+
+    id: str
+    text: str
+    choices: tuple[str, ...] = ()
+    right: frozenset[str] | None = None
+
+    def __post_init__(self) -> None:
+        """Refuse a question no answer could be judged against (the app's mistake)."""
+        if not 0 < len(self.id) <= MAX_ITEM_ID:
+            raise ValueError(f"A question's id has 1 to {MAX_ITEM_ID} characters: {self.id!r}.")
+        for choice in self.choices:
+            if not choice or choice != plain_text(choice) or len(choice) > MAX_ANSWER_LENGTH:
+                raise ValueError(f"Question {self.id}: {choice!r} is not a plain choice.")
+        if len(set(self.choices)) != len(self.choices):
+            raise ValueError(f"Question {self.id} offers a choice twice.")
+        if self.right is not None and not (self.choices and self.right <= set(self.choices)):
+            raise ValueError(f"Question {self.id}: its right answers must be among its choices.")
+
+    def answer(self, text: str, correct: bool | None = None) -> Answer:
+        """``text`` as this question stores it, judged.
+
+        A choice must be one of the choices (QuizError otherwise) and is judged here, so
+        ``correct`` is the app's verdict on a typed answer only (None: not judged).
+        """
+        if not self.choices:
+            return Answer(self.id, clean_answer(text), correct)
+        if correct is not None:
+            raise ValueError(f"Question {self.id} has choices: the quiz judges its answers.")
+        chosen = plain_text(text)
+        if chosen not in self.choices:
+            raise QuizError("Please choose one of the answers offered.")
+        return Answer(self.id, chosen, None if self.right is None else chosen in self.right)
 
 
 @dataclass(frozen=True)
@@ -104,9 +153,11 @@ class Round:
 
 @dataclass(frozen=True)
 class Answer:
+    """A visitor's answer to one item: ``correct`` None where nothing is right or wrong."""
+
     item_id: str
     text: str
-    correct: bool
+    correct: bool | None
 
 
 @dataclass(frozen=True)
@@ -122,14 +173,21 @@ class Progress:
 
 @dataclass(frozen=True)
 class ItemStats:
+    """The class's answers to one item: how many, how many judged and right, the
+    commonest wrong ones and, for a choice question, how often each choice was taken
+    (in the question's order, untaken ones at 0)."""
+
     item_id: str
     answered: int
+    judged: int
     correct: int
     common_wrong: list[tuple[str, int]]
+    choices: dict[str, int] = field(default_factory=dict)
 
     @property
     def share_correct(self) -> float | None:
-        return self.correct / self.answered if self.answered else None
+        """The share of judged answers that are right (None: none judged, as in a poll)."""
+        return self.correct / self.judged if self.judged else None
 
 
 @dataclass(frozen=True)
@@ -213,21 +271,44 @@ _CHANGE_ANSWER = (
         QuizAnswerRecord.set_name == bindparam("of_set"),
         QuizAnswerRecord.item_id == bindparam("of_item"),
     )
+    .where(QuizAnswerRecord.final.is_(False))
     .values(answer=bindparam("text"), correct=bindparam("is_correct"))
 )
 _NEW_ANSWER = insert(QuizAnswerRecord)
 
-CSV_COLUMNS = (
-    "round",
-    "visitor",
-    "name",
-    "tag_set",
-    "region",
-    "answer",
-    "correct",
-    "answered_at",
-    "class",
-)
+
+@dataclass(frozen=True)
+class Columns:
+    """How an app's answers CSV names what its answers are about: the column of the set
+    and of the item (the brain's ``tag_set`` and ``region``), and the columns after the
+    item's that describe it (the image app's hotspot ``title`` and ``question``)."""
+
+    set: str = "set"
+    item: str = "item"
+    about: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        names = self.header()
+        if len(set(names)) != len(names):
+            raise ValueError(f"An answers CSV names each column once: {', '.join(names)}.")
+
+    def header(self) -> list[str]:
+        return [
+            "round",
+            "visitor",
+            "name",
+            self.set,
+            self.item,
+            *self.about,
+            "answer",
+            "correct",
+            "answered_at",
+            "class",
+        ]
+
+
+CORRECT_CELL = {True: "yes", False: "no", None: "n/a"}
+"""The ``correct`` column: n/a where nothing is right or wrong (a poll)."""
 
 
 def _spreadsheet_safe(text: str) -> str:
@@ -236,10 +317,12 @@ def _spreadsheet_safe(text: str) -> str:
 
 @dataclass(frozen=True)
 class Quiz:
-    """The quiz of one app (``app``, its name) in ``db``: its rounds on every wall."""
+    """The quiz of one app (``app``, its name) in ``db``: its rounds on every wall, and
+    the ``columns`` its answers CSV names."""
 
     db: Database
     app: str
+    columns: Columns = Columns()
 
     # --- rounds ---------------------------------------------------------------------
 
@@ -399,41 +482,29 @@ class Quiz:
         number: int,
         visitor_id: str,
         set_name: str,
-        item_id: str,
+        question: Question,
         text: str,
-        correct: bool,
+        correct: bool | None = None,
     ) -> None:
-        """Store (or change) the visitor's answer for an item in an open round; refused
-        once they finished or the round closed. Nothing is read back: the phone goes on
-        to its progress page, which reads it, and the write lock is held no longer."""
-        cleaned = clean_answer(text)
-        args = (wall_id, number, visitor_id, set_name, item_id, cleaned, correct)
+        """Store (or change) the visitor's answer to ``question`` in an open round,
+        judged (:meth:`Question.answer`: ``correct`` is the app's verdict on typed
+        text); refused once they finished, the answer is final or the round closed.
+        Nothing is read back: the phone goes on to its progress page, which reads it,
+        and the write lock is held no longer."""
+        given = question.answer(text, correct)
         try:
-            self._store_answer(*args)
+            self._store_answer(wall_id, number, visitor_id, set_name, given)
         except IntegrityError:  # the same answer sent twice at once: the second changes it
-            self._store_answer(*args)
+            try:
+                self._store_answer(wall_id, number, visitor_id, set_name, given)
+            except IntegrityError:  # there, and not changed: it is final
+                raise QuizError("You have answered this question: your answer is final.") from None
 
     def _store_answer(
-        self,
-        wall_id: str,
-        number: int,
-        visitor_id: str,
-        set_name: str,
-        item_id: str,
-        text: str,
-        correct: bool,
+        self, wall_id: str, number: int, visitor_id: str, set_name: str, given: Answer
     ) -> None:
-        key = {
-            "app": self.app,
-            "wall_id": wall_id,
-            "number": number,
-            "visitor_id": visitor_id,
-            "set_name": set_name,
-        }
         with self.db.engine.begin() as connection:  # a room's answers: Core, built once
-            self._claim_open(connection, wall_id, number)
-            if connection.execute(_FINISHED, key).first() is not None:
-                raise QuizError("You have finished this quiz: your answers are final.")
+            self._claim_unfinished(connection, wall_id, number, visitor_id, set_name)
             changed = connection.execute(
                 _CHANGE_ANSWER,
                 {
@@ -442,25 +513,67 @@ class Quiz:
                     "of_round": number,
                     "of_visitor": visitor_id,
                     "of_set": set_name,
-                    "of_item": item_id,
-                    "text": text,
-                    "is_correct": correct,
+                    "of_item": given.item_id,
+                    "text": given.text,
+                    "is_correct": given.correct,
                 },
             )
             if changed.rowcount == 0:
                 connection.execute(
-                    _NEW_ANSWER,
-                    {
-                        "app": self.app,
-                        "wall_id": wall_id,
-                        "round": number,
-                        "visitor_id": visitor_id,
-                        "set_name": set_name,
-                        "item_id": item_id,
-                        "answer": text,
-                        "correct": correct,
-                    },
+                    _NEW_ANSWER, self._new_answer(wall_id, number, visitor_id, set_name, given)
                 )
+
+    def answer_once(
+        self,
+        wall_id: str,
+        number: int,
+        visitor_id: str,
+        set_name: str,
+        question: Question,
+        text: str,
+        correct: bool | None = None,
+    ) -> None:
+        """Store the visitor's answer to ``question`` final as it is given (a poll's:
+        no changing it, no finishing), judged as :meth:`record_answer` judges, in one
+        transaction; QuizError when they answered it already or the round is closed."""
+        given = question.answer(text, correct)
+        try:
+            with self.db.engine.begin() as connection:
+                self._claim_unfinished(connection, wall_id, number, visitor_id, set_name)
+                row = self._new_answer(wall_id, number, visitor_id, set_name, given)
+                connection.execute(_NEW_ANSWER, {**row, "final": True})
+        except IntegrityError:
+            raise QuizError("You have answered this question already.") from None
+
+    def _claim_unfinished(
+        self, connection: Connection, wall_id: str, number: int, visitor_id: str, set_name: str
+    ) -> None:
+        """Claim the open round (:meth:`_claim_open`) for an answer of a visitor who has
+        not finished the set; QuizError otherwise."""
+        self._claim_open(connection, wall_id, number)
+        key = {
+            "app": self.app,
+            "wall_id": wall_id,
+            "number": number,
+            "visitor_id": visitor_id,
+            "set_name": set_name,
+        }
+        if connection.execute(_FINISHED, key).first() is not None:
+            raise QuizError("You have finished this quiz: your answers are final.")
+
+    def _new_answer(
+        self, wall_id: str, number: int, visitor_id: str, set_name: str, given: Answer
+    ) -> dict[str, object]:
+        return {
+            "app": self.app,
+            "wall_id": wall_id,
+            "round": number,
+            "visitor_id": visitor_id,
+            "set_name": set_name,
+            "item_id": given.item_id,
+            "answer": given.text,
+            "correct": given.correct,
+        }
 
     def finish(
         self,
@@ -498,9 +611,9 @@ class Quiz:
             return self._progress(session, wall_id, number, visitor_id, set_name)
 
     def statistics(
-        self, wall_id: str, number: int, set_name: str, items: Sequence[Item]
+        self, wall_id: str, number: int, set_name: str, questions: Sequence[Question]
     ) -> QuizStats:
-        """The class's results in a round, per item of ``set_name``."""
+        """The class's results in a round, per question of ``set_name``."""
         with self.db.session() as session:
             rows = session.execute(
                 select(
@@ -524,15 +637,18 @@ class Quiz:
                 )
             )
         per_item = []
-        for item in items:
-            mine = [r for r in rows if r.item_id == item.id]
-            wrong = Counter(r.answer.casefold() for r in mine if not r.correct)
+        for question in questions:
+            mine = [r for r in rows if r.item_id == question.id]
+            wrong = Counter(r.answer.casefold() for r in mine if r.correct is False)
+            taken = Counter(r.answer for r in mine)
             per_item.append(
                 ItemStats(
-                    item.id,
+                    question.id,
                     answered=len(mine),
+                    judged=sum(1 for r in mine if r.correct is not None),
                     correct=sum(1 for r in mine if r.correct),
                     common_wrong=wrong.most_common(COMMON_WRONG),
+                    choices={choice: taken[choice] for choice in question.choices},
                 )
             )
         return QuizStats(
@@ -543,13 +659,25 @@ class Quiz:
             items=per_item,
         )
 
-    def export_csv(self, wall_id: str, number: int, time_zone: str = "UTC") -> str:
-        """Every answer of a round as CSV, one row per answer, times in ``time_zone``.
+    def export_csv(
+        self,
+        wall_id: str,
+        number: int,
+        time_zone: str = "UTC",
+        about: Mapping[tuple[str, str], Sequence[str]] | None = None,
+    ) -> str:
+        """Every answer of a round as CSV, one row per answer, times in ``time_zone``,
+        in the app's :attr:`columns`: ``about`` gives a set's item, by ``(set, item
+        id)``, its cells in the ``columns.about`` columns (empty for one not given).
 
         Visitors appear by their pseudonymous id and their name: the one the round's
         class asked for, else the one they chose, if any. Cells are written so
         spreadsheets do not run an answer that starts like a formula.
         """
+        described = dict(about or {})
+        blank = [""] * len(self.columns.about)
+        if any(len(cells) != len(blank) for cells in described.values()):
+            raise ValueError(f"Each item is described in {len(blank)} columns here.")
         quiz_round = self.get_round(wall_id, number)
         held = class_at(self.db, wall_id, quiz_round.started_at) if quiz_round else None
         on_roll = roll_names(self.db, held.id) if held is not None else {}
@@ -569,8 +697,9 @@ class Quiz:
         zone = ZoneInfo(time_zone)
         out = io.StringIO()
         writer = csv.writer(out)
-        writer.writerow(CSV_COLUMNS)
+        writer.writerow(self.columns.header())
         for row, chosen_name in rows:
+            cells = described.get((row.set_name, row.item_id), blank)
             writer.writerow(
                 [
                     row.round,
@@ -578,8 +707,9 @@ class Quiz:
                     _spreadsheet_safe(on_roll.get(row.visitor_id) or chosen_name or ""),
                     row.set_name,
                     row.item_id,
+                    *(_spreadsheet_safe(cell) for cell in cells),
                     _spreadsheet_safe(row.answer),
-                    "yes" if row.correct else "no",
+                    CORRECT_CELL[row.correct],
                     as_utc(row.answered_at).astimezone(zone).isoformat(timespec="seconds"),
                     _spreadsheet_safe(held.title if held is not None else ""),
                 ]

@@ -3,7 +3,7 @@ round's answers as a spreadsheet download named by its wall, class, round and da
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 
 from fastapi import HTTPException, Response, status
 
@@ -22,12 +22,18 @@ async def round_step(step: Callable[..., Round], *args: object) -> Round:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
 
 
-async def answers_download(quiz: Quiz, wall: Wall, quiz_round: Round | None) -> Response:
-    """Every answer of ``quiz_round`` as CSV (404 when there is no such round), in a
-    file named by the wall, the round's class, the round and its local day."""
+async def answers_download(
+    quiz: Quiz,
+    wall: Wall,
+    quiz_round: Round | None,
+    about: Mapping[tuple[str, str], Sequence[str]] | None = None,
+) -> Response:
+    """Every answer of ``quiz_round`` as CSV (404 when there is no such round; ``about``
+    as :meth:`Quiz.export_csv` takes it), in a file named by the wall, the round's
+    class, the round and its local day."""
     if quiz_round is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is no such round.")
-    body = await run_blocking(quiz.export_csv, wall.id, quiz_round.number, wall.time_zone)
+    body = await run_blocking(quiz.export_csv, wall.id, quiz_round.number, wall.time_zone, about)
     held = await run_blocking(class_at, quiz.db, wall.id, quiz_round.started_at)
     day = wall.local_time(quiz_round.started_at).date().isoformat()
     parts = [wall.id, held.title if held is not None else "", f"round-{quiz_round.number}", day]

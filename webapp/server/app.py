@@ -20,8 +20,9 @@ from sqlalchemy.exc import SQLAlchemyError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from wall_client.config import load_walls
-from webapp.apps.contract import heavy_keys, static_url
 from webapp.apps.discovery import installed_apps
+from webapp.apps.hooks import static_url
+from webapp.apps.installed import heavy_keys
 from webapp.core.logs import ACCESS_LOGGER
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.core.tasks import cancel_and_wait
@@ -77,7 +78,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     db = Database(settings.resolved_database_url)
     # Several processes share the walls through one Redis: the bus and the limits' counts.
     redis = connect_redis(settings.redis_url) if settings.bus == "redis" else None
-    apps = installed_apps()
+    apps = installed_apps(settings.apps)
     hub = WallHub(
         db,
         event_bus(settings, redis),
@@ -129,7 +130,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.mount(CESIUM_URL, StaticFiles(directory=CESIUM_DIR, check_dir=False))
     app.mount("/static", StaticFiles(directory=STATIC_DIR), name="static")
     # Routes are tried in order, each at a cost: what phones ask for most (scans and
-    # their app's pages) is tried first.
+    # their app's pages) is tried first. An app's routes lie under its own prefixes,
+    # where the core has none (checked as apps load: webapp.apps.discovery), so no app
+    # answers a path of the core's whatever the order.
     app.include_router(resolve.router)
     for wall_app in services.apps.values():
         if (app_router := wall_app.router()) is not None:

@@ -7,9 +7,11 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import Depends, Request, WebSocket
+from fastapi import Depends, HTTPException, Request, WebSocket, status
 
 from wall_client.layout import Wall
+from webapp.apps.hooks import WallApp
+from webapp.apps.installed import modes_of
 from webapp.engine.protocol import CLOSE_UNKNOWN
 from webapp.server.services import Services
 
@@ -35,3 +37,20 @@ async def open_wall_socket(
         await websocket.close(CLOSE_UNKNOWN, "unknown wall or tile" if tile_id else "unknown wall")
         return None
     return services, wall
+
+
+def showable_app(services: Services, name: str, mode: str | None = None) -> WallApp:
+    """The app ``name`` a wall can show, in ``mode`` when one is named (one of its
+    modes; ``default`` for an app without modes): a 422 naming what there is else."""
+    app = services.wall_apps.get(name)
+    if app is None:
+        known = ", ".join(sorted(services.wall_apps))
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT, f"There is no app {name!r} (installed: {known})."
+        )
+    if mode is not None and mode not in modes_of(app):
+        raise HTTPException(
+            status.HTTP_422_UNPROCESSABLE_CONTENT,
+            f"The {name} app has no mode {mode!r} (its modes: {', '.join(modes_of(app))}).",
+        )
+    return app

@@ -12,14 +12,15 @@ from anyio import CapacityLimiter
 from redis.asyncio import Redis
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp, wall_apps
+from webapp.apps.hooks import WallApp
+from webapp.apps.installed import wall_apps
 from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
 from webapp.door.changes import WallDoor
 from webapp.engine.hub import WallHub
-from webapp.engine.wall_state import Change
+from webapp.engine.wall_state import Change, WallState, read_state
 from webapp.people.addresses import AddressRules
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
@@ -83,6 +84,14 @@ class Services:
         self.door = WallDoor(
             self, self.hub, self.apps, self.settings.first_app, lambda: self.base_url
         )
+
+    async def state(self, wall: Wall) -> WallState:
+        _, state = await self.db.read(read_state, self.db, wall.id)
+        return state
+
+    @property
+    def installed(self) -> frozenset[str]:
+        return frozenset(self.apps)
 
     def app(self, name: str) -> WallApp:
         return self.apps[name]

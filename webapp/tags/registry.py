@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from functools import lru_cache
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
-from sqlalchemy import delete, or_, select
+from sqlalchemy import delete, func, or_, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -212,7 +212,8 @@ def declare(db: Database, wall_id: str, app: str, specs: Sequence[TagSpec]) -> N
     """Make ``app``'s named tags on the wall exactly ``specs``, in one transaction.
 
     Codes of tags declared before never change; tags the app no longer declares are
-    switched off, not deleted, so their scan history stays.
+    switched off, not deleted, so their scan history stays. A name another app's tag
+    has on the wall is refused: an app's codes stay its own.
     """
     if any(spec.name is None or spec.app != app for spec in specs):
         raise ValueError(f"declared tags need a name and app {app!r}")
@@ -231,6 +232,12 @@ def declare(db: Database, wall_id: str, app: str, specs: Sequence[TagSpec]) -> N
                     )
                     if record.name is not None
                 }
+                taken = sorted(f"{r.name} ({r.app})" for r in known.values() if r.app != app)
+                if taken:
+                    raise ValueError(
+                        f"app {app!r} declares tags named as other apps' on {wall_id!r}: "
+                        + ", ".join(taken)
+                    )
                 for spec in specs:
                     _issue(session, wall_id, spec, f"app:{app}", known)
                 stale = session.scalars(
@@ -264,6 +271,17 @@ def wall_tags(db: Database, wall_id: str) -> list[TagRecord]:
                 .order_by(TagRecord.tag_set, TagRecord.created_at, TagRecord.code)
             )
         )
+
+
+def active_tags_per_app(db: Database, wall_id: str) -> dict[str, int]:
+    """How many active tags each app has on the wall."""
+    with db.session() as session:
+        rows = session.execute(
+            select(TagRecord.app, func.count())
+            .where(TagRecord.wall_id == wall_id, TagRecord.active.is_(True))
+            .group_by(TagRecord.app)
+        )
+        return {app: int(count) for app, count in rows}
 
 
 def tag_sets(db: Database, wall_id: str) -> list[str]:
@@ -314,11 +332,17 @@ def stand_at_places(db: Database, wall_id: str, places: Sequence[Place]) -> None
                 tag.params = {**tag.params, PLACE: place.binding()}
 
 
-def _tags_to_place(session: Session, wall_id: str, tag_set: str | None) -> list[TagRecord]:
+def _tags_to_place(
+    session: Session, wall_id: str, tag_set: str | None, apps: Collection[str]
+) -> list[TagRecord]:
+    """The live tags that stand on the wall while ``tag_set`` is shown: those of the
+    installed ``apps`` only (an app's codes leave the wall while it is not installed,
+    and come back, with their codes, when it is again)."""
     rows = session.scalars(
         select(TagRecord)
         .where(
             TagRecord.wall_id == wall_id,
+            TagRecord.app.in_(sorted(apps)),
             or_(TagRecord.tag_set.is_(None), TagRecord.tag_set == tag_set),
             # a tag at a place the wall does not show now stands nowhere
             or_(TagRecord.anchor_x.is_not(None), TagRecord.screen.is_not(None)),
@@ -329,7 +353,9 @@ def _tags_to_place(session: Session, wall_id: str, tag_set: str | None) -> list[
     return [tag for tag in rows if is_live(tag, now)]
 
 
-def layout_for(db: Database, wall: Wall, tag_set: str | None, base_url: str) -> int:
+def layout_for(
+    db: Database, wall: Wall, tag_set: str | None, base_url: str, apps: Collection[str]
+) -> int:
     """The id of a layout placing ``tag_set`` as its tags stand now.
 
     A layout's inputs (wall geometry, tags, payloads) are hashed and an existing
@@ -337,7 +363,7 @@ def layout_for(db: Database, wall: Wall, tag_set: str | None, base_url: str) -> 
     place nothing again.
     """
     with db.session() as session:
-        tags = _tags_to_place(session, wall.id, tag_set)
+        tags = _tags_to_place(session, wall.id, tag_set, apps)
         payloads = [payload_of(tag, base_url) for tag in tags]
         digest = _inputs_hash(wall, tag_set, tags, payloads)
         existing = session.scalar(
@@ -394,7 +420,13 @@ class Preview:
 
 
 def preview(
-    db: Database, wall: Wall, tag_set: str | None, base_url: str, app: str, specs: Sequence[TagSpec]
+    db: Database,
+    wall: Wall,
+    tag_set: str | None,
+    base_url: str,
+    apps: Collection[str],
+    app: str,
+    specs: Sequence[TagSpec],
 ) -> Preview:
     """``tag_set`` placed as :func:`layout_for` would place it after ``app`` declared
     exactly ``specs``, without touching the registry. Tags the app has keep their
@@ -404,7 +436,7 @@ def preview(
     with db.session() as session:
         others = [
             tag
-            for tag in _tags_to_place(session, wall.id, tag_set)
+            for tag in _tags_to_place(session, wall.id, tag_set, apps)
             if tag.app != app or not tag.name
         ]
         known = {

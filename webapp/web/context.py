@@ -51,6 +51,16 @@ class AppContext(Protocol):
         """None when this visitor may do ``kind`` now, else the seconds to wait."""
         ...
 
+    async def state(self, wall: Wall) -> WallState:
+        """The wall's state now, for a handler on the event loop (a short read that
+        holds no thread on SQLite and does not hold the loop on a database server)."""
+        ...
+
+    @property
+    def installed(self) -> frozenset[str]:
+        """The names of the apps loaded: only their codes stand on the walls."""
+        ...
+
     def app(self, name: str) -> object:
         """The installed app ``name`` (an app finds its own object this way: its pages
         and routes check its type, so no module names the app's class by a cast)."""

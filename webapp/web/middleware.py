@@ -121,8 +121,14 @@ class SecurityHeadersMiddleware:
 
         async def send_with_headers(message: Message) -> None:
             if message["type"] == "http.response.start":
-                present = {name.lower() for name, _ in message.get("headers", [])}
-                extra = [(n, v) for n, v in _RAW if n not in present]
+                given = {name.lower(): value for name, value in message.get("headers", [])}
+                extra = [(n, v) for n, v in _RAW if n not in given]
+                # A page is made for one person at one moment: never shown again from a
+                # browser's cache (a code's page once it works again, or another
+                # person's page on a shared phone); pages may say otherwise themselves.
+                page = given.get(b"content-type", b"").startswith(b"text/html")
+                if page and b"cache-control" not in given:
+                    extra.append((b"cache-control", b"no-store"))
                 message["headers"] = [*message.get("headers", []), *extra]
             await send(message)
 

@@ -9,8 +9,9 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import services_of
-from webapp.apps.contract import WallApp, heavy_keys, placing_keys, static_url
 from webapp.apps.discovery import GROUP, installed_apps, load_app
+from webapp.apps.hooks import WallApp, static_url
+from webapp.apps.installed import heavy_keys, placing_keys
 from webapp.core.settings import PROJECT_ROOT
 from webapp.engine.wall_state import CORE_HEAVY_KEYS, CORE_PLACING_KEYS, WallState
 from webapp.web.templating import IMPORT_MAP_HASH

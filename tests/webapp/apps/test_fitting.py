@@ -11,9 +11,9 @@ import pytest
 from tag_service.codes import new_code
 from wall_client.config import parse_wall
 from wall_client.layout import Wall
-from webapp.apps.contract import WallApp
 from webapp.apps.discovery import installed_apps
 from webapp.apps.fitting import wall_fit
+from webapp.apps.hooks import WallApp
 from webapp.database.models import TagRecord
 from webapp.tags.registry import _fill, compute_layout, payload_of
 

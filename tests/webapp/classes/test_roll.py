@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from datetime import UTC, datetime, timedelta
+from zoneinfo import ZoneInfo
 
 import pytest
 
@@ -38,8 +39,15 @@ def test_starting_a_class_ends_the_one_running(db: Database) -> None:
 
 def test_a_class_without_a_title_is_named_by_its_start(db: Database) -> None:
     held = start_class(db, WALL, "  \u202e ", "anonymous", "ann")
-    assert held.title.startswith("Class of 20")
+    assert held.title == f"Class of {held.started_at:%Y-%m-%d %H:%M}"
     assert start_class(db, WALL, "x" * 500, "anonymous", "ann").title == "x" * 80
+
+
+def test_an_untitled_class_is_named_by_its_start_in_the_walls_time_zone(db: Database) -> None:
+    """Issue 41: the title said UTC, the dashboard's start time the wall's."""
+    held = start_class(db, WALL, "", "anonymous", "ann", "America/Los_Angeles")
+    local = held.started_at.astimezone(ZoneInfo("America/Los_Angeles"))
+    assert held.title == f"Class of {local:%Y-%m-%d %H:%M}"
 
 
 def test_ending_a_class_keeps_it_as_the_latest(db: Database) -> None:

@@ -122,6 +122,17 @@ def test_db_upgrade_creates_tables(env: dict[str, str], database_url: str) -> No
     assert read_state(Database(database_url), "demo")[0] == 0
 
 
+def test_db_downgrade_names_what_it_cannot_take_down(env: dict[str, str]) -> None:
+    assert run(env, "db", "upgrade")[0] == 0
+    code, _, err = run(env, "db", "downgrade", "base", "--app", "brain")
+    assert code == 2
+    assert err == "error: no installed app 'brain' has tables of its own (apps that have: none)\n"
+    code, _, err = run(env, "db", "downgrade", "9999")
+    assert code == 2 and err.startswith("error: ") and "9999" in err and "Traceback" not in err
+    code, out, _ = run(env, "db", "downgrade", "0012")
+    assert code == 0 and out == "database at 0012\n"
+
+
 def test_kiosk_dry_run_prints_one_browser_per_display(env: dict[str, str]) -> None:
     code, out, _ = run(
         env,
@@ -409,15 +420,20 @@ def _install_broken_app(folder: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.syspath_prepend(str(folder))
 
 
-def test_an_app_that_cannot_be_loaded_stops_the_command_with_one_line(
+def test_an_app_that_cannot_be_loaded_stops_serve_with_one_line_and_help_warns(
     env: dict[str, str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     _install_broken_app(tmp_path / "site", monkeypatch)
-    for args in (["--help"], ["serve"]):
-        code, out, err = run(env, *args)
-        assert code == 2, (args, out)
-        assert err.strip().startswith("error: app 'broken' (no_such_module.app:App) could not be")
-        assert "Traceback" not in err
+    broken = "app 'broken' (broken-app 1.0, no_such_module.app:App) could not be loaded"
+    code, out, err = run(env, "serve")
+    assert code == 2, out
+    assert err.strip().startswith(f"error: {broken}") and "Traceback" not in err
+    code, out, err = run(env, "--help")
+    assert code == 0 and "serve" in out  # the core's commands still there
+    assert err.splitlines()[0].startswith(f"warning: {broken}") and "Traceback" not in err
+    assert "TAGWALL_APPS" in err  # how to switch it off
+    code, out, err = run({**env, "TAGWALL_APPS": "brain, census"}, "content", "--help")
+    assert code == 0 and not err, err  # switched off, the rest of tagwall works
 
 
 def test_serve_refuses_a_first_app_that_is_not_installed(env: dict[str, str]) -> None:

@@ -17,7 +17,7 @@ import pytest
 from fastapi import FastAPI
 
 from wall_client.layout import Wall
-from webapp.apps.contract import WithoutPlaces
+from webapp.apps.hooks import WallApp
 from webapp.core.settings import CONTENT_DIR, PROJECT_ROOT, Settings
 from webapp.door.changes import unchanged
 from webapp.engine.wall_state import View, WallState, read_state
@@ -29,8 +29,7 @@ WALL = "demo"
 MARKERS = "markers"
 
 
-class MarkerApp(WithoutPlaces):
-    state = None  # it keeps nothing in the wall state
+class MarkerApp(WallApp):
     """One code where the view's centre lies on the wall; settling sets its mode."""
 
     name = "marker"
@@ -74,7 +73,7 @@ def settings(settings: Settings) -> Settings:
 async def services(app: FastAPI) -> AsyncIterator[Services]:
     """The app's services with the marker app among its apps, started."""
     found: Services = app.state.services
-    found.apps["marker"] = MarkerApp()  # type: ignore[assignment]
+    found.apps["marker"] = MarkerApp()
     async with app.router.lifespan_context(app):
         yield found
 

@@ -158,7 +158,9 @@ def test_a_redis_outage_is_503_and_tiles_ride_it_out(
         with client.websocket_connect(tile) as ws:
             redis_cable.cut()
             try:
-                api = client.post("/api/walls/demo/state", json={"mode": "x"}, headers=operator)
+                api = client.post(
+                    "/api/walls/demo/state", json={"layers": {"x": True}}, headers=operator
+                )
                 ws.send_json({"type": "hello"})
                 snapshot = ws.receive_json()
             finally:
@@ -168,9 +170,11 @@ def test_a_redis_outage_is_503_and_tiles_ride_it_out(
                 "detail": "The event bus is not answering. Try again in a moment."
             }
             assert snapshot["type"] == "snapshot"
-            again = client.post("/api/walls/demo/state", json={"mode": "y"}, headers=operator)
+            again = client.post(
+                "/api/walls/demo/state", json={"layers": {"x": False}}, headers=operator
+            )
             assert again.status_code == 200
             event = ws.receive_json()
             while event["type"] != "event":  # frames of changes the app made at start
                 event = ws.receive_json()
-            assert event["changes"] == {"mode": "y"}
+            assert event["changes"] == {"layers": {"x": False}}

@@ -117,7 +117,7 @@ def two_servers(
 
 def change(server: ServerProcess, number: int) -> int:
     """A light change through ``server``; the version it was acknowledged as."""
-    return server.change("demo", {"mode": f"step-{number}"})
+    return server.change("demo", {"layers": {f"step-{number}": True}})
 
 
 def test_tiles_on_either_process_get_every_change_in_order_and_in_step(
@@ -179,7 +179,7 @@ def test_a_process_killed_mid_session_loses_no_acknowledged_change(
         tile.follow(acknowledged[-1])
     assert acknowledged == sorted(set(acknowledged)), "versions only go up, none twice"
     status = survivor.status("demo")
-    assert status["version"] == acknowledged[-1] and status["state"]["mode"] == "step-10"
+    assert status["version"] == acknowledged[-1] and "step-10" in status["state"]["layers"]
     for tile in back:  # ``follow`` took each version after the last one it showed, in turn
         assert set(range(before_kill + 1, acknowledged[-1] + 1)) <= set(tile.frames)
 
@@ -237,7 +237,7 @@ def test_serve_with_two_workers_keeps_every_tile_in_order_when_a_worker_is_kille
                 shown[index] = tiles(server, tile.tile_id, tile.version)
                 shown[index].follow(acknowledged[-1])
         assert acknowledged == sorted(set(acknowledged))
-        assert server.status("demo")["state"]["mode"] == "step-11"
+        assert "step-11" in server.status("demo")["state"]["layers"]
         wait_until(lambda: len(workers(server.pid)) == 2, what="the killed worker replaced")
     finally:
         server.stop()

@@ -30,6 +30,7 @@ from webapp.tags.registry import (
 from webapp.tags.schemas import TagUpdate
 
 BASE = "http://192.168.1.20:8000"
+APPS = ("quiz", "atlas")  # the made-up apps whose tags these tests place
 TOL = 1e-6  # mm: float rounding of pixel edges
 
 
@@ -102,7 +103,7 @@ def test_layouts_place_the_set_and_the_tags_of_every_set(db: Database, demo: Wal
     k5 = issue(db, "demo", tag_spec(tag_set="k5"), "test")
     medical = issue(db, "demo", tag_spec(tag_set="medical"), "test")
 
-    layout = get_layout(db, "demo", layout_for(db, demo, "k5", BASE))
+    layout = get_layout(db, "demo", layout_for(db, demo, "k5", BASE, APPS))
 
     assert layout is not None
     assert {p["code"] for p in layout.placed} == {always.code, k5.code}
@@ -117,13 +118,13 @@ def test_an_unchanged_set_reuses_its_layout_and_a_change_makes_a_new_one(
     db: Database, demo: Wall
 ) -> None:
     tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
-    first = layout_for(db, demo, "k5", BASE)
-    assert layout_for(db, demo, "k5", BASE) == first
+    first = layout_for(db, demo, "k5", BASE, APPS)
+    assert layout_for(db, demo, "k5", BASE, APPS) == first
     update_tag(db, tag.code, TagUpdate(label="renamed"))
-    second = layout_for(db, demo, "k5", BASE)
+    second = layout_for(db, demo, "k5", BASE, APPS)
     assert second != first
     update_tag(db, tag.code, TagUpdate(active=False))
-    third = get_layout(db, "demo", layout_for(db, demo, "k5", BASE))
+    third = get_layout(db, "demo", layout_for(db, demo, "k5", BASE, APPS))
     assert third is not None and third.placed == []
 
 
@@ -131,14 +132,14 @@ def test_old_layouts_are_pruned(db: Database, demo: Wall) -> None:
     tag = issue(db, "demo", tag_spec(tag_set="k5"), "test")
     for index in range(LAYOUTS_KEPT + 5):
         update_tag(db, tag.code, TagUpdate(label=f"v{index}"))
-        layout_for(db, demo, "k5", BASE)
+        layout_for(db, demo, "k5", BASE, APPS)
     with db.session() as session:
         assert session.query(TagLayoutRecord).count() == LAYOUTS_KEPT
 
 
 def test_unplaceable_tags_are_kept_with_the_reason(db: Database, demo: Wall) -> None:
     issue(db, "demo", tag_spec(label="huge", size_mm=2000.0), "test")
-    layout = get_layout(db, "demo", layout_for(db, demo, None, BASE))
+    layout = get_layout(db, "demo", layout_for(db, demo, None, BASE, APPS))
     assert layout is not None and layout.placed == []
     [problem] = layout.unplaced
     assert problem["label"] == "huge" and problem["reason"].startswith("display too small")
@@ -168,7 +169,7 @@ def test_changing_the_clearance_places_the_code_again_beside_its_anchor(
     def declared(clear_mm: float | None) -> tuple[int, dict[str, Any]]:
         spec = tag_spec(app="atlas", name="hippocampus", clear_mm=clear_mm)
         declare(db, "demo", "atlas", [spec])
-        layout = get_layout(db, "demo", layout_for(db, demo, None, BASE))
+        layout = get_layout(db, "demo", layout_for(db, demo, None, BASE, APPS))
         assert layout is not None
         [code] = layout.placed
         return layout.id, code

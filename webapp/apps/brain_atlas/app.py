@@ -19,7 +19,7 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.contract import Export, Scan, WithoutPlaces
+from webapp.apps.hooks import Export, Scan, WallApp
 from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
@@ -30,8 +30,8 @@ from webapp.web.context import AppContext
 FOLDER = Path(__file__).parent
 
 
-class BrainApp(WithoutPlaces, Atlases):
-    """The brain atlas's :class:`~webapp.apps.contract.WallApp`: the atlas of the content
+class BrainApp(Atlases, WallApp):
+    """The brain atlas's :class:`~webapp.apps.hooks.WallApp`: the atlas of the content
     folder in use with what the core calls."""
 
     state = BrainState
@@ -40,7 +40,7 @@ class BrainApp(WithoutPlaces, Atlases):
     layers: tuple[str, ...] = ("/static/js/volume.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-    class_modes: tuple[str, ...] = MODES
+    modes: tuple[str, ...] = MODES
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """On the wall the brain shows the MNI template (its store built on first use)
@@ -78,6 +78,11 @@ class BrainApp(WithoutPlaces, Atlases):
         """The brain's volume goes with it (its quiz round stays for its return)."""
         return state.model_copy(update={"volume": None})
 
+    def switch_mode(
+        self, context: AppContext, wall: Wall, state: WallState, mode: str
+    ) -> WallState:
+        return self.atlas(context.settings).switch_mode(context, wall.id, state, mode, f"app:{APP}")
+
     def begin_class(
         self, context: AppContext, wall: Wall, state: WallState, mode: str | None
     ) -> WallState:
@@ -114,7 +119,7 @@ class BrainApp(WithoutPlaces, Atlases):
         return [
             Export(
                 f"Round {number} answers (CSV)",
-                f"/api/walls/{wall.id}/brain/answers.csv?round={number}",
+                f"/api/apps/brain/walls/{wall.id}/answers.csv?round={number}",
             )
             for number in quiz_of(context).rounds_during(wall.id, held)
         ]

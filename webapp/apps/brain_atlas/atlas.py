@@ -145,6 +145,23 @@ class Atlas:
         number = BrainState.of(state).quiz_round
         return None if number is None else quiz_of(context).get_round(wall_id, number)
 
+    def switch_mode(
+        self, context: AppContext, wall_id: str, state: WallState, mode: str, by: str
+    ) -> WallState:
+        """The one rule of the atlas's modes. Tutor pages name every pin, so tutor mode
+        closes the round running; quiz mode after a closed round opens a new one (new
+        numbers and codes, in the same swap). ``by`` is who switched."""
+        switched = state.model_copy(update={"mode": mode})
+        running = self.round_on_wall(context, wall_id, state)
+        if running is not None and running.open:
+            if mode == "tutor":
+                quiz_of(context).close_round(wall_id, running.number, by)
+            return switched
+        if mode == "tutor":
+            return switched
+        started = quiz_of(context).start_round(wall_id, by, self.fresh_orders())
+        return BrainState.of(switched).later_round(started.number).put(switched)
+
     def guide(
         self,
         context: AppContext,
@@ -210,7 +227,9 @@ class Atlas:
                 )
             )
             specs = self.declare_tags(context, wall, state)
-            planned = preview(context.db, wall, TAG_SETS[tag_set], context.base_url, APP, specs)
+            planned = preview(
+                context.db, wall, TAG_SETS[tag_set], context.base_url, context.installed, APP, specs
+            )
             placed = self._placed.get(planned.digest)
             if placed is None:
                 placed = frozenset(planned.placed_names())

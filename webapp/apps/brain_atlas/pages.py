@@ -25,12 +25,13 @@ from webapp.apps.brain_atlas.rules import (
     GROUP_LABELS,
     TAG_SETS,
     mode_of,
+    pin_question,
     quiz_of,
     reveals_answers,
     set_of_group,
     set_on_wall,
 )
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.core.markdown import markdown_html
 from webapp.core.roles import USER_GROUPS, UserGroup
 from webapp.core.threads import run_blocking
@@ -38,7 +39,7 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.people.person import Person, remember_person, update_profile
 from webapp.people.visitors import Visitor
-from webapp.quiz.engine import Progress, QuizError, Round
+from webapp.quiz.engine import Progress, Question, QuizError, Round
 from webapp.web.context import AppContext
 from webapp.web.templating import render
 
@@ -59,6 +60,10 @@ class Pin:
     round: Round
     state: WallState
 
+    @property
+    def question(self) -> Question:
+        return pin_question(self.region, self.tag_set)
+
 
 class RoundChanged(Exception):
     """The pin's code belongs to an earlier round (or the quiz has none yet)."""
@@ -77,11 +82,6 @@ async def tag_of(context: AppContext, wall: Wall, code: str) -> TagRecord:
     if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "pin":
         raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a pin of this wall's brain.")
     return tag
-
-
-async def wall_state(context: AppContext, wall: Wall) -> WallState:
-    _, state = await context.db.read(read_state, context.db, wall.id)
-    return state
 
 
 def current_round(app: Atlas, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
@@ -195,6 +195,7 @@ def question_page(
         number=pin.number,
         tag_set=pin.tag_set,
         words=wording(pin.tag_set),
+        question=pin.question,
         round_open=pin.round.open,
         previous=mine.text if mine else "",
         right=bool(mine and mine.correct) if shown else None,
@@ -248,7 +249,7 @@ def store_answer(
             pin.round.number,
             person.visitor.id,
             pin.tag_set,
-            pin.region.id,
+            pin.question,
             text,
             correct,
         )
@@ -475,7 +476,7 @@ async def join_group(
         if from_menu
         else None
     )
-    state = await wall_state(context, wall)
+    state = await context.state(wall)
     return render(
         request,
         "brain/group.html",

@@ -20,6 +20,7 @@ from webapp.apps.brain_atlas.rules import (
     TAG_SETS,
     Mode,
     mode_of,
+    pin_question,
     quiz_of,
     set_on_wall,
 )
@@ -27,8 +28,9 @@ from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
-from webapp.quiz.engine import Reveal
+from webapp.quiz.engine import QuizError, Reveal
 from webapp.quiz.http import answers_download, round_step
+from webapp.web.context import Update
 from webapp.web.deps import ContextDep, CsrfDep, PersonDep, PhoneDep, StaffDep, WallDep
 from webapp.web.problems import errors
 from webapp.web.templating import render
@@ -185,7 +187,7 @@ class BrainStatus(BaseModel):
     quiz: dict[str, SetStats]
 
 
-@router.get("/api/walls/{wall_id}/brain")
+@router.get("/api/apps/brain/walls/{wall_id}")
 async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> BrainStatus:
     """The brain on a wall, its quiz round and the class's results (names included:
     staff only)."""
@@ -195,9 +197,9 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
     for tag_set in TAG_SETS if quiz_round is not None else ():
         assert quiz_round is not None
         numbered = sorted(app.pins(quiz_round, tag_set).items())
-        regions = [region for _, region in numbered]
+        questions = [pin_question(region, tag_set) for _, region in numbered]
         stats = await run_blocking(
-            quiz_of(context).statistics, wall.id, quiz_round.number, tag_set, regions
+            quiz_of(context).statistics, wall.id, quiz_round.number, tag_set, questions
         )
         quiz[tag_set] = SetStats(
             participants=stats.participants,
@@ -234,7 +236,7 @@ class Unshown(BaseModel):
     regions: list[str]  # the regions whose pin has a code in no view
 
 
-@router.get("/api/walls/{wall_id}/brain/unshown", responses=errors(409))
+@router.get("/api/apps/brain/walls/{wall_id}/unshown", responses=errors(409))
 async def unshown_pins(
     wall: WallDep, context: ContextDep, staff: StaffDep, tag_set: TagSetName | None = None
 ) -> Unshown:
@@ -257,7 +259,7 @@ async def unshown_pins(
     )
 
 
-@router.post("/api/walls/{wall_id}/brain", responses=errors(404, 409))
+@router.post("/api/apps/brain/walls/{wall_id}", responses=errors(404, 409))
 async def control(
     choice: BrainControl, wall: WallDep, context: ContextDep, staff: StaffDep
 ) -> BrainStatus:
@@ -279,35 +281,32 @@ async def control(
         await run_blocking(allow_audience_switches, context.db, wall.id, choice.audience_switches)
     if choice.reveal is not None and quiz_round is not None and quiz_round.open:
         await round_step(quiz_of(context).set_reveal, wall.id, quiz_round.number, choice.reveal)
-    switching = choice.mode is not None and choice.mode != mode_of(state)
-    new_round: int | None = None
-    if switching and choice.mode == "tutor" and quiz_round is not None and quiz_round.open:
-        await round_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
-    elif switching and choice.mode == "quiz" and (quiz_round is None or not quiz_round.open):
-        started = await round_step(quiz_of(context).start_round, wall.id, staff, app.fresh_orders())
-        new_round = started.number
 
-    def apply(current: WallState) -> WallState:
+    async def plan(current: WallState) -> Update:
         if current.app != APP:
-            return current
+            return lambda held: held
+        changed = current
+        if choice.mode is not None and choice.mode != mode_of(current):
+            try:
+                changed = await run_blocking(
+                    app.switch_mode, context, wall.id, current, choice.mode, staff
+                )
+            except QuizError as error:
+                raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
         update: dict[str, object] = {}
-        if choice.mode is not None:
-            update["mode"] = choice.mode
         if choice.tag_set is not None:
             update["tag_set"] = TAG_SETS[choice.tag_set]
         if preset is not None:
             update["view"] = preset.view
             update["volume"] = preset.layer(VOLUME)
-        changed = current.model_copy(update=update)
-        if new_round is None:
-            return changed
-        return BrainState.of(current).later_round(new_round).put(changed)
+        planned = changed.model_copy(update=update)
+        return lambda _held: planned
 
-    await context.change_wall(wall, apply)
+    await context.plan_change(wall, plan)
     return await brain_status(wall, context, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/reset", responses=errors(409))
+@router.post("/api/apps/brain/walls/{wall_id}/quiz/reset", responses=errors(409))
 async def reset_quiz(
     wall: WallDep, context: ContextDep, staff: StaffDep, choice: NewRound | None = None
 ) -> BrainStatus:
@@ -326,7 +325,7 @@ async def reset_quiz(
     return await brain_status(wall, context, staff)
 
 
-@router.post("/api/walls/{wall_id}/brain/quiz/close", responses=errors(409))
+@router.post("/api/apps/brain/walls/{wall_id}/quiz/close", responses=errors(409))
 async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> BrainStatus:
     """Close the round on the wall: answers stop counting and every student sees the
     correct names and their results."""
@@ -338,7 +337,7 @@ async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> Bra
     return await brain_status(wall, context, staff)
 
 
-@router.get("/api/walls/{wall_id}/brain/answers.csv")
+@router.get("/api/apps/brain/walls/{wall_id}/answers.csv")
 async def answers_csv(
     wall: WallDep,
     context: ContextDep,

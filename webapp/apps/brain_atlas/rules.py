@@ -1,15 +1,16 @@
 """The atlas's small rules, shared by its app, pages and routes: its modes and tag sets,
-which set a user group gets, who sees answers early, how its tags are named."""
+its quiz and a pin's question, which set a user group gets, who sees answers early, how
+its tags are named."""
 
 from __future__ import annotations
 
 from typing import Literal
 
-from webapp.apps.brain_atlas.content import TagSetName
+from webapp.apps.brain_atlas.content import Region, TagSetName
 from webapp.core.roles import UserGroup
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
-from webapp.quiz.engine import Quiz
+from webapp.quiz.engine import Columns, Question, Quiz
 from webapp.web.context import AppContext
 
 APP = "brain"
@@ -23,10 +24,23 @@ GROUP_LABELS: dict[UserGroup, str] = {
     "research": "Research",
 }
 
+ASKED: dict[TagSetName, str] = {
+    "k5": "Look at the red pin on the wall. What part of the brain is it pointing at?"
+    " Write its name.",
+    "full": "What is this? Please enter the name of the tagged region.",
+}
+"""A pin's question, in the children's words for the K-5 pins."""
+COLUMNS = Columns(set="tag_set", item="region")
+
 
 def quiz_of(context: AppContext) -> Quiz:
     """The atlas's quiz: its rounds and answers in the shared quiz engine."""
-    return Quiz(context.db, APP)
+    return Quiz(context.db, APP, COLUMNS)
+
+
+def pin_question(region: Region, tag_set: TagSetName) -> Question:
+    """A pin's question: its region's name, typed, judged by the atlas's answer key."""
+    return Question(region.id, ASKED[tag_set])
 
 
 def set_of_group(group: UserGroup) -> TagSetName:

@@ -23,7 +23,7 @@ from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
 from webapp.apps.census_map.theme import kept_theme
-from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
+from webapp.apps.hooks import Scan, WallApp, static_url
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import (
@@ -56,8 +56,8 @@ def cluster_tag(geoids: tuple[str, ...]) -> str:
     return f"{CLUSTER_PREFIX}{digest}"
 
 
-class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
-    """The census map's :class:`~webapp.apps.contract.WallApp`: its maps (data sets, their
+class CensusApp(CensusMaps, WallApp):
+    """The census map's :class:`~webapp.apps.hooks.WallApp`: its maps (data sets, their
     geometry and colouring) with what the core calls."""
 
     state = CensusState
@@ -210,9 +210,6 @@ class CensusApp(WithoutClassSteps, WithoutPlaces, CensusMaps):
         if action == "cluster":
             return await pages.cluster(self, scan)
         return await pages.index(self, scan.request, scan.context, scan.wall)
-
-    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
-        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         """The tract page as its publisher sees it: the values and charts of their class."""

@@ -106,7 +106,7 @@ SWITCH_TIMEOUT = httpx.Timeout(60.0, connect=5.0)
 def _switch_census_map(settings: Settings, dataset_id: int) -> str:
     """Ask a running server to show the new data set now; what happened, as a line.
     The import already made it current, so a server that is down shows it at start."""
-    url = f"{settings.local_url}/api/census/current"
+    url = f"{settings.local_url}/api/apps/census/current"
     token = current_tokens(settings).operator
     try:
         response = httpx.post(

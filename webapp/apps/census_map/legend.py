@@ -37,7 +37,7 @@ class Legend(BaseModel):
 
 
 class ThemeView(BaseModel):
-    """``GET /api/walls/{wall}/tiles/{tile}/census/theme``: the classes of the tracts
+    """``GET /api/apps/census/walls/{wall}/tiles/{tile}/theme``: the classes of the tracts
     (by GEOID; -1 for no value), how each class is drawn, and the legend."""
 
     dataset: int

@@ -23,7 +23,7 @@ from webapp.apps.census_map.theme import Shading, kept_theme, shade
 from webapp.choropleth.classes import Theme
 from webapp.core.caching import SizedCache
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import WallState
 from webapp.web.context import AppContext
 
 KEPT_GEOMETRIES = 4
@@ -84,7 +84,7 @@ class CensusMaps:
     async def tract_on_wall(
         self, context: AppContext, wall: Wall, geoid: str
     ) -> tuple[WallState, DataSet | None, Tract | None]:
-        _, state = await run_blocking(read_state, context.db, wall.id)
+        state = await context.state(wall)
         dataset = await run_blocking(self.shown, context, state)
         return state, dataset, dataset.tract(geoid) if dataset else None
 

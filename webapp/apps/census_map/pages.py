@@ -15,10 +15,10 @@ from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.rules import APP, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.theme import Shading, describe
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
 from webapp.people.visitors import Visitor
 from webapp.web.context import AppContext
@@ -30,7 +30,7 @@ async def shown_dataset(
     app: CensusMaps, context: AppContext, wall: Wall
 ) -> tuple[WallState, DataSet]:
     """The data set on the wall; 409 when the census map is not on it now."""
-    _, state = await run_blocking(read_state, context.db, wall.id)
+    state = await context.state(wall)
     dataset = await run_blocking(app.shown, context, state) if state.app == APP else None
     if dataset is None:
         raise HTTPException(

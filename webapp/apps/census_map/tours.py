@@ -24,8 +24,7 @@ from webapp.apps.census_map.actions import shown_census, with_census
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.rules import APP
 from webapp.apps.census_map.state import CensusState, Tour, TourStep
-from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import WallState, now_ms, read_state
+from webapp.engine.wall_state import WallState, now_ms
 from webapp.web.context import AppContext
 
 log = logging.getLogger(__name__)
@@ -141,7 +140,7 @@ async def drive(
     try:
         while True:
             since = await context.shown_at(wall, shown) if shown is not None else None
-            _, state = await run_blocking(read_state, context.db, wall.id)
+            state = await context.state(wall)
             _, tour = playing(state)
             # from the instant it shows (apply_at may lie ahead: then a little longer)
             passed_s = (now_ms() - since) / 1000 if since is not None else 0.0

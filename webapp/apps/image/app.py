@@ -10,7 +10,7 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Export, Scan, static_url
+from webapp.apps.hooks import Export, Scan, WallApp, static_url
 from webapp.apps.image import commands, pages, routes
 from webapp.apps.image.hotspots import Hotspot, hotspots, wall_points
 from webapp.apps.image.library import ImageLibrary
@@ -40,17 +40,15 @@ def pin_clearance(context: AppContext, wall: Wall) -> float:
     return PIN_CLEARANCE_OF_CODE * anchored_code_side_mm(context.base_url, wall)
 
 
-class ImageApp(ImageLibrary):
-    """The image app's :class:`~webapp.apps.contract.WallApp`: its store with what the
+class ImageApp(ImageLibrary, WallApp):
+    """The image app's :class:`~webapp.apps.hooks.WallApp`: its store with what the
     core calls."""
 
     name: str = APP
     state: type[AppState] | None = ImageState
-    default_tag_set: str | None = None
     layers: tuple[str, ...] = (f"{static_url(APP)}/image.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-    class_modes: tuple[str, ...] = ()
 
     def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
         """Coming on a wall that never chose an image, or whose image was removed while
@@ -61,9 +59,6 @@ class ImageApp(ImageLibrary):
             return state
         newest = store.images()
         return slot.model_copy(update={"image": newest[0].id if newest else None}).put(state)
-
-    def leave(self, state: WallState) -> WallState:
-        return state  # its slot stays for its return
 
     def _shown(self, context: AppContext, state: WallState) -> tuple[str, list[Hotspot]] | None:
         """The image on the wall and its hotspots (None: the app or an image is not up)."""
@@ -136,9 +131,6 @@ class ImageApp(ImageLibrary):
             if spot.id in points
         ]
 
-    def screen_tags(self, wall: Wall) -> list[TagSpec]:
-        return []
-
     def begin_class(
         self, context: AppContext, wall: Wall, state: WallState, mode: str | None
     ) -> WallState:
@@ -163,7 +155,7 @@ class ImageApp(ImageLibrary):
         return [
             Export(
                 f"Round {number} answers (CSV)",
-                f"/api/walls/{wall.id}/image/answers.csv?round={number}",
+                f"/api/apps/image/walls/{wall.id}/answers.csv?round={number}",
             )
             for number in quiz_of(context).rounds_during(wall.id, held)
         ]

@@ -20,7 +20,14 @@ from tag_service.codes import normalize_code
 from wall_client.layout import Wall
 from webapp.apps.image.hotspots import Hotspot, hotspots
 from webapp.apps.image.library import image_library
-from webapp.apps.image.questions import judge, numbers, quiz_of, reveals_answers, round_on_wall
+from webapp.apps.image.questions import (
+    judge,
+    numbers,
+    question_of,
+    quiz_of,
+    reveals_answers,
+    round_on_wall,
+)
 from webapp.apps.image.state import APP
 from webapp.core.markdown import markdown_html
 from webapp.core.roles import UserGroup
@@ -169,7 +176,7 @@ def store_answer(
             seen.round.number,
             person.visitor.id,
             seen.image_id,
-            seen.spot.id,
+            question_of(seen.spot),
             text,
             judge(seen.spot, seen.spots, text[:1_000]),
         )

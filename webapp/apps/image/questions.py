@@ -3,22 +3,45 @@
 
 from __future__ import annotations
 
-from webapp.apps.image.hotspots import Hotspot
+from webapp.apps.image.hotspots import Hotspot, hotspots
 from webapp.apps.image.state import APP, ImageState
+from webapp.apps.image.store import ImageStore
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
-from webapp.quiz.engine import Quiz, Round, new_order
+from webapp.quiz.engine import Columns, Question, Quiz, Round, new_order
 from webapp.quiz.matching import matches
 from webapp.web.context import AppContext
 
+COLUMNS = Columns(set="image", item="hotspot", about=("title", "question"))
+"""The answers CSV's columns: each answer's image and hotspot, named by the hotspot's
+title and question, not only by ids."""
+
 
 def quiz_of(context: AppContext) -> Quiz:
-    return Quiz(context.db, APP)
+    return Quiz(context.db, APP, COLUMNS)
 
 
 def asked(spots: list[Hotspot]) -> list[Hotspot]:
     """The hotspots with a question: the items of the image's set."""
     return [spot for spot in spots if spot.question]
+
+
+def question_of(spot: Hotspot) -> Question:
+    """A hotspot's question: typed, judged by :func:`judge`."""
+    return Question(spot.id, spot.question or "")
+
+
+def described(store: ImageStore, quiz_round: Round) -> dict[tuple[str, str], tuple[str, str]]:
+    """Each question of the round's images as its CSV rows name it: the hotspot's title
+    and question as they are now (none for an image since removed)."""
+    about: dict[tuple[str, str], tuple[str, str]] = {}
+    for image_id in quiz_round.orders:
+        try:
+            spots = hotspots(store, image_id)
+        except KeyError:
+            continue
+        about |= {(image_id, spot.id): (spot.title, spot.question or "") for spot in spots}
+    return about
 
 
 def fresh_orders(image_id: str, spots: list[Hotspot]) -> dict[str, list[str]]:

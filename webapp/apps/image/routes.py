@@ -22,7 +22,15 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from webapp.apps.image import hotspots, lesson, pages
 from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
 from webapp.apps.image.library import ImageShown, image_library, remove_image
-from webapp.apps.image.questions import asked, fresh_orders, numbers, quiz_of, round_on_wall
+from webapp.apps.image.questions import (
+    asked,
+    described,
+    fresh_orders,
+    numbers,
+    question_of,
+    quiz_of,
+    round_on_wall,
+)
 from webapp.apps.image.state import APP, ImageState, walls_showing
 from webapp.apps.image.store import (
     MAX_IMAGE_TITLE,
@@ -127,7 +135,7 @@ async def _take_upload(
 
 
 @router.post(
-    "/api/image/images",
+    "/api/apps/image/images",
     dependencies=[Depends(upload_within_limit), StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -155,7 +163,7 @@ async def upload(request: Request, context: ContextDep) -> ImageManifest:
 
 
 @router.post(
-    "/api/image/lessons",
+    "/api/apps/image/lessons",
     dependencies=[Depends(upload_within_limit), StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -180,7 +188,7 @@ async def import_lesson(request: Request, context: ContextDep) -> ImageManifest:
 
 
 @router.get(
-    "/api/image/images/{image_id}/lesson",
+    "/api/apps/image/images/{image_id}/lesson",
     dependencies=[StaffOnly],
     response_class=FileResponse,
     responses={**errors(404, 503), 200: {"content": {"application/zip": {}}}},
@@ -205,7 +213,7 @@ async def export_lesson(image_id: str, context: ContextDep) -> FileResponse:
     )
 
 
-@router.get("/api/image/images", dependencies=[StaffOnly])
+@router.get("/api/apps/image/images", dependencies=[StaffOnly])
 async def list_images(context: ContextDep) -> list[ImageManifest]:
     """The stored images, newest first."""
     return await run_blocking(store_of(context).images)
@@ -217,7 +225,7 @@ class ImageTitle(BaseModel):
     title: str = Field(min_length=1, max_length=MAX_IMAGE_TITLE)
 
 
-@router.patch("/api/image/images/{image_id}", dependencies=[StaffOnly], responses=errors(404))
+@router.patch("/api/apps/image/images/{image_id}", dependencies=[StaffOnly], responses=errors(404))
 async def retitle(image_id: str, change: ImageTitle, context: ContextDep) -> ImageManifest:
     """Give the image another title (what the dashboard and its lesson file call it);
     422 for an empty one or one longer than an upload's."""
@@ -228,7 +236,7 @@ async def retitle(image_id: str, change: ImageTitle, context: ContextDep) -> Ima
 
 
 @router.delete(
-    "/api/image/images/{image_id}",
+    "/api/apps/image/images/{image_id}",
     dependencies=[StaffOnly],
     responses={**errors(404), 409: {"description": "A wall shows the image."}},
 )
@@ -251,7 +259,9 @@ class ShowImage(BaseModel):
     image: str = Field(min_length=1, max_length=64)
 
 
-@router.post("/api/image/walls/{wall_id}/show", dependencies=[StaffOnly], responses=errors(404))
+@router.post(
+    "/api/apps/image/walls/{wall_id}/show", dependencies=[StaffOnly], responses=errors(404)
+)
 async def show(wall: WallDep, choice: ShowImage, context: ContextDep) -> ShowImage:
     """Put the image app on the wall showing ``image``, at the whole stage; every tile
     changes at the same instant once each holds the image's coarse level."""
@@ -322,7 +332,7 @@ async def _replace_codes(context: AppContext, image_id: str) -> None:
 
 
 @router.get(
-    "/api/image/images/{image_id}/hotspots", dependencies=[StaffOnly], responses=errors(404)
+    "/api/apps/image/images/{image_id}/hotspots", dependencies=[StaffOnly], responses=errors(404)
 )
 async def list_hotspots(image_id: str, context: ContextDep) -> list[Hotspot]:
     """An image's hotspots, in the order they were added."""
@@ -330,7 +340,7 @@ async def list_hotspots(image_id: str, context: ContextDep) -> list[Hotspot]:
 
 
 @router.post(
-    "/api/image/images/{image_id}/hotspots",
+    "/api/apps/image/images/{image_id}/hotspots",
     dependencies=[StaffOnly],
     status_code=status.HTTP_201_CREATED,
     responses={
@@ -347,7 +357,7 @@ async def add_hotspot(image_id: str, fields: HotspotFields, context: ContextDep)
 
 
 @router.put(
-    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
     dependencies=[StaffOnly],
     responses={**errors(404), 422: {"description": "As adding: refused, nothing changed."}},
 )
@@ -361,7 +371,7 @@ async def edit_hotspot(
 
 
 @router.delete(
-    "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+    "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
     dependencies=[StaffOnly],
     responses=errors(404),
 )
@@ -455,7 +465,8 @@ def _quiz_status(context: AppContext, wall_id: str) -> QuizStatus:
     numbered = sorted((n, hid) for hid, n in numbers(quiz_round, image_id, spots).items())
     by_id = {spot.id: spot for spot in spots}
     ordered = [by_id[hid] for _, hid in numbered]
-    stats = quiz_of(context).statistics(wall_id, quiz_round.number, image_id, ordered)
+    questions = [question_of(spot) for spot in ordered]
+    stats = quiz_of(context).statistics(wall_id, quiz_round.number, image_id, questions)
     return status_now.model_copy(
         update={
             "participants": stats.participants,
@@ -476,13 +487,13 @@ def _quiz_status(context: AppContext, wall_id: str) -> QuizStatus:
     )
 
 
-@router.get("/api/walls/{wall_id}/image")
+@router.get("/api/apps/image/walls/{wall_id}")
 async def quiz_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """The image's quiz on a wall: its round and the class's results so far."""
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.post("/api/walls/{wall_id}/image/quiz/start", responses=errors(409))
+@router.post("/api/apps/image/walls/{wall_id}/quiz/start", responses=errors(409))
 async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """A new round on the image on the wall: the one before closes (its students see
     the answers), its questions get new numbers and codes on every tile at once."""
@@ -501,7 +512,7 @@ async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.post("/api/walls/{wall_id}/image/quiz/close", responses=errors(409))
+@router.post("/api/apps/image/walls/{wall_id}/quiz/close", responses=errors(409))
 async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """Close the round on the wall: answers stop counting and students see the answers."""
     now = await run_blocking(_quiz_status, context, wall.id)
@@ -511,18 +522,20 @@ async def close_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
     return await run_blocking(_quiz_status, context, wall.id)
 
 
-@router.get("/api/walls/{wall_id}/image/answers.csv", responses=errors(404))
+@router.get("/api/apps/image/walls/{wall_id}/answers.csv", responses=errors(404))
 async def answers_csv(
     wall: WallDep,
     context: ContextDep,
     staff: StaffDep,
     round_number: Annotated[RowId | None, Query(alias="round")] = None,
 ) -> Response:
-    """Every answer of a round (default: the one on the wall), for a spreadsheet, in a
-    file named by the wall, the round's class, the round and its day."""
+    """Every answer of a round (default: the one on the wall), for a spreadsheet, each
+    named by its image and hotspot, the hotspot's title and question, in a file named
+    by the wall, the round's class, the round and its day."""
     quiz = quiz_of(context)
     if round_number is None:
         now = await run_blocking(_quiz_status, context, wall.id)
         round_number = now.round.number if now.round is not None else None
     quiz_round = await run_blocking(quiz.get_round, wall.id, round_number) if round_number else None
-    return await answers_download(quiz, wall, quiz_round)
+    about = await run_blocking(described, store_of(context), quiz_round) if quiz_round else None
+    return await answers_download(quiz, wall, quiz_round, about)

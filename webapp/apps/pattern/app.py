@@ -13,13 +13,12 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import click
-from fastapi import APIRouter, Response
+from fastapi import Response
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
+from webapp.apps.hooks import Scan, WallApp, static_url
 from webapp.database.models import TagLayoutRecord
-from webapp.engine.wall_state import AppState, WallState, read_state
+from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
 from webapp.web.context import AppContext
@@ -29,20 +28,13 @@ FOLDER = Path(__file__).parent
 SETUP_SET = "setup"
 
 
-class PatternApp(WithoutClassSteps, WithoutPlaces):
+class PatternApp(WallApp):
     name: str = "pattern"
-    state: type[AppState] | None = None  # it keeps nothing in the wall state
     default_tag_set: str | None = SETUP_SET
     # a volume the dashboard puts up shows instead of the pattern
     layers: tuple[str, ...] = ("/static/js/volume.js", f"{static_url('pattern')}/scene.js")
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-
-    def leave(self, state: WallState) -> WallState:
-        return state
-
-    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         designated = {d.id for role in ROLES for d in wall.screen(role)}
@@ -55,9 +47,6 @@ class PatternApp(WithoutClassSteps, WithoutPlaces):
                 self._tag(f"setup-{left.id}-{right.id}", f"Bezel {left.id}|{right.id}", (x, y))
             )
         return tags
-
-    def screen_tags(self, wall: Wall) -> list[TagSpec]:
-        return []  # its codes mark the displays themselves
 
     def _tag(self, name: str, label: str, anchor: tuple[float, float]) -> TagSpec:
         return TagSpec(
@@ -74,9 +63,6 @@ class PatternApp(WithoutClassSteps, WithoutPlaces):
             placed=placed,
             display=display,
         )
-
-    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
-        return None  # the core's page says it
 
     async def publication(self, scan: Scan) -> Publication | None:
         """Where this code stands, for everyone at the wall to check."""
@@ -97,12 +83,6 @@ class PatternApp(WithoutClassSteps, WithoutPlaces):
                 )
             ],
         )
-
-    def router(self) -> APIRouter | None:
-        return None
-
-    def commands(self) -> list[click.Command]:
-        return []
 
     def dashboard_panel(self, wall: Wall) -> str | None:
         return "pattern/panel.html"

@@ -3,20 +3,17 @@ codes."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from urllib.parse import quote, urlsplit
 
-import click
-from fastapi import APIRouter, Response, status
+from fastapi import Response, status
 from fastapi.responses import RedirectResponse
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces
+from webapp.apps.hooks import Scan, WallApp
 from webapp.core.roles import Role
 from webapp.core.threads import run_blocking
-from webapp.engine.wall_state import AppState, WallState
+from webapp.engine.wall_state import WallState
 from webapp.people.person import Person, address_grant, assume, grant, remember_person
-from webapp.publishing.publication import Publication
 from webapp.tags.registry import TagSpec
 from webapp.web.context import AppContext
 from webapp.web.templating import render
@@ -24,22 +21,11 @@ from webapp.web.templating import render
 REGISTRATION_ROLES = (("student", "Student"), ("instructor", "Instructor"))
 
 
-class RegistrationApp(WithoutClassSteps, WithoutPlaces):
+class RegistrationApp(WallApp):
     """The registration codes every wall carries whatever app it shows (the app named
     ``core``: its codes are the core's, on the registration screen)."""
 
     name: str = "core"
-    state: type[AppState] | None = None
-    default_tag_set: str | None = None
-    layers: tuple[str, ...] = ()
-    templates: Path | None = None  # the core's pages are its own
-    static: Path | None = None
-
-    def leave(self, state: WallState) -> WallState:
-        return state
-
-    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         """The student and instructor codes, permanent on the registration screen."""
@@ -84,21 +70,6 @@ class RegistrationApp(WithoutClassSteps, WithoutPlaces):
         )
         remember_person(scan.request, registered)
         return render(scan.request, "registered.html", wall=scan.wall)
-
-    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
-        return None  # the core's page says it
-
-    async def publication(self, scan: Scan) -> Publication | None:
-        return None  # registration is not content
-
-    def router(self) -> APIRouter | None:
-        return None
-
-    def commands(self) -> list[click.Command]:
-        return []
-
-    def dashboard_panel(self, wall: Wall) -> str | None:
-        return None
 
 
 def _open_link(scan: Scan) -> Response:

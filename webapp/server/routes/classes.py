@@ -11,7 +11,7 @@ from fastapi import APIRouter, Form, HTTPException, Query, Request, status
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from wall_client.layout import Wall
-from webapp.apps.contract import REGISTRATION, WallApp
+from webapp.apps.installed import REGISTRATION
 from webapp.classes.roll import (
     MAX_NAME,
     NAME_PROMPTS,
@@ -30,7 +30,7 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import View, WallState, differing_fields, read_state
 from webapp.people.person import person_with
 from webapp.people.visitors import Visitor
-from webapp.server.deps import ServicesDep
+from webapp.server.deps import ServicesDep, showable_app
 from webapp.server.schemas import ClassInfo, ClassStart, ExportLink
 from webapp.server.services import Services
 from webapp.web.context import Update
@@ -81,12 +81,12 @@ async def begin(
     first view, in the chosen mode (a fresh quiz round), with its own tag set, no
     balloons and an empty public screen, on every tile at once."""
     _, state = await run_blocking(read_state, services.db, wall.id)
-    app = _class_app(services, choice.app or state.app, choice.mode)
+    app = showable_app(services, choice.app or state.app, choice.mode)
     if state.app != app.name:  # before the class starts: what the app settles is not its
         await services.change_wall(wall, lambda s: s.model_copy(update={"app": app.name}))
     try:
         held = await run_blocking(
-            start_class, services.db, wall.id, choice.title, choice.names, staff
+            start_class, services.db, wall.id, choice.title, choice.names, staff, wall.time_zone
         )
     except ClassError as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
@@ -120,22 +120,6 @@ async def end(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInf
 
     await services.plan_change(wall, plan)
     return await class_info(services, wall, held)
-
-
-def _class_app(services: Services, name: str, mode: str | None) -> WallApp:
-    app = services.wall_apps.get(name)
-    if app is None:
-        known = ", ".join(sorted(services.wall_apps))
-        raise HTTPException(
-            status.HTTP_422_UNPROCESSABLE_CONTENT, f"There is no app {name!r} (installed: {known})."
-        )
-    if mode is not None and mode not in app.class_modes:
-        modes = ", ".join(app.class_modes) or "none"
-        raise HTTPException(
-            status.HTTP_422_UNPROCESSABLE_CONTENT,
-            f"The {name} app has no mode {mode!r} (its modes: {modes}).",
-        )
-    return app
 
 
 # --- the roll call ---------------------------------------------------------------------

@@ -8,7 +8,7 @@ from fastapi import APIRouter, HTTPException, status
 from pydantic import ValidationError
 
 from wall_client.layout import Wall
-from webapp.apps.contract import places_shown
+from webapp.apps.installed import places_shown
 from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
 from webapp.door.changes import unchanged

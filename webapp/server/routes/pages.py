@@ -7,7 +7,7 @@ import json
 from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse
 
-from webapp.apps.contract import layer_stacks
+from webapp.apps.installed import layer_stacks
 from webapp.engine.protocol import ViewportInfo
 from webapp.publishing.screen import screen_layout
 from webapp.server.deps import ServicesDep

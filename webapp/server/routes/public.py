@@ -8,7 +8,7 @@ from fastapi import APIRouter, Form, HTTPException, Request, status
 from fastapi.responses import HTMLResponse
 
 from tag_service.codes import normalize_code
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import PublicPolicy, read_state

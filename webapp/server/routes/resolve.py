@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.people.ratelimit import retry_after_s

@@ -128,11 +128,13 @@ class Connection:
             await self.close(CLOSE_TRY_AGAIN, "the database is not answering: reconnect")
 
     async def catch_up(self, hello: Hello) -> None:
-        """Replay what the tile missed, or send a snapshot when history is too short."""
+        """Replay what the tile missed, or send a snapshot when history is too short or
+        a missed change was heavy: the tile loads what a snapshot needs (renders, code
+        layouts) before showing it, which a replayed event, shown as it comes, skips."""
         db, wall_id = self.services.db, self.wall.id
         if hello.last_version is not None:
             replay = await self.hub.run_sync(events_since, db, wall_id, hello.last_version)
-            if replay is not None:
+            if replay is not None and not any(change.heavy for change in replay):
                 for change in replay:
                     event = Event(version=change.version, changes=change.changes, apply_at=0)
                     await self.send(event.model_dump_json())

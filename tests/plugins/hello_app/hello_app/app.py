@@ -14,8 +14,8 @@ import click
 from fastapi import APIRouter, Body, Response
 
 from wall_client.layout import Wall
-from webapp.apps.contract import Scan, WithoutClassSteps, WithoutPlaces, static_url
-from webapp.engine.wall_state import AppState, WallState, read_state
+from webapp.apps.hooks import Scan, WallApp, static_url
+from webapp.engine.wall_state import AppState, WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
 from webapp.web.context import AppContext
@@ -50,19 +50,12 @@ def hello() -> None:
     click.echo("hello from an installed app")
 
 
-class HelloApp(WithoutClassSteps, WithoutPlaces):
+class HelloApp(WallApp):
     name: str = APP
-    default_tag_set: str | None = None
     state: type[AppState] | None = HelloState
     layers: tuple[str, ...] = (f"{static_url(APP)}/hello.js",)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
-
-    def settle(self, context: AppContext, wall: Wall, state: WallState) -> WallState:
-        return state
-
-    def leave(self, state: WallState) -> WallState:
-        return state
 
     def declare_tags(self, context: AppContext, wall: Wall, state: WallState) -> list[TagSpec]:
         if state.app != APP:
@@ -71,24 +64,15 @@ class HelloApp(WithoutClassSteps, WithoutPlaces):
         middle = (stage.x + stage.width / 2, stage.y + stage.height / 2)
         return [TagSpec(name="hello:wave", label="Wave", app=APP, action="wave", anchor=middle)]
 
-    def screen_tags(self, wall: Wall) -> list[TagSpec]:
-        return []  # its one code stands on the scene
-
     async def on_scan(self, scan: Scan) -> Response:
-        _, state = read_state(scan.context.db, scan.wall.id)
+        state = await scan.context.state(scan.wall)
         greeting = HelloState.of(state).greeting
         return render(scan.request, "hello/page.html", wall=scan.wall, greeting=greeting)
 
-    async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
-        return None
-
     async def publication(self, scan: Scan) -> Publication | None:
-        _, state = read_state(scan.context.db, scan.wall.id)
+        state = await scan.context.state(scan.wall)
         text = HelloState.of(state).greeting
         return Publication(title="Hello", blocks=[Block(kind="text", text=text)])
-
-    def dashboard_panel(self, wall: Wall) -> str | None:
-        return None
 
     def router(self) -> APIRouter | None:
         return router

@@ -63,7 +63,9 @@ def show_brain(client: TestClient) -> WallState:
 
 
 def control(client: TestClient, **choice: Any) -> dict[str, Any]:
-    response = client.post("/api/walls/demo/brain", json=choice, headers=operator_headers(client))
+    response = client.post(
+        "/api/apps/brain/walls/demo", json=choice, headers=operator_headers(client)
+    )
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
     return body
@@ -189,7 +191,7 @@ def test_the_dashboard_names_the_regions_whose_pin_no_view_shows(
     the dashboard did not say so. It asks, from the views the phones' hints name: on
     the demo wall every pin has one; with a view that places no code for pin 2, its
     region is named (to staff only: names are the answers)."""
-    url = "/api/walls/demo/brain/unshown"
+    url = "/api/apps/brain/walls/demo/unshown"
     assert on_wall.get(url).status_code == 401
     ours = operator_headers(on_wall)
     unshown = on_wall.get(url, headers=ours).json()
@@ -238,8 +240,8 @@ def test_a_student_cannot_get_an_answer_early_by_any_route(on_wall: TestClient) 
     assert reveal.status_code == 403
     assert escape(region.name) not in reveal.text
     # the staff API with the class's statistics and the CSV export
-    assert on_wall.get("/api/walls/demo/brain").status_code == 401
-    assert on_wall.get("/api/walls/demo/brain/answers.csv").status_code == 401
+    assert on_wall.get("/api/apps/brain/walls/demo").status_code == 401
+    assert on_wall.get("/api/apps/brain/walls/demo/answers.csv").status_code == 401
     # the progress page before finishing, and finishing before answering everything
     answer(on_wall, code, "no idea")
     progress = on_wall.get("/apps/brain/demo/quiz/full")
@@ -307,7 +309,7 @@ def test_finishing_shows_no_name_until_the_instructor_closes_the_round(
     late = answer(on_wall, pins[4], names[4])
     assert late.status_code == 422 and "final" in late.text
 
-    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall))
 
     results = on_wall.get("/apps/brain/demo/quiz/k5").text
     right = sum(1 for n in pins if n % 2) + 1
@@ -332,7 +334,7 @@ def test_a_throw_away_visitor_learns_nothing_that_still_counts(on_wall: TestClie
         harvest += on_wall.get(f"/t/{code}").text
     assert not [name for name in names.values() if escape(name) in harvest]
 
-    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall))
     results = on_wall.get("/apps/brain/demo/quiz/full").text
     assert all(escape(name) in results for name in names.values())  # the key, worthless now
     number, code = next(iter(pins.items()))
@@ -345,7 +347,7 @@ def test_names_at_finishing_when_the_instructor_chose_that_for_the_round(
     on_wall: TestClient,
 ) -> None:
     reset = on_wall.post(
-        "/api/walls/demo/brain/quiz/reset",
+        "/api/apps/brain/walls/demo/quiz/reset",
         json={"reveal": "finish"},
         headers=operator_headers(on_wall),
     )
@@ -368,7 +370,9 @@ def test_each_round_numbers_the_pins_afresh_under_new_codes(on_wall: TestClient)
     old = pins_on_wall(on_wall, "full")
     version = read_state(services_of(on_wall).db, "demo")[0]
 
-    status = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+    status = on_wall.post(
+        "/api/apps/brain/walls/demo/quiz/reset", headers=operator_headers(on_wall)
+    )
 
     assert status.json()["round"]["number"] == 2 and status.json()["round"]["open"]
     second = app.round_on_wall(services_of(on_wall), "demo", state_of(on_wall))
@@ -441,7 +445,7 @@ def test_a_round_starts_with_the_brain_and_pin_one_is_not_always_the_same_region
     for _ in range(3):
         show_brain(client)
         firsts.add(region_of(client, "full", 1).id)
-        client.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(client))
+        client.post("/api/apps/brain/walls/demo/quiz/reset", headers=operator_headers(client))
         firsts.add(region_of(client, "full", 1).id)
     assert len(firsts) > 1  # 6 draws from 23: all equal has chance 23**-5
 
@@ -522,7 +526,7 @@ def test_the_audience_switches_the_wall_only_where_allowed_never_mid_round_once_
     assert "a quiz round is running" in running
     assert state_of(on_wall).tag_set == "brain-full"
 
-    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall))
     switched = scan_group(on_wall, "k5")
     assert "The wall now shows the pins for young explorers" in switched
     assert state_of(on_wall).tag_set == "brain-k5"
@@ -539,7 +543,7 @@ def test_phones_choose_their_group_without_the_menu_screen(on_wall: TestClient) 
     """Walls whose menu screen holds fewer codes (or none) still let phones choose;
     the choice is the phone's, whatever the wall allows."""
     control(on_wall, audience_switches=True)
-    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall))
     register_student(on_wall)
     listed = on_wall.get("/apps/brain/demo/groups")
     assert listed.status_code == 200
@@ -676,15 +680,15 @@ def test_the_dashboard_switches_modes_presets_and_sets_and_resets_the_quiz(
     assert (back["round"]["number"], back["round"]["open"]) == (2, True)
     assert BrainState.of(state_of(on_wall)).quiz_round == 2
 
-    reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+    reset = on_wall.post("/api/apps/brain/walls/demo/quiz/reset", headers=operator_headers(on_wall))
 
     assert reset.status_code == 200 and reset.json()["round"]["number"] == 3
     bad = on_wall.post(
-        "/api/walls/demo/brain", json={"preset": "nowhere"}, headers=operator_headers(on_wall)
+        "/api/apps/brain/walls/demo", json={"preset": "nowhere"}, headers=operator_headers(on_wall)
     )
     assert bad.status_code == 404
     extra = on_wall.post(
-        "/api/walls/demo/brain", json={"colour": "red"}, headers=operator_headers(on_wall)
+        "/api/apps/brain/walls/demo", json={"colour": "red"}, headers=operator_headers(on_wall)
     )
     assert extra.status_code == 422
 
@@ -694,16 +698,20 @@ def test_the_csv_export_lists_the_rounds_answers(on_wall: TestClient) -> None:
     _, code = next(iter(pins_on_wall(on_wall, "full").items()))
     answer(on_wall, code, "thalamus")
 
-    export = on_wall.get("/api/walls/demo/brain/answers.csv", headers=operator_headers(on_wall))
+    export = on_wall.get(
+        "/api/apps/brain/walls/demo/answers.csv", headers=operator_headers(on_wall)
+    )
 
     assert export.status_code == 200
     assert export.headers["content-type"].startswith("text/csv")
-    assert "thalamus" in export.text
+    header, row = export.text.splitlines()
+    assert header == "round,visitor,name,tag_set,region,answer,correct,answered_at,class"
+    assert row.split(",")[5:7] in (["thalamus", "yes"], ["thalamus", "no"])
 
 
 def test_controls_refuse_when_the_brain_is_not_on_the_wall(client: TestClient) -> None:
     response = client.post(
-        "/api/walls/demo/brain", json={"mode": "tutor"}, headers=operator_headers(client)
+        "/api/apps/brain/walls/demo", json={"mode": "tutor"}, headers=operator_headers(client)
     )
     assert response.status_code == 409
 
@@ -736,7 +744,9 @@ def test_a_closed_round_stays_closed_across_a_restart_and_students_keep_their_re
     pins = pins_on_wall(on_wall, "full")
     number, code = next(iter(pins.items()))
     answer(on_wall, code, region_of(on_wall, "full", number).name)
-    closed = on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    closed = on_wall.post(
+        "/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall)
+    )
     assert closed.status_code == 200, closed.text
     cookies = dict(on_wall.cookies)
     with _restarted(settings) as again:
@@ -752,14 +762,14 @@ def test_a_closed_round_stays_closed_across_a_restart_and_students_keep_their_re
 def test_a_round_opens_again_only_when_an_instructor_opens_one(on_wall: TestClient) -> None:
     """Leaving the wall and coming back keeps the closed round; quiz mode or a reset opens
     the next."""
-    on_wall.post("/api/walls/demo/brain/quiz/close", headers=operator_headers(on_wall))
+    on_wall.post("/api/apps/brain/walls/demo/quiz/close", headers=operator_headers(on_wall))
     on_wall.post(
         "/api/walls/demo/state", json={"app": "pattern"}, headers=operator_headers(on_wall)
     )
     show_brain(on_wall)
     shown = control(on_wall)["round"]
     assert (shown["number"], shown["open"]) == (1, False)
-    reset = on_wall.post("/api/walls/demo/brain/quiz/reset", headers=operator_headers(on_wall))
+    reset = on_wall.post("/api/apps/brain/walls/demo/quiz/reset", headers=operator_headers(on_wall))
     assert reset.json()["round"]["number"] == 2 and reset.json()["round"]["open"] is True
 
 

@@ -71,7 +71,7 @@ def map_query(state: WallState) -> dict[str, Any]:
 
 
 def tile_map(client: TestClient, state: WallState, tile: str = "r1c2") -> dict[str, Any]:
-    response = client.get(f"/api/walls/demo/tiles/{tile}/census", params=map_query(state))
+    response = client.get(f"/api/apps/census/walls/demo/tiles/{tile}", params=map_query(state))
     assert response.status_code == 200, response.text
     body: dict[str, Any] = response.json()
     return body
@@ -146,7 +146,7 @@ def test_a_tile_gets_its_share_of_the_map_with_codes_and_toggles(client: TestCli
 )
 def test_bad_tile_map_requests(client: TestClient, query: dict[str, Any], status: int) -> None:
     show_census(client)
-    assert client.get("/api/walls/demo/tiles/r1c2/census", params=query).status_code == status
+    assert client.get("/api/apps/census/walls/demo/tiles/r1c2", params=query).status_code == status
 
 
 def test_scanning_a_toggle_flips_its_group_on_the_wall(client: TestClient) -> None:
@@ -502,23 +502,23 @@ def test_pages_say_when_the_map_is_not_on_the_wall(client: TestClient) -> None:
 
 def test_choosing_the_data_set_needs_staff_and_a_real_one(client: TestClient) -> None:
     show_census(client)
-    assert client.post("/api/census/current", json={"dataset": 1}).status_code == 401
+    assert client.post("/api/apps/census/current", json={"dataset": 1}).status_code == 401
     assert (
         client.post(
-            "/api/census/current", json={"dataset": 42}, headers=operator_headers(client)
+            "/api/apps/census/current", json={"dataset": 42}, headers=operator_headers(client)
         ).status_code
         == 404
     )
     assert (
         client.post(
-            "/api/census/current", json={"dataset": "x"}, headers=operator_headers(client)
+            "/api/apps/census/current", json={"dataset": "x"}, headers=operator_headers(client)
         ).status_code
         == 422
     )
-    listed = client.get("/api/census/datasets", headers=operator_headers(client)).json()
+    listed = client.get("/api/apps/census/datasets", headers=operator_headers(client)).json()
     assert [d["tracts"] for d in listed] == [403]
     detail = client.get(
-        f"/api/census/datasets/{listed[0]['id']}", headers=operator_headers(client)
+        f"/api/apps/census/datasets/{listed[0]['id']}", headers=operator_headers(client)
     ).json()
     assert len(detail["groups"]) == 10
 
@@ -607,14 +607,14 @@ INCOME_THEME = {"attribute": "HH_INC", "scheme": "YlGnBu", "method": "natural", 
 
 def colour(client: TestClient, theme: dict[str, Any] | None) -> Any:
     return client.post(
-        "/api/census/walls/demo/theme", json={"theme": theme}, headers=operator_headers(client)
+        "/api/apps/census/walls/demo/theme", json={"theme": theme}, headers=operator_headers(client)
     )
 
 
 def tile_theme(client: TestClient, state: WallState, tile: str = "r2c1") -> dict[str, Any]:
     assert CensusState.of(state).theme is not None
     response = client.get(
-        f"/api/walls/demo/tiles/{tile}/census/theme",
+        f"/api/apps/census/walls/demo/tiles/{tile}/theme",
         params={**map_query(state), **CensusState.of(state).theme.model_dump()},
     )
     assert response.status_code == 200, response.text
@@ -672,15 +672,17 @@ def test_a_colouring_the_data_cannot_have_is_refused(
 def test_colouring_needs_staff_and_the_map_on_the_wall(client: TestClient) -> None:
     assert colour(client, INCOME_THEME).status_code == 409, "the map is not up"
     show_census(client)
-    response = client.post("/api/census/walls/demo/theme", json={"theme": INCOME_THEME})
+    response = client.post("/api/apps/census/walls/demo/theme", json={"theme": INCOME_THEME})
     assert response.status_code == 401
     assert (
         client.post(
-            "/api/census/walls/nowall/theme", json={"theme": None}, headers=operator_headers(client)
+            "/api/apps/census/walls/nowall/theme",
+            json={"theme": None},
+            headers=operator_headers(client),
         ).status_code
         == 404
     )
-    schemes = client.get("/api/census/schemes", headers=operator_headers(client)).json()
+    schemes = client.get("/api/apps/census/schemes", headers=operator_headers(client)).json()
     assert {"YlGnBu", "RdBu"} <= {s["name"] for s in schemes}
     assert all(len(s["colours"]) == 5 for s in schemes)
 
@@ -701,7 +703,7 @@ def test_bad_tile_theme_requests(client: TestClient, query: dict[str, Any]) -> N
     colour(client, INCOME_THEME)
     state = state_of(client)
     params = {**map_query(state), **INCOME_THEME, **query}
-    response = client.get("/api/walls/demo/tiles/r1c1/census/theme", params=params)
+    response = client.get("/api/apps/census/walls/demo/tiles/r1c1/theme", params=params)
     assert response.status_code in (404, 422), response.text
     assert response.headers["content-type"].startswith("application/json")
 
@@ -787,7 +789,7 @@ def test_a_colouring_survives_a_restart_and_leaves_with_a_data_set_without_its_v
         tables=downloaded(tmp_path, INCOME, VALUE),
     ).dataset_id
     response = client.post(
-        "/api/census/current", json={"dataset": new_id}, headers=operator_headers(client)
+        "/api/apps/census/current", json={"dataset": new_id}, headers=operator_headers(client)
     )
     assert response.status_code == 200
     state = state_of(client)

@@ -29,7 +29,7 @@ from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.tours import play_tour
 from webapp.engine.wall_state import now_ms, read_state
 
-WALL = "/api/census/walls/demo"
+WALL = "/api/apps/census/walls/demo"
 
 
 def post(client: TestClient, path: str, body: Any = None) -> Any:
@@ -110,7 +110,7 @@ def test_on_a_turned_and_tilted_globe_codes_and_balloons_stand_on_their_tracts(
     # every tile asks for the same camera: the globe's answer follows the state
     cx, cy = state.view.center
     query = {"dataset": turned.dataset, "cx": cx, "cy": cy, "zoom": 3, "heading": 30, "tilt": 45}
-    body = client.get("/api/walls/demo/census/globe", params=query).json()
+    body = client.get("/api/apps/census/walls/demo/globe", params=query).json()
     assert (body["camera"]["heading"], body["camera"]["tilt"]) == (30, 45)
 
     assert post(client, "/camera", {"heading": 0, "tilt": 0}).status_code == 200
@@ -161,7 +161,7 @@ def test_a_globe_asked_for_out_of_bounds_is_refused(
 ) -> None:
     show_census(client)
     dataset = census(client).dataset
-    answer = client.get("/api/walls/demo/census/globe", params={"dataset": dataset, **query})
+    answer = client.get("/api/apps/census/walls/demo/globe", params={"dataset": dataset, **query})
     assert answer.status_code == 422
 
 
@@ -173,7 +173,7 @@ def test_the_colouring_is_asked_for_with_the_globe_s_camera(client: TestClient) 
     theme = {"attribute": "HH_INC", "scheme": "YlOrRd", "method": "quantiles", "classes": 5}
     cx, cy = state.view.center
     query = {"dataset": census(client).dataset, "cx": cx, "cy": cy, "zoom": 1, **theme}
-    path = "/api/walls/demo/tiles/r2c2/census/theme"
+    path = "/api/apps/census/walls/demo/tiles/r2c2/theme"
     for camera in ({}, {"surface": "globe", "heading": 30, "tilt": 45}):
         answer = client.get(path, params={**query, **camera})
         assert answer.status_code == 200, answer.text

@@ -205,7 +205,7 @@ def test_import_asks_a_running_server_to_switch_the_map(
     code, out, _ = run(env, "census", "import", "--shapes", str(shapes), "--key", "GEOID")
     assert code == 0 and out.splitlines()[-1].endswith(said)
     ((url, kwargs),) = sent
-    assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/census/current"
+    assert url == f"http://127.0.0.1:{env['TAGWALL_PORT']}/api/apps/census/current"
     assert kwargs["json"] == {"dataset": 1}
     assert kwargs["timeout"] == httpx.Timeout(60.0, connect=5.0)
     assert kwargs["headers"] == {"Authorization": f"Bearer {operator_token(TEST_SECRET)}"}

@@ -376,7 +376,7 @@ def test_the_tiles_get_the_imagery_from_this_origin_under_the_usual_policy(
     upstream = with_ground(client, picture, terrain_url="https://terrain.example.org/")
     state = show_census(client)
     dataset = CensusState.of(state).dataset
-    globe = client.get(f"/api/walls/demo/census/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1")
+    globe = client.get(f"/api/apps/census/walls/demo/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1")
     assert globe.json()["ground"] == {
         "imagery": "/apps/census/globe/imagery/{z}/{x}/{y}",
         "terrain": "/apps/census/globe/terrain/",
@@ -405,7 +405,7 @@ def test_the_tiles_get_the_imagery_from_this_origin_under_the_usual_policy(
 def test_without_a_site_server_nothing_is_relayed(client: TestClient) -> None:
     state = show_census(client)
     dataset = CensusState.of(state).dataset
-    globe = client.get(f"/api/walls/demo/census/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1")
+    globe = client.get(f"/api/apps/census/walls/demo/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1")
     assert globe.json()["ground"] == {"imagery": None, "terrain": None}
     for path in ("imagery/1/0/0", "terrain/layer.json"):
         answer = client.get(f"/apps/census/globe/{path}")

@@ -266,7 +266,7 @@ def test_the_api_answers_each_damaged_zip_with_a_422_of_one_line(client: TestCli
     before = stored_folders(client)
     for case, made, line in HANDMADE:
         files = {"file": ("cell.tagwall-lesson", made(), "application/zip")}
-        refused = client.post("/api/image/lessons", files=files, headers=csrf)
+        refused = client.post("/api/apps/image/lessons", files=files, headers=csrf)
         assert (refused.status_code, refused.json()["detail"]) == (422, line), case
     assert stored_folders(client) == before
 
@@ -331,21 +331,24 @@ def test_export_then_import_on_a_fresh_installation_with_the_cli(tmp_path: Path)
 def test_instructors_export_and_import_a_lesson_through_the_api(client: TestClient) -> None:
     operator = operator_headers(client)
     image = upload(client, png_bytes(), **operator).json()["id"]
-    client.post(f"/api/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
-    assert client.get(f"/api/image/images/{image}/lesson").status_code == 401
+    client.post(f"/api/apps/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
+    assert client.get(f"/api/apps/image/images/{image}/lesson").status_code == 401
 
-    exported = client.get(f"/api/image/images/{image}/lesson", headers=operator)
+    exported = client.get(f"/api/apps/image/images/{image}/lesson", headers=operator)
     assert exported.status_code == 200, exported.text
     assert exported.headers["content-disposition"] == 'attachment; filename="scan.tagwall-lesson"'
     with zipfile.ZipFile(io.BytesIO(exported.content)) as archive:
         assert json.loads(archive.read("lesson.json"))["hotspots"][0]["title"] == "Nucleus"
         with Image.open(io.BytesIO(archive.read("image.tif"))) as picture:
             assert picture.size == (600, 400)
-    assert client.get("/api/image/images/0123456789ab/lesson", headers=operator).status_code == 404
+    assert (
+        client.get("/api/apps/image/images/0123456789ab/lesson", headers=operator).status_code
+        == 404
+    )
 
     def send(data: bytes, **headers: str):  # type: ignore[no-untyped-def]
         files = {"file": ("cell.tagwall-lesson", data, "application/zip")}
-        return client.post("/api/image/lessons", files=files, headers=headers)
+        return client.post("/api/apps/image/lessons", files=files, headers=headers)
 
     before = stored_folders(client)
     assert send(exported.content).status_code == 401
@@ -365,6 +368,6 @@ def test_instructors_export_and_import_a_lesson_through_the_api(client: TestClie
     copy = imported.json()
     assert (copy["title"], copy["width"], copy["height"]) == ("Scan", 600, 400)
     assert copy["id"] != image
-    spots = client.get(f"/api/image/images/{copy['id']}/hotspots").json()
+    spots = client.get(f"/api/apps/image/images/{copy['id']}/hotspots").json()
     assert [(s["title"], s["accepted"]) for s in spots] == [("Nucleus", NUCLEUS["accepted"])]
     assert len(stored_folders(client)) == len(before) + 1  # no upload copy left behind

@@ -35,7 +35,7 @@ def stored_folders(client: TestClient) -> list[Path]:
 
 def upload(client: TestClient, data: bytes, name: str = "scan.png", **headers: str):  # type: ignore[no-untyped-def]
     return client.post(
-        "/api/image/images",
+        "/api/apps/image/images",
         files={"file": (name, data, "image/png")},
         data={"title": "Scan"},
         headers=headers,
@@ -57,10 +57,12 @@ def test_an_instructor_uploads_shows_and_every_tile_fetches_the_pyramid(
         400,
         11,
     )
-    assert [i["id"] for i in client.get("/api/image/images").json()] == [image["id"]]
+    assert [i["id"] for i in client.get("/api/apps/image/images").json()] == [image["id"]]
 
     shown = client.post(
-        "/api/image/walls/demo/show", json={"image": image["id"]}, headers={"X-CSRF-Token": csrf}
+        "/api/apps/image/walls/demo/show",
+        json={"image": image["id"]},
+        headers={"X-CSRF-Token": csrf},
     )
     assert shown.status_code == 200, shown.text
     _, state = read_state(services_of(client).db, "demo")
@@ -87,12 +89,12 @@ def test_an_instructor_uploads_shows_and_every_tile_fetches_the_pyramid(
 
 def test_only_instructors_upload_list_and_show(client: TestClient) -> None:
     assert upload(client, png_bytes()).status_code == 401
-    assert client.get("/api/image/images").status_code == 401
-    assert client.post("/api/image/walls/demo/show", json={"image": "x"}).status_code == 401
+    assert client.get("/api/apps/image/images").status_code == 401
+    assert client.post("/api/apps/image/walls/demo/show", json={"image": "x"}).status_code == 401
     operator = operator_headers(client)
     assert upload(client, png_bytes(), **operator).status_code == 201
     unknown = client.post(
-        "/api/image/walls/demo/show", json={"image": "0123456789ab"}, headers=operator
+        "/api/apps/image/walls/demo/show", json={"image": "0123456789ab"}, headers=operator
     )
     assert unknown.status_code == 404
 
@@ -128,10 +130,10 @@ def test_a_bad_upload_gets_its_status_and_one_line_and_nothing_is_kept(
 
 def test_an_upload_without_a_file_or_a_length_is_refused(client: TestClient) -> None:
     operator = operator_headers(client)
-    response = client.post("/api/image/images", data={"title": "nothing"}, headers=operator)
+    response = client.post("/api/apps/image/images", data={"title": "nothing"}, headers=operator)
     assert response.status_code == 400
     chunked = client.post(
-        "/api/image/images",
+        "/api/apps/image/images",
         content=iter([b"--x\r\n"]),
         headers={**operator, "Content-Type": "multipart/form-data; boundary=x"},
     )
@@ -145,12 +147,12 @@ def test_an_instructor_retitles_and_removes_an_image_but_not_one_on_a_wall(
     older = upload(client, png_bytes(), **operator).json()["id"]
     newer = upload(client, png_bytes(), **operator).json()["id"]
     client.post(
-        f"/api/image/images/{older}/hotspots",
+        f"/api/apps/image/images/{older}/hotspots",
         json={"x": 10, "y": 10, "title": "Corner"},
         headers=operator,
     )
-    client.post("/api/image/walls/demo/show", json={"image": older}, headers=operator)
-    url = f"/api/image/images/{older}"
+    client.post("/api/apps/image/walls/demo/show", json={"image": older}, headers=operator)
+    url = f"/api/apps/image/images/{older}"
     assert client.patch(url, json={"title": "Kidney"}).status_code == 401
     assert client.delete(url).status_code == 401
     sign_in(client, "instructor")
@@ -160,12 +162,12 @@ def test_an_instructor_retitles_and_removes_an_image_but_not_one_on_a_wall(
 
     renamed = client.patch(url, json={"title": "  Kidney, H&E "}, headers=csrf)
     assert renamed.status_code == 200 and renamed.json()["title"] == "Kidney, H&E"
-    listed = client.get("/api/image/images").json()
+    listed = client.get("/api/apps/image/images").json()
     assert [(i["id"], i["title"]) for i in listed] == [(newer, "Scan"), (older, "Kidney, H&E")]
     for title in ("", "   ", "x" * 201):
         assert client.patch(url, json={"title": title}, headers=csrf).status_code == 422, title
     assert client.get(f"/apps/image/images/{older}/info.json").json()["title"] == "Kidney, H&E"
-    assert client.patch(f"/api/image/images/{'f' * 12}", json={"title": "x"}, headers=csrf)\
+    assert client.patch(f"/api/apps/image/images/{'f' * 12}", json={"title": "x"}, headers=csrf)\
         .status_code == 404  # fmt: skip
 
     shown = client.delete(url, headers=csrf)
@@ -173,8 +175,8 @@ def test_an_instructor_retitles_and_removes_an_image_but_not_one_on_a_wall(
     assert shown.json()["detail"] == (
         "'Kidney, H&E' is shown on Demo wall (3 x 2, 55-inch): show another image there first."
     )
-    assert client.delete(f"/api/image/images/{'f' * 12}", headers=csrf).status_code == 404
-    client.post("/api/image/walls/demo/show", json={"image": newer}, headers=csrf)
+    assert client.delete(f"/api/apps/image/images/{'f' * 12}", headers=csrf).status_code == 404
+    client.post("/api/apps/image/walls/demo/show", json={"image": newer}, headers=csrf)
     removed = client.delete(url, headers=csrf)
     assert removed.status_code == 200, removed.text
     assert [i["id"] for i in removed.json()] == [newer]
@@ -190,11 +192,11 @@ def test_a_wall_back_on_the_image_app_shows_the_newest_when_its_image_was_remove
     operator = operator_headers(client)
     older = upload(client, png_bytes(), **operator).json()["id"]
     newer = upload(client, png_bytes(), **operator).json()["id"]
-    client.post("/api/image/walls/demo/show", json={"image": older}, headers=operator)
+    client.post("/api/apps/image/walls/demo/show", json={"image": older}, headers=operator)
     away = client.post("/api/walls/demo/state", json={"app": "pattern"}, headers=operator)
     assert away.status_code == 200, away.text
     # the demo wall keeps its choice in the slot but shows nothing of it: removable
-    assert client.delete(f"/api/image/images/{older}", headers=operator).status_code == 200
+    assert client.delete(f"/api/apps/image/images/{older}", headers=operator).status_code == 200
     back = client.post("/api/walls/demo/state", json={"app": "image"}, headers=operator)
     assert back.status_code == 200, back.text
     _, state = read_state(services_of(client).db, "demo")

@@ -117,7 +117,7 @@ def test_a_class_in_tutor_mode_runs_no_round(client: TestClient) -> None:
         ({"app": "nope"}, 422, "There is no app 'nope'"),
         ({"app": "core"}, 422, "There is no app 'core'"),  # the registration codes show nothing
         ({"app": "brain", "mode": "karaoke"}, 422, "no mode 'karaoke' (its modes: quiz, tutor)"),
-        ({"app": "census", "mode": "quiz"}, 422, "its modes: none"),
+        ({"app": "census", "mode": "quiz"}, 422, "its modes: default"),
         ({"names": "full legal name"}, 422, ""),
         ({"title": "t" * 201}, 422, ""),
         ({"colour": "red"}, 422, ""),
@@ -255,7 +255,7 @@ def test_end_class_closes_the_round_and_offers_its_answers(client: TestClient) -
     assert not ended["running"] and ended["joined"] == 1
     shown = Quiz(services_of(client).db, "brain").get_round("demo", number or 0)
     assert shown is not None and not shown.open
-    url = f"/api/walls/demo/brain/answers.csv?round={number}"
+    url = f"/api/apps/brain/walls/demo/answers.csv?round={number}"
     assert ended["exports"] == [{"label": f"Round {number} answers (CSV)", "url": url}]
     export = client.get(url, headers=operator_headers(client))
     disposition = export.headers["content-disposition"]

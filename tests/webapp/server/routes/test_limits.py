@@ -141,9 +141,9 @@ def audience_switches_at_once(client: TestClient) -> None:
     staff = operator_headers(client)
     assert client.post("/api/walls/demo/state", json={"app": "brain"}, headers=staff).is_success
     assert client.post(
-        "/api/walls/demo/brain", json={"audience_switches": True}, headers=staff
+        "/api/apps/brain/walls/demo", json={"audience_switches": True}, headers=staff
     ).is_success
-    assert client.post("/api/walls/demo/brain/quiz/close", headers=staff).is_success
+    assert client.post("/api/apps/brain/walls/demo/quiz/close", headers=staff).is_success
 
 
 def refused_clearly(answer: Response) -> None:

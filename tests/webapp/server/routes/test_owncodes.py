@@ -117,7 +117,7 @@ def hotspot_place(client: TestClient) -> dict[str, Any]:
     """The image app on the wall with one hotspot (Nucleus); its place on the wall."""
     image = shown_image(client)
     operator = operator_headers(client)
-    spot = client.post(f"/api/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
+    spot = client.post(f"/api/apps/image/images/{image}/hotspots", json=NUCLEUS, headers=operator)
     [place] = client.get("/api/walls/demo/places", headers=operator).json()
     assert place["app"] == "image" and place["id"] == f"{image}/{spot.json()['id']}"
     return dict(place)
@@ -160,7 +160,7 @@ def test_a_code_at_a_hotspot_follows_it_and_leaves_and_comes_back_with_the_image
     assert after["rect"] != before["rect"]
     image, spot = place["id"].split("/")
     renamed = {**NUCLEUS, "title": "Core"}
-    client.put(f"/api/image/images/{image}/hotspots/{spot}", json=renamed, headers=operator)
+    client.put(f"/api/apps/image/images/{image}/hotspots/{spot}", json=renamed, headers=operator)
     assert listed(client)[0]["params"]["place"]["label"] == "hotspot Core"
 
     away = {"view": {"center": [0.9, 0.9], "zoom": 4}}  # the hotspot out of view

@@ -110,6 +110,15 @@ def test_security_headers_on_every_page(client: TestClient) -> None:
     assert "'unsafe-inline'" not in HEADERS["content-security-policy"]
 
 
+def test_pages_are_never_shown_again_from_a_browsers_cache(client: TestClient) -> None:
+    """A phone that scanned a code while it did not work (a 410 page) must see its page
+    once it works again, and a shared phone must not show the last person's page."""
+    for url in ("/", "/wall/demo/overview", "/nope", "/t/ZZZZZZZ", "/login"):
+        assert client.get(url).headers["cache-control"] == "no-store", url
+    assert client.get("/static/js/pages/tile.js").headers.get("cache-control") != "no-store"
+    assert "no-store" not in client.get("/healthz").headers.get("cache-control", "")
+
+
 def test_pages_have_no_inline_script(client: TestClient) -> None:
     token = client.app.state.services.tile_token("demo")  # type: ignore[attr-defined]
     operator = client.app.state.services.operator_token  # type: ignore[attr-defined]

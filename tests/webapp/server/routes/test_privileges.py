@@ -85,7 +85,7 @@ def matrix(client: TestClient) -> list[Row]:
     captioned = next(p for p in layout.placed if p.get("label") and p.get("caption"))
     theme = {"attribute": "HH_INC", "scheme": "Blues", "method": "quantiles", "classes": 5}
     tile_theme = (
-        f"/api/walls/kl-3x3/tiles/r2c2/census/theme?dataset={dataset}"
+        f"/api/apps/census/walls/kl-3x3/tiles/r2c2/theme?dataset={dataset}"
         f"&layout={census_state.tag_layout}&{urlencode(theme)}"
     )
     # the brain atlas on a third wall, in quiz mode
@@ -104,7 +104,7 @@ def matrix(client: TestClient) -> list[Row]:
     image = store.add(picture).id
     spot = HotspotFields(x=10, y=10, title="Red", question="Which colour?", accepted=["red"])
     hotspot = hotspots.add(store, image, spot).id
-    spots = f"/api/image/images/{image}/hotspots"
+    spots = f"/api/apps/image/images/{image}/hotspots"
     lesson_file = settings.var_dir / "picture.tagwall-lesson"
     lesson.export(store, image, lesson_file)
     return [
@@ -232,15 +232,15 @@ def matrix(client: TestClient) -> list[Row]:
         ),
         Row(
             "GET",
-            "/api/walls/{wall_id}/tiles/{tile_id}/census",
-            f"/api/walls/kl-3x3/tiles/r2c2/census?dataset={dataset}",
+            "/api/apps/census/walls/{wall_id}/tiles/{tile_id}",
+            f"/api/apps/census/walls/kl-3x3/tiles/r2c2?dataset={dataset}",
             PUBLIC,
         ),
-        Row("GET", "/api/walls/{wall_id}/tiles/{tile_id}/census/theme", tile_theme, PUBLIC),
+        Row("GET", "/api/apps/census/walls/{wall_id}/tiles/{tile_id}/theme", tile_theme, PUBLIC),
         Row(
             "GET",
-            "/api/walls/{wall_id}/census/globe",
-            f"/api/walls/kl-3x3/census/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1",
+            "/api/apps/census/walls/{wall_id}/globe",
+            f"/api/apps/census/walls/kl-3x3/globe?dataset={dataset}&cx=0.5&cy=0.5&zoom=1",
             PUBLIC,
         ),
         # the site's imagery and terrain, relayed for tiles: none set here
@@ -285,54 +285,54 @@ def matrix(client: TestClient) -> list[Row]:
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/theme",
-            "/api/census/walls/kl-3x3/theme",
+            "/api/apps/census/walls/{wall_id}/theme",
+            "/api/apps/census/walls/kl-3x3/theme",
             STAFF_API,
             json={"theme": theme},
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/surface",
-            "/api/census/walls/kl-3x3/surface",
+            "/api/apps/census/walls/{wall_id}/surface",
+            "/api/apps/census/walls/kl-3x3/surface",
             STAFF_API,
             json={"surface": "flat"},
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/camera",
-            "/api/census/walls/kl-3x3/camera",
+            "/api/apps/census/walls/{wall_id}/camera",
+            "/api/apps/census/walls/kl-3x3/camera",
             STAFF_API,
             json={"heading": 0, "tilt": 0},
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/fly",
-            "/api/census/walls/kl-3x3/fly",
+            "/api/apps/census/walls/{wall_id}/fly",
+            "/api/apps/census/walls/kl-3x3/fly",
             STAFF_API,
             json={"group": group},
         ),
         Row(
             "PUT",
-            "/api/census/walls/{wall_id}/tour",
-            "/api/census/walls/kl-3x3/tour",
+            "/api/apps/census/walls/{wall_id}/tour",
+            "/api/apps/census/walls/kl-3x3/tour",
             STAFF_API,
             json={"steps": []},
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/tour/play",
-            "/api/census/walls/kl-3x3/tour/play",
+            "/api/apps/census/walls/{wall_id}/tour/play",
+            "/api/apps/census/walls/kl-3x3/tour/play",
             (401, 401, 409, 409),  # no steps kept
             json={},  # none needed: sends the CSRF header
         ),
         Row(
             "POST",
-            "/api/census/walls/{wall_id}/tour/stop",
-            "/api/census/walls/kl-3x3/tour/stop",
+            "/api/apps/census/walls/{wall_id}/tour/stop",
+            "/api/apps/census/walls/kl-3x3/tour/stop",
             STAFF_API,
             json={},
         ),
-        Row("GET", "/api/census/schemes", "/api/census/schemes", STAFF_API),
+        Row("GET", "/api/apps/census/schemes", "/api/apps/census/schemes", STAFF_API),
         Row(
             "GET",
             "/apps/census/earth/{wall_id}/map.kmz",
@@ -357,17 +357,17 @@ def matrix(client: TestClient) -> list[Row]:
             f"/apps/census/earth/kl-3x3/captions/{census_state.tag_layout}/{captioned['code']}.png",
             PUBLIC,
         ),
-        Row("GET", "/api/census/datasets", "/api/census/datasets", STAFF_API),
+        Row("GET", "/api/apps/census/datasets", "/api/apps/census/datasets", STAFF_API),
         Row(
             "GET",
-            "/api/census/datasets/{dataset_id}",
-            f"/api/census/datasets/{dataset}",
+            "/api/apps/census/datasets/{dataset_id}",
+            f"/api/apps/census/datasets/{dataset}",
             STAFF_API,
         ),
         Row(
             "POST",
-            "/api/census/current",
-            "/api/census/current",
+            "/api/apps/census/current",
+            "/api/apps/census/current",
             STAFF_API,
             json={"dataset": dataset},
         ),
@@ -411,38 +411,38 @@ def matrix(client: TestClient) -> list[Row]:
             PUBLIC,
             form={},
         ),
-        Row("GET", "/api/walls/{wall_id}/brain", "/api/walls/irregular/brain", STAFF_API),
+        Row("GET", "/api/apps/brain/walls/{wall_id}", "/api/apps/brain/walls/irregular", STAFF_API),
         Row(
             "POST",
-            "/api/walls/{wall_id}/brain",
-            "/api/walls/irregular/brain",
+            "/api/apps/brain/walls/{wall_id}",
+            "/api/apps/brain/walls/irregular",
             STAFF_API,
             json={"mode": "quiz"},
         ),
         Row(
             "POST",
-            "/api/walls/{wall_id}/brain/quiz/reset",
-            "/api/walls/irregular/brain/quiz/reset",
+            "/api/apps/brain/walls/{wall_id}/quiz/reset",
+            "/api/apps/brain/walls/irregular/quiz/reset",
             STAFF_API,
             json={},
         ),
         Row(
             "POST",
-            "/api/walls/{wall_id}/brain/quiz/close",
-            "/api/walls/irregular/brain/quiz/close",
+            "/api/apps/brain/walls/{wall_id}/quiz/close",
+            "/api/apps/brain/walls/irregular/quiz/close",
             STAFF_API,
             json={},
         ),
         Row(
             "GET",
-            "/api/walls/{wall_id}/brain/answers.csv",
-            "/api/walls/irregular/brain/answers.csv",
+            "/api/apps/brain/walls/{wall_id}/answers.csv",
+            "/api/apps/brain/walls/irregular/answers.csv",
             STAFF_API,
         ),
         Row(
             "GET",
-            "/api/walls/{wall_id}/brain/unshown",
-            "/api/walls/irregular/brain/unshown",
+            "/api/apps/brain/walls/{wall_id}/unshown",
+            "/api/apps/brain/walls/irregular/unshown",
             STAFF_API,
         ),
         Row("GET", "/api/walls/{wall_id}/own-codes", "/api/walls/irregular/own-codes", STAFF_API),
@@ -472,39 +472,39 @@ def matrix(client: TestClient) -> list[Row]:
             (410, 410, 410, 410),
             form={"name": "{role}"},
         ),
-        Row("GET", "/api/image/images", "/api/image/images", STAFF_API),
+        Row("GET", "/api/apps/image/images", "/api/apps/image/images", STAFF_API),
         Row(
             "POST",
-            "/api/image/images",
-            "/api/image/images",
+            "/api/apps/image/images",
+            "/api/apps/image/images",
             STAFF_API,
             form={"title": "{role}"},
             files={"file": ("picture.png", picture.read_bytes(), "image/png")},
         ),
         Row(
             "PATCH",
-            "/api/image/images/{image_id}",
-            f"/api/image/images/{image}",
+            "/api/apps/image/images/{image_id}",
+            f"/api/apps/image/images/{image}",
             STAFF_API,
             json={"title": "Picture"},
         ),
         Row(
             "DELETE",
-            "/api/image/images/{image_id}",
-            f"/api/image/images/{'f' * 12}",
+            "/api/apps/image/images/{image_id}",
+            f"/api/apps/image/images/{'f' * 12}",
             (401, 401, 404, 404),
             json={},
         ),
         Row(
             "GET",
-            "/api/image/images/{image_id}/lesson",
-            f"/api/image/images/{image}/lesson",
+            "/api/apps/image/images/{image_id}/lesson",
+            f"/api/apps/image/images/{image}/lesson",
             STAFF_API,
         ),
         Row(
             "POST",
-            "/api/image/lessons",
-            "/api/image/lessons",
+            "/api/apps/image/lessons",
+            "/api/apps/image/lessons",
             STAFF_API,
             form={},  # the CSRF token goes in the form
             files={"file": ("picture.tagwall-lesson", lesson_file.read_bytes(), "application/zip")},
@@ -521,24 +521,24 @@ def matrix(client: TestClient) -> list[Row]:
             f"/apps/image/images/{image}/6/0_0.jpg",
             PUBLIC,
         ),
-        Row("GET", "/api/image/images/{image_id}/hotspots", spots, STAFF_API),
+        Row("GET", "/api/apps/image/images/{image_id}/hotspots", spots, STAFF_API),
         Row(
             "POST",
-            "/api/image/images/{image_id}/hotspots",
+            "/api/apps/image/images/{image_id}/hotspots",
             spots,
             STAFF_API,
             json={"x": 1, "y": 1, "title": "{role}"},
         ),
         Row(
             "PUT",
-            "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+            "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
             f"{spots}/{hotspot}",
             STAFF_API,
             json=spot.model_dump(),
         ),
         Row(
             "DELETE",
-            "/api/image/images/{image_id}/hotspots/{hotspot_id}",
+            "/api/apps/image/images/{image_id}/hotspots/{hotspot_id}",
             f"{spots}/{'f' * 12}",
             (401, 401, 404, 404),
             json={},
@@ -560,30 +560,30 @@ def matrix(client: TestClient) -> list[Row]:
         # late: it puts the image app on the demo wall
         Row(
             "POST",
-            "/api/image/walls/{wall_id}/show",
-            "/api/image/walls/demo/show",
+            "/api/apps/image/walls/{wall_id}/show",
+            "/api/apps/image/walls/demo/show",
             STAFF_API,
             json={"image": image},
         ),
         Row(
             "POST",
-            "/api/walls/{wall_id}/image/quiz/start",
-            "/api/walls/demo/image/quiz/start",
+            "/api/apps/image/walls/{wall_id}/quiz/start",
+            "/api/apps/image/walls/demo/quiz/start",
             STAFF_API,
             json={},
         ),
-        Row("GET", "/api/walls/{wall_id}/image", "/api/walls/demo/image", STAFF_API),
+        Row("GET", "/api/apps/image/walls/{wall_id}", "/api/apps/image/walls/demo", STAFF_API),
         Row(
             "POST",
-            "/api/walls/{wall_id}/image/quiz/close",
-            "/api/walls/demo/image/quiz/close",
+            "/api/apps/image/walls/{wall_id}/quiz/close",
+            "/api/apps/image/walls/demo/quiz/close",
             STAFF_API,
             json={},
         ),
         Row(
             "GET",
-            "/api/walls/{wall_id}/image/answers.csv",
-            "/api/walls/demo/image/answers.csv",
+            "/api/apps/image/walls/{wall_id}/answers.csv",
+            "/api/apps/image/walls/demo/answers.csv",
             STAFF_API,
         ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role

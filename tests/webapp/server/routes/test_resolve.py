@@ -13,7 +13,7 @@ from tag_service.codes import content_hash, make_symbol
 from tag_service.sizing import QUIET_ZONE_MODULES
 from tests.conftest import operator_headers
 from wall_client.layout import Wall
-from webapp.apps.contract import Scan
+from webapp.apps.hooks import Scan
 from webapp.database.models import ScanRecord
 from webapp.people.visitors import SESSION_COOKIE
 from webapp.server.services import Services

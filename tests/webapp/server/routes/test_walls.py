@@ -85,7 +85,7 @@ def test_an_app_that_is_not_one_is_422(client: TestClient, name: str) -> None:
     start = version_now(client)
     response = client.post("/api/walls/demo/state", json={"app": name}, headers=operator(client))
     assert response.status_code == 422, response.text
-    assert "no app called" in response.json()["detail"]
+    assert "There is no app" in response.json()["detail"]
     assert version_now(client) == start
 
 
@@ -102,11 +102,11 @@ HUGE = "99999999999999999999999"
     [
         ("GET", f"/api/walls/demo/layouts/{HUGE}", None),
         ("GET", f"/api/walls/demo/layouts/{2**31}", None),
-        ("GET", f"/api/walls/demo/tiles/r1c1/census?dataset={HUGE}", None),
-        ("GET", f"/api/walls/demo/tiles/r1c1/census?dataset=1&layout={HUGE}", None),
-        ("GET", f"/api/census/datasets/{HUGE}", None),
-        ("POST", "/api/census/current", {"dataset": int(HUGE)}),
-        ("GET", f"/api/walls/demo/brain/answers.csv?round={HUGE}", None),
+        ("GET", f"/api/apps/census/walls/demo/tiles/r1c1?dataset={HUGE}", None),
+        ("GET", f"/api/apps/census/walls/demo/tiles/r1c1?dataset=1&layout={HUGE}", None),
+        ("GET", f"/api/apps/census/datasets/{HUGE}", None),
+        ("POST", "/api/apps/census/current", {"dataset": int(HUGE)}),
+        ("GET", f"/api/apps/brain/walls/demo/answers.csv?round={HUGE}", None),
         ("POST", f"/api/walls/demo/public/{HUGE}/approve", None),
     ],
 )
@@ -118,3 +118,45 @@ def test_numbers_too_large_for_the_database_are_refused_not_500(
         response = client.request(method, url, json=body, headers=headers)
         assert response.status_code in (401, 404, 422), (headers, response.text)
     assert response.status_code == 422
+
+
+def test_a_mode_goes_through_its_app_so_the_brain_closes_and_opens_its_rounds(
+    client: TestClient,
+) -> None:
+    """{"mode": "tutor"} with the brain on the wall once left its round open, and every
+    pin then answered 409: a mode is the app's setting, changed by the app's
+    ``switch_mode`` whichever way it comes (here the state API)."""
+    headers = operator(client)
+
+    def post(patch: dict[str, object]) -> int:
+        return client.post("/api/walls/demo/state", json=patch, headers=headers).status_code
+
+    def brain() -> dict[str, object]:
+        found: dict[str, object] = client.get("/api/apps/brain/walls/demo", headers=headers).json()
+        return found
+
+    assert post({"app": "brain"}) == 200
+    first = brain()["round"]
+    assert isinstance(first, dict) and first["open"]
+    assert post({"mode": "tutor"}) == 200
+    tutor = brain()
+    assert tutor["mode"] == "tutor" and isinstance(tutor["round"], dict)
+    assert not tutor["round"]["open"]  # tutor pages name every pin
+    assert post({"mode": "quiz"}) == 200
+    again = brain()["round"]
+    assert isinstance(again, dict) and again["open"] and again["number"] == first["number"] + 1
+
+
+def test_a_mode_the_app_does_not_have_is_refused_and_changes_nothing(client: TestClient) -> None:
+    start = version_now(client)
+    headers = operator(client)
+    refused = client.post("/api/walls/demo/state", json={"mode": "karaoke"}, headers=headers)
+    assert refused.status_code == 422
+    assert refused.json()["detail"] == (
+        "The pattern app has no mode 'karaoke' (its modes: default)."
+    )
+    both = client.post(
+        "/api/walls/demo/state", json={"app": "census", "mode": "tutor"}, headers=headers
+    )
+    assert both.status_code == 422 and "The census app has no mode 'tutor'" in both.text
+    assert version_now(client) == start

@@ -36,12 +36,12 @@ def change(client: TestClient, **patch: object) -> int:
 
 
 def test_hello_without_version_gets_a_snapshot_with_viewport(client: TestClient) -> None:
-    version = change(client, mode="quiz")
+    version = change(client, layers={"quiz": True})
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello", "last_version": None})
         snapshot = ws.receive_json()
     assert snapshot["type"] == "snapshot"
-    assert snapshot["version"] == version and snapshot["state"]["mode"] == "quiz"
+    assert snapshot["version"] == version and snapshot["state"]["layers"] == {"quiz": True}
     assert snapshot["viewport"]["display_id"] == "r1c1"
     assert len(snapshot["viewport"]["to_pixels"]) == 6
 
@@ -52,17 +52,17 @@ def test_live_events_follow_in_order(client: TestClient) -> None:
         ws.send_json({"type": "hello"})
         assert ws.receive_json()["version"] == start
         for index in range(3):
-            change(client, mode=f"m{index}")
+            change(client, layers={f"m{index}": True})
         events = [ws.receive_json() for _ in range(3)]
     assert [e["type"] for e in events] == ["event"] * 3
     assert [e["version"] for e in events] == [start + 1, start + 2, start + 3]
-    assert events[2]["changes"] == {"mode": "m2"}
+    assert events[2]["changes"] == {"layers": {"m0": True, "m1": True, "m2": True}}
 
 
 def test_reconnect_replays_only_missed_events(client: TestClient) -> None:
     start = version_now(client)
     for index in range(4):
-        change(client, mode=f"m{index}")
+        change(client, layers={f"m{index}": True})
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello", "last_version": start + 2})
         replay = [ws.receive_json() for _ in range(2)]
@@ -72,11 +72,25 @@ def test_reconnect_replays_only_missed_events(client: TestClient) -> None:
     ]
 
 
+def test_reconnect_after_a_missed_heavy_change_gets_a_snapshot(client: TestClient) -> None:
+    """A heavy change (here the app, with its codes' layout) needs loading before it is
+    shown, which a tile does for a snapshot: a replayed event would show the new state
+    without its codes (seen after a restart that switched the wall's app)."""
+    start = version_now(client)
+    change(client, layers={"seen": True})
+    change(client, app="census")
+    with client.websocket_connect(TILE) as ws:
+        ws.send_json({"type": "hello", "last_version": start})
+        message = ws.receive_json()
+    assert message["type"] == "snapshot" and message["version"] == start + 2
+    assert message["state"]["app"] == "census"
+
+
 def test_reconnect_beyond_history_gets_snapshot(client: TestClient) -> None:
     client.app.state.services.hub.keep_events = 2  # type: ignore[attr-defined]
     start = version_now(client)
     for index in range(5):
-        change(client, mode=f"m{index}")
+        change(client, layers={f"m{index}": True})
     with client.websocket_connect(TILE) as ws:
         ws.send_json({"type": "hello", "last_version": start + 1})
         message = ws.receive_json()
@@ -185,8 +199,8 @@ def test_viewer_receives_but_cannot_report(client: TestClient) -> None:
         ws.send_json({"type": "hello"})
         snapshot = ws.receive_json()
         assert snapshot["type"] == "snapshot" and snapshot["viewport"] is None
-        change(client, mode="quiz")
-        assert ws.receive_json()["changes"] == {"mode": "quiz"}
+        change(client, layers={"quiz": True})
+        assert ws.receive_json()["changes"] == {"layers": {"quiz": True}}
     frames = ({"type": "hello"}, {"type": "ready", "version": 1})
     assert closed_with(client, "/ws/wall/demo/view", *frames) == CLOSE_POLICY
 
@@ -196,8 +210,8 @@ def test_bad_client_does_not_disturb_other_tiles(client: TestClient) -> None:
         good.send_json({"type": "hello"})
         good.receive_json()
         assert closed_with(client, TILE, "garbage") == CLOSE_POLICY
-        change(client, mode="after")
-        assert good.receive_json()["changes"] == {"mode": "after"}
+        change(client, layers={"after": True})
+        assert good.receive_json()["changes"] == {"layers": {"after": True}}
 
 
 def test_slow_tile_is_dropped_and_resyncs(client: TestClient) -> None:
@@ -251,10 +265,10 @@ def test_a_tile_on_the_redis_bus_receives_changes(redis_settings: Settings) -> N
         with client.websocket_connect(TILE) as ws:
             ws.send_json({"type": "hello"})
             assert ws.receive_json()["version"] == start  # the snapshot: subscribed
-            version = change(client, mode="quiz")
+            version = change(client, layers={"quiz": True})
             event = ws.receive_json()
     assert event["type"] == "event" and event["version"] == version == start + 1
-    assert event["changes"] == {"mode": "quiz"}
+    assert event["changes"] == {"layers": {"quiz": True}}
 
 
 def test_two_server_processes_serve_one_wall(redis_settings: Settings) -> None:
@@ -268,8 +282,11 @@ def test_two_server_processes_serve_one_wall(redis_settings: Settings) -> None:
         start = version_now(two)
         ws.send_json({"type": "hello"})
         assert ws.receive_json()["version"] == start  # the snapshot: subscribed
-        versions = [change(one if index % 2 else two, mode=f"m{index}") for index in range(4)]
+        versions = [
+            change(one if index % 2 else two, layers={"shown": index % 2 == 0})
+            for index in range(4)
+        ]
         events = [ws.receive_json() for _ in range(4)]
     assert versions == [start + 1, start + 2, start + 3, start + 4]
     assert [e["version"] for e in events] == versions
-    assert [e["changes"]["mode"] for e in events] == ["m0", "m1", "m2", "m3"]
+    assert [e["changes"]["layers"]["shown"] for e in events] == [True, False, True, False]

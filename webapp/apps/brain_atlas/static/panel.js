@@ -66,7 +66,7 @@ async function showUnshown(status) {
     line.hidden = true;
     return;
   }
-  const found = await api(`/api/walls/${wallId}/brain/unshown?tag_set=${status.tag_set}`);
+  const found = await api(`/api/apps/brain/walls/${wallId}/unshown?tag_set=${status.tag_set}`);
   if (unshownFor !== key) return;  // the round or the set changed meanwhile
   line.hidden = found.regions.length === 0;
   line.textContent = `${found.regions.length} of ${found.pins} pins have a code in no view,`
@@ -92,11 +92,11 @@ function show(status) {
 async function refresh(force = false) {
   if (!force && Date.now() - fetchedAt < REFRESH_MS) return;
   fetchedAt = Date.now();
-  show(await api(`/api/walls/${wallId}/brain`));
+  show(await api(`/api/apps/brain/walls/${wallId}`));
 }
 
 async function control(choice) {
-  show(await api(`/api/walls/${wallId}/brain`, {method: "POST", body: JSON.stringify(choice)}));
+  show(await api(`/api/apps/brain/walls/${wallId}`, {method: "POST", body: JSON.stringify(choice)}));
 }
 
 for (const button of document.querySelectorAll("[data-brain-mode]")) {
@@ -117,12 +117,12 @@ $("brain-reveal").addEventListener("change", (event) => {
 });
 $("brain-close").addEventListener("click", async () => {
   if (!confirm("Close the round? Answers stop counting and every student sees the correct names.")) return;
-  show(await api(`/api/walls/${wallId}/brain/quiz/close`, {method: "POST"}));
+  show(await api(`/api/apps/brain/walls/${wallId}/quiz/close`, {method: "POST"}));
 });
 $("brain-reset").addEventListener("click", async () => {
   if (!confirm("Start a new round? The pins get new numbers and codes; this round closes and stays in the export.")) return;
   const body = JSON.stringify({reveal: $("brain-reveal").value});
-  show(await api(`/api/walls/${wallId}/brain/quiz/reset`, {method: "POST", body}));
+  show(await api(`/api/apps/brain/walls/${wallId}/quiz/reset`, {method: "POST", body}));
 });
 onStatus((detail) => {
   state = detail.status.state;

@@ -38,7 +38,9 @@ class CameraChoice(BaseModel):
     tilt: Tilt
 
 
-@router.post("/api/census/walls/{wall_id}/camera", dependencies=[StaffOnly], responses=errors(409))
+@router.post(
+    "/api/apps/census/walls/{wall_id}/camera", dependencies=[StaffOnly], responses=errors(409)
+)
 async def aim_wall_camera(wall: WallDep, choice: CameraChoice, context: ContextDep) -> CameraChoice:
     """Turn and tilt the globe's camera (the dashboard); every tile changes in the same
     frame. A tour playing stops. 409 when the census map is not on the wall."""
@@ -78,7 +80,7 @@ class FlyTo(BaseModel):
 
 
 @router.post(
-    "/api/census/walls/{wall_id}/fly", dependencies=[StaffOnly], responses=errors(404, 409)
+    "/api/apps/census/walls/{wall_id}/fly", dependencies=[StaffOnly], responses=errors(404, 409)
 )
 async def fly_wall(wall: WallDep, place: FlyTo, context: ContextDep) -> View:
     """Look at a place from the middle of the wall (the dashboard): the wall's view
@@ -123,7 +125,9 @@ class TourSteps(BaseModel):
     steps: list[TourStep] = Field(max_length=MAX_TOUR_STEPS)
 
 
-@router.put("/api/census/walls/{wall_id}/tour", dependencies=[StaffOnly], responses=errors(409))
+@router.put(
+    "/api/apps/census/walls/{wall_id}/tour", dependencies=[StaffOnly], responses=errors(409)
+)
 async def keep_tour(wall: WallDep, tour: TourSteps, context: ContextDep) -> Tour:
     """Keep the wall's tour (its steps; a tour playing stops). 409 when the census map
     is not on the wall."""
@@ -134,7 +138,7 @@ async def keep_tour(wall: WallDep, tour: TourSteps, context: ContextDep) -> Tour
 
 
 @router.post(
-    "/api/census/walls/{wall_id}/tour/play", dependencies=[StaffOnly], responses=errors(409)
+    "/api/apps/census/walls/{wall_id}/tour/play", dependencies=[StaffOnly], responses=errors(409)
 )
 async def play_wall_tour(wall: WallDep, context: ContextDep) -> Tour:
     """Play the wall's tour from its first step, every step on every tile in the same
@@ -150,7 +154,7 @@ async def play_wall_tour(wall: WallDep, context: ContextDep) -> Tour:
         ) from None
 
 
-@router.post("/api/census/walls/{wall_id}/tour/stop", dependencies=[StaffOnly])
+@router.post("/api/apps/census/walls/{wall_id}/tour/stop", dependencies=[StaffOnly])
 async def stop_wall_tour(wall: WallDep, context: ContextDep) -> Tour:
     """Stop the wall's tour where it is (nothing to stop: the tour as it is)."""
     return await stop_tour(census_maps(context), context, wall)

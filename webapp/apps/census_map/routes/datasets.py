@@ -44,7 +44,7 @@ class DataSetEntry(BaseModel):
     created_at: str
 
 
-@router.get("/api/census/datasets", dependencies=[StaffOnly])
+@router.get("/api/apps/census/datasets", dependencies=[StaffOnly])
 async def datasets(context: ContextDep) -> list[DataSetEntry]:
     infos = await run_blocking(list_datasets, context.db)
     return [
@@ -60,7 +60,7 @@ async def datasets(context: ContextDep) -> list[DataSetEntry]:
     ]
 
 
-@router.post("/api/census/current", dependencies=[StaffOnly], responses=errors(404))
+@router.post("/api/apps/census/current", dependencies=[StaffOnly], responses=errors(404))
 async def choose_dataset(choice: DataSetChoice, context: ContextDep) -> DataSetChoice:
     """Make a data set the one the census map shows; walls showing it switch in sync."""
     try:
@@ -82,7 +82,7 @@ class ThemeChoice(BaseModel):
 
 
 @router.post(
-    "/api/census/walls/{wall_id}/theme", dependencies=[StaffOnly], responses=errors(404, 409)
+    "/api/apps/census/walls/{wall_id}/theme", dependencies=[StaffOnly], responses=errors(404, 409)
 )
 async def choose_theme(wall: WallDep, choice: ThemeChoice, context: ContextDep) -> ThemeChoice:
     """Colour the wall's tracts by one of the data set's values (the dashboard); every
@@ -100,7 +100,9 @@ class SurfaceChoice(BaseModel):
     surface: Surface
 
 
-@router.post("/api/census/walls/{wall_id}/surface", dependencies=[StaffOnly], responses=errors(409))
+@router.post(
+    "/api/apps/census/walls/{wall_id}/surface", dependencies=[StaffOnly], responses=errors(409)
+)
 async def choose_wall_surface(
     wall: WallDep, choice: SurfaceChoice, context: ContextDep
 ) -> SurfaceChoice:
@@ -122,7 +124,7 @@ class SchemeEntry(BaseModel):
     colours: list[str]  # for five classes
 
 
-@router.get("/api/census/schemes", dependencies=[StaffOnly])
+@router.get("/api/apps/census/schemes", dependencies=[StaffOnly])
 async def schemes() -> list[SchemeEntry]:
     """The colour schemes the dashboard offers (ColorBrewer's colour-blind-safe ones)."""
     return [
@@ -149,7 +151,9 @@ class DataSetDetail(BaseModel):
     attributes: list[AttributeEntry]
 
 
-@router.get("/api/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404))
+@router.get(
+    "/api/apps/census/datasets/{dataset_id}", dependencies=[StaffOnly], responses=errors(404)
+)
 async def dataset_detail(dataset_id: RowId, context: ContextDep) -> DataSetDetail:
     """A data set's groups and values, for the dashboard's toggles and colouring."""
     dataset = await run_blocking(census_maps(context).dataset, context, dataset_id)

@@ -40,7 +40,7 @@ from webapp.apps.census_map.theme import Shading
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
-from webapp.engine.wall_state import WallState, now_ms, read_state
+from webapp.engine.wall_state import WallState, now_ms
 from webapp.tags.schemas import PlacedCode
 from webapp.web.context import AppContext
 from webapp.web.cors import AnyOriginRoute
@@ -68,7 +68,7 @@ async def _kml_inputs(
     wall = context.walls.get(wall_id or context.settings.default_wall)
     if wall is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no wall {wall_id!r}.")
-    _, state = await run_blocking(read_state, context.db, wall.id)
+    state = await context.state(wall)
     return wall, state, census_maps(context)
 
 

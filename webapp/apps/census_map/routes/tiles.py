@@ -38,7 +38,7 @@ from webapp.web.problems import errors
 router = APIRouter(tags=["census"])
 
 
-@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census", responses=errors(404))
+@router.get("/api/apps/census/walls/{wall_id}/tiles/{tile_id}", responses=errors(404))
 async def tile_map(
     wall: WallDep,
     tile: TileDep,
@@ -109,7 +109,7 @@ def _census_tags(context: AppContext, codes: list[str]) -> dict[str, TagRecord]:
         return {tag.code: tag for tag in rows}
 
 
-@router.get("/api/walls/{wall_id}/tiles/{tile_id}/census/theme", responses=errors(404))
+@router.get("/api/apps/census/walls/{wall_id}/tiles/{tile_id}/theme", responses=errors(404))
 async def tile_theme(
     wall: WallDep,
     tile: TileDep,
@@ -174,7 +174,7 @@ def _theme_body(
     return body.model_dump_json().encode()
 
 
-@router.get("/api/walls/{wall_id}/census/globe", responses=errors(404))
+@router.get("/api/apps/census/walls/{wall_id}/globe", responses=errors(404))
 async def wall_globe(
     wall: WallDep,
     context: ContextDep,

@@ -29,7 +29,7 @@ export function groupShown(state, groupId) {
 
 export class CensusViews {
   constructor(wallId, tileId) {
-    this.base = `/api/walls/${wallId}/tiles/${tileId}/census`;
+    this.base = `/api/apps/census/walls/${wallId}/tiles/${tileId}`;
     this.views = new Map();  // the map's share per view, the latest few
     this.themes = new Map();  // the colouring per theme, apart: a pan never drops it
   }
@@ -273,7 +273,7 @@ function globeStyle(view, theme, state) {
  * Cesium fails, `missing` says why and the tile draws the flat map. */
 class GlobeLayer {
   constructor(wallId, display) {
-    this.base = `/api/walls/${wallId}/census/globe`;
+    this.base = `/api/apps/census/walls/${wallId}/globe`;
     this.display = display;
     this.maps = new Map();
     this.globe = null;

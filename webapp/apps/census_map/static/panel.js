@@ -23,7 +23,7 @@ function option(value, text) {
 }
 
 async function loadDatasets() {
-  const datasets = await api("/api/census/datasets");
+  const datasets = await api("/api/apps/census/datasets");
   listedCurrent = datasets.find((d) => d.current)?.id ?? null;
   $("census-dataset").replaceChildren(...datasets.map((d) => {
     const entry = option(d.id, `${d.title} (${d.tracts} tracts, #${d.id})${d.current ? " · current" : ""}`);
@@ -40,7 +40,7 @@ async function loadDatasets() {
 async function loadGroups(datasetId) {
   if (groupsOf === datasetId) return;
   groupsOf = datasetId;
-  const detail = datasetId ? await api(`/api/census/datasets/${datasetId}`) : null;
+  const detail = datasetId ? await api(`/api/apps/census/datasets/${datasetId}`) : null;
   groups = detail?.groups ?? [];
   attributes = detail?.attributes ?? [];
   $("census-attribute").replaceChildren(option("", "nothing (one plain colour)"),
@@ -49,7 +49,7 @@ async function loadGroups(datasetId) {
 }
 
 async function loadSchemes() {
-  const schemes = await api("/api/census/schemes");
+  const schemes = await api("/api/apps/census/schemes");
   $("census-scheme").replaceChildren(...schemes.map((s) => option(s.name, `${s.name} (${s.kind})`)));
 }
 
@@ -120,7 +120,7 @@ function say(element, promise) {
 }
 
 function aim(heading, tilt) {
-  return say($("census-camera-shown"), api(`/api/census/walls/${wallId}/camera`, {
+  return say($("census-camera-shown"), api(`/api/apps/census/walls/${wallId}/camera`, {
     method: "POST", body: JSON.stringify({heading, tilt}),
   }));
 }
@@ -135,7 +135,7 @@ function placeOf(text) {
 }
 
 function tourCall(path, options = {method: "POST"}) {
-  return say($("census-tour-shown"), api(`/api/census/walls/${wallId}/tour${path}`, options));
+  return say($("census-tour-shown"), api(`/api/apps/census/walls/${wallId}/tour${path}`, options));
 }
 
 function putTour(steps) {
@@ -189,13 +189,13 @@ onStatus(async (detail) => {
 
 bindViewControls($("census-panel"), () => state);
 $("census-use").addEventListener("click", async () => {
-  await api("/api/census/current", {
+  await api("/api/apps/census/current", {
     method: "POST", body: JSON.stringify({dataset: Number($("census-dataset").value)}),
   });
   await loadDatasets();
 });
 for (const button of $("census-surface").querySelectorAll("[data-surface]")) {
-  button.addEventListener("click", () => api(`/api/census/walls/${wallId}/surface`, {
+  button.addEventListener("click", () => api(`/api/apps/census/walls/${wallId}/surface`, {
     method: "POST", body: JSON.stringify({surface: button.dataset.surface}),
   }));
 }
@@ -215,7 +215,7 @@ $("census-camera").querySelector("[data-camera-reset]").addEventListener("click"
 $("census-fly").addEventListener("submit", (event) => {
   event.preventDefault();
   const text = $("census-place").value;
-  say($("census-fly-said"), api(`/api/census/walls/${wallId}/fly`, {
+  say($("census-fly-said"), api(`/api/apps/census/walls/${wallId}/fly`, {
     method: "POST", body: JSON.stringify(placeOf(text)),
   }).then(() => { $("census-fly-said").textContent = `Flying to ${text}.`; }));
 });
@@ -234,7 +234,7 @@ $("census-colour").addEventListener("click", async () => {
     attribute, scheme: $("census-scheme").value, method: $("census-method").value,
     classes: Number($("census-classes").value),
   } : null;
-  await api(`/api/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
+  await api(`/api/apps/census/walls/${wallId}/theme`, {method: "POST", body: JSON.stringify({theme})});
 });
 loadDatasets();
 loadSchemes();

@@ -88,7 +88,7 @@ function listSpots() {
     const remove = document.createElement("button");
     remove.textContent = "delete";
     remove.addEventListener("click", async () => {
-      spots = await api(`/api/image/images/${pyramid.id}/hotspots/${spot.id}`, {method: "DELETE"});
+      spots = await api(`/api/apps/image/images/${pyramid.id}/hotspots/${spot.id}`, {method: "DELETE"});
       if (editing?.id === spot.id) clearForm();
       listSpots();
       draw();
@@ -109,7 +109,7 @@ export async function showHotspots(imageId) {
   picture = null;
   const tile = await fetch(pyramid.url(pyramid.coarse, 0, 0));
   if (tile.ok) picture = await createImageBitmap(await tile.blob());
-  spots = await api(`/api/image/images/${imageId}/hotspots`);
+  spots = await api(`/api/apps/image/images/${imageId}/hotspots`);
   listSpots();
   draw();
 }
@@ -146,7 +146,7 @@ form.addEventListener("submit", async (event) => {
     accepted: field("accepted").value.split("\n").map((a) => a.trim()).filter(Boolean),
   };
   try {
-    const url = `/api/image/images/${pyramid.id}/hotspots`;
+    const url = `/api/apps/image/images/${pyramid.id}/hotspots`;
     if (editing) {
       const saved = await api(`${url}/${editing.id}`, {method: "PUT", body: JSON.stringify(body)});
       spots = spots.map((spot) => (spot.id === saved.id ? saved : spot));
@@ -167,7 +167,7 @@ form.addEventListener("submit", async (event) => {
 function showQuiz(status) {
   const round = status.round;
   csv.hidden = !round;
-  if (round) csv.href = `/api/walls/${wallId}/image/answers.csv?round=${round.number}`;
+  if (round) csv.href = `/api/apps/image/walls/${wallId}/answers.csv?round=${round.number}`;
   const items = status.items.map((item) => {
     const share = item.share_correct === null ? "–" : `${Math.round(item.share_correct * 100)} %`;
     return `Q${item.number} ${item.title}: ${item.answered} answered, ${share} right`;
@@ -180,7 +180,7 @@ function showQuiz(status) {
 for (const button of box.querySelectorAll("[data-quiz]")) {
   button.addEventListener("click", async () => {
     try {
-      showQuiz(await api(`/api/walls/${wallId}/image/quiz/${button.dataset.quiz}`,
+      showQuiz(await api(`/api/apps/image/walls/${wallId}/quiz/${button.dataset.quiz}`,
         {method: "POST", body: "{}"}));
     } catch (error) {
       quizSaid.textContent = error.message;
@@ -191,5 +191,5 @@ for (const button of box.querySelectorAll("[data-quiz]")) {
 /** The round's statistics, polled while the panel is open (answers come in live). */
 export async function refreshQuiz() {
   if (box.hidden) return;
-  showQuiz(await api(`/api/walls/${wallId}/image`));
+  showQuiz(await api(`/api/apps/image/walls/${wallId}`));
 }

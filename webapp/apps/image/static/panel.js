@@ -56,7 +56,7 @@ function rename(titleCell, image) {
   form.addEventListener("submit", (event) => {
     event.preventDefault();
     change(async () => {
-      const renamed = await api(`/api/image/images/${image.id}`,
+      const renamed = await api(`/api/apps/image/images/${image.id}`,
         {method: "PATCH", body: JSON.stringify({title: input.value})});
       return `renamed ${image.title} to ${renamed.title}`;
     });
@@ -68,7 +68,7 @@ function rename(titleCell, image) {
 function remove(image) {
   if (!confirm(`Delete ${image.title}? Its picture and hotspots go for good (export its lesson first to keep them).`)) return;
   change(async () => {
-    await api(`/api/image/images/${image.id}`, {method: "DELETE"});
+    await api(`/api/apps/image/images/${image.id}`, {method: "DELETE"});
     return `deleted ${image.title}`;
   });
 }
@@ -78,7 +78,7 @@ function row(image, shown) {
   const show = button(onWall ? "On the wall" : "Show on the wall", () => showImage(image.id));
   show.disabled = onWall;
   const lesson = document.createElement("a");
-  lesson.href = `/api/image/images/${image.id}/lesson`;
+  lesson.href = `/api/apps/image/images/${image.id}/lesson`;
   lesson.download = "";  // the file's name is the server's (Content-Disposition)
   lesson.textContent = "Export lesson";
   const title = cell(image.title, "Title");
@@ -97,20 +97,20 @@ function onWall() {
 }
 
 async function refresh() {
-  const images = await api("/api/image/images");
+  const images = await api("/api/apps/image/images");
   const shown = onWall();
   document.querySelector("#image-list tbody").replaceChildren(...images.map((i) => row(i, shown)));
 }
 
 async function showImage(id) {
-  await api(`/api/image/walls/${wallId}/show`, {method: "POST", body: JSON.stringify({image: id})});
+  await api(`/api/apps/image/walls/${wallId}/show`, {method: "POST", body: JSON.stringify({image: id})});
 }
 
 upload.addEventListener("submit", async (event) => {
   event.preventDefault();
   uploadSaid.textContent = "uploading and building the pyramid…";
   try {
-    const added = await sendForm("/api/image/images", upload);
+    const added = await sendForm("/api/apps/image/images", upload);
     uploadSaid.textContent = `added ${added.title} (${added.width} × ${added.height} px)`;
     upload.reset();
   } catch (error) {
@@ -124,8 +124,8 @@ lessonForm.addEventListener("submit", async (event) => {
   event.preventDefault();
   lessonSaid.textContent = "importing…";
   try {
-    const added = await sendForm("/api/image/lessons", lessonForm);
-    const spots = await api(`/api/image/images/${added.id}/hotspots`);
+    const added = await sendForm("/api/apps/image/lessons", lessonForm);
+    const spots = await api(`/api/apps/image/images/${added.id}/hotspots`);
     lessonSaid.textContent =
       `imported ${added.title} (${added.width} × ${added.height} px, ${spots.length} hotspots)`;
     lessonForm.reset();

@@ -1,0 +1,1 @@
+"""An app that reaches outside its own name, which tagwall refuses to load."""
