@@ -115,15 +115,16 @@ FLOORS = {
     "webapp.web": 5,
     "webapp.publishing": 6,
     "webapp.apps": 6,
-    "webapp.door": 7,
+    "webapp.changes": 7,
     "webapp.server": 8,
     "webapp.cli": 9,
     "webapp.cli.console": 5,  # what every command shares, the apps' commands too
     "webapp.quiz.http": 5,  # what the apps' quiz routes share
 }
 """Each room's floor: a module imports only from its own floor and those below. The
-engine knows nothing above it; the web layer's context is what apps are given; the door
-stands above the apps' contract; the server puts it all together; the CLI drives it."""
+engine knows nothing above it; the web layer's context is what apps are given; the wall
+changes (their one door) stand above the apps' hooks; the server puts it all together;
+the CLI drives it."""
 
 
 def floor_of(module: str) -> int:
@@ -162,7 +163,7 @@ APP_PACKAGES = sorted(
 
 def test_the_core_imports_no_app_and_apps_know_no_other_app() -> None:
     """An app is a plug-in: nothing outside its package imports it, not even the apps'
-    contract or discovery (they find apps through entry points)."""
+    hooks or discovery (they find apps through entry points)."""
     wrong = sorted(
         f"{module} -> {other}"
         for module, imported in GRAPH.items()

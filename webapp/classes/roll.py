@@ -9,6 +9,7 @@ roll gives the dashboard its live count and an export its names.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any, Literal, get_args
@@ -16,10 +17,14 @@ from zoneinfo import ZoneInfo
 
 from sqlalchemy import Row, and_, bindparam, func, select, update
 from sqlalchemy.exc import IntegrityError
+from starlette.requests import HTTPConnection
 
+from webapp.core.settings import Settings
+from webapp.core.threads import run_blocking
 from webapp.database.connection import Database, as_utc, is_row_id
 from webapp.database.models import ClassMemberRecord, ClassRecord
-from webapp.people.person import plain_text
+from webapp.people.addresses import AddressRules
+from webapp.people.person import person_with, plain_text
 
 NameMode = Literal["anonymous", "nickname", "roster"]
 NAME_MODES: tuple[NameMode, ...] = get_args(NameMode)
@@ -265,3 +270,31 @@ def roll_names(db: Database, class_id: int) -> dict[str, str]:
             )
         ).all()
     return {row.visitor_id: row.name for row in rows}
+
+
+async def roll_call(
+    request: HTTPConnection,
+    db: Database,
+    settings: Settings,
+    address: str,
+    rules: AddressRules,
+    wall_id: str,
+    visitor_id: str,
+) -> int | None:
+    """The one rule of a running class's roll, asked before every scan of its wall: a
+    student not on the roll joins it, at once in an anonymous class; for a class that
+    asks a name, the id of the class whose join page asks it first. None: go on with
+    the scan. Staff are never asked.
+
+    The scan's app wants the person too: both come in one short read (on the loop for
+    SQLite; one hand-off to a thread, not two, for a database server)."""
+    person, now = await person_with(
+        request, db, settings, address, rules, standing, db, wall_id, visitor_id
+    )
+    if now is None or now.joined or person.is_staff:
+        return None
+    if now.session.names != "anonymous":
+        return now.session.id
+    with contextlib.suppress(ClassError):  # ended meanwhile: nothing to join
+        await run_blocking(join, db, now.session.id, visitor_id)
+    return None

@@ -130,7 +130,7 @@ class WallHub:
             await event.wait()
 
     def placing(self, wall_id: str) -> AbstractAsyncContextManager[None]:
-        """Held by the door (``webapp.door.changes``) through a whole change, placing its
+        """Held by the door (``webapp.changes.door``) through a whole change, placing its
         codes included, so two changes of one wall never interleave (a layout always
         matches its view) and publication order is version order. The bus holds the
         wall: within this process, and across every process sharing the bus."""
@@ -139,7 +139,7 @@ class WallHub:
     async def commit(self, wall_id: str, update: Callable[[WallState], WallState]) -> Change | None:
         """Bump the version, persist, then publish.
 
-        Only the door (``webapp.door.changes``) calls this, holding
+        Only the door (``webapp.changes.door``) calls this, holding
         :meth:`placing`: that hold, not a lock of the hub's, makes publication order
         equal commit order, in every process of the wall.
         """

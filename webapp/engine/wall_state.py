@@ -1,7 +1,7 @@
 """The authoritative state of a wall and the one function that changes it.
 
 Tiles are pure renderers: they draw the state they are sent. Every change goes
-through the door (``webapp.door.changes``) to :func:`commit_change`, which bumps the wall's
+through the door (``webapp.changes.door``) to :func:`commit_change`, which bumps the wall's
 version and persists the new state with the event that describes it; only then is the
 event published.
 

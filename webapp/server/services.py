@@ -14,11 +14,11 @@ from redis.asyncio import Redis
 from wall_client.layout import Wall
 from webapp.apps.hooks import WallApp
 from webapp.apps.installed import wall_apps
+from webapp.changes.door import WallDoor
 from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
 from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
-from webapp.door.changes import WallDoor
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import Change, WallState, read_state
 from webapp.people.addresses import AddressRules

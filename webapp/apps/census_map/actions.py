@@ -1,6 +1,6 @@
 """What phones do to the census map on the wall: flip a tract group, open a balloon.
 
-Each is one state change through the door (``webapp.door.changes``); a balloon is placed
+Each is one state change through the door (``webapp.changes.door``); a balloon is placed
 while the door holds the wall, so two opened at once never land on each other.
 """
 

@@ -3,15 +3,12 @@ that puts a student on the class's roll (asking the name the class wants)."""
 
 from __future__ import annotations
 
-import contextlib
 from typing import Annotated
-from urllib.parse import quote
 
 from fastapi import APIRouter, Form, HTTPException, Query, Request, status
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from wall_client.layout import Wall
-from webapp.apps.installed import REGISTRATION
 from webapp.classes.roll import (
     MAX_NAME,
     NAME_PROMPTS,
@@ -22,14 +19,10 @@ from webapp.classes.roll import (
     join,
     joined_count,
     latest_class,
-    standing,
     start_class,
 )
 from webapp.core.threads import run_blocking
-from webapp.database.models import TagRecord
 from webapp.engine.wall_state import View, WallState, differing_fields, read_state
-from webapp.people.person import person_with
-from webapp.people.visitors import Visitor
 from webapp.server.deps import ServicesDep, showable_app
 from webapp.server.schemas import ClassInfo, ClassStart, ExportLink
 from webapp.server.services import Services
@@ -120,43 +113,6 @@ async def end(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInf
 
     await services.plan_change(wall, plan)
     return await class_info(services, wall, held)
-
-
-# --- the roll call ---------------------------------------------------------------------
-
-
-async def roll_call(
-    request: Request, services: Services, tag: TagRecord, visitor: Visitor, address: str
-) -> Response | None:
-    """Before a scan of a wall with a class running: a student not on its roll joins
-    it, at once in an anonymous class, else on a page asking their name (and comes back
-    to the code). None: go on with the scan. Staff are never asked, nor is a phone on
-    its way to become an instructor."""
-    if tag.app == REGISTRATION and tag.params.get("role") == "instructor":
-        return None
-    # Every scan asks, and its app's page wants the person: both in one short read (on
-    # the loop for SQLite; one hand-off to a thread, not two, for a database server).
-    person, now = await person_with(
-        request,
-        services.db,
-        services.settings,
-        address,
-        services.address_rules,
-        standing,
-        services.db,
-        tag.wall_id,
-        visitor.id,
-    )
-    if now is None or now.joined or person.is_staff:
-        return None
-    if now.session.names == "anonymous":
-        with contextlib.suppress(ClassError):  # ended meanwhile: nothing to join
-            await run_blocking(join, services.db, now.session.id, visitor.id)
-        return None
-    back = quote(f"/t/{tag.code}", safe="/")
-    return RedirectResponse(
-        f"/classes/{now.session.id}/join?next={back}", status.HTTP_303_SEE_OTHER
-    )
 
 
 def _back_to(target: str | None) -> str:

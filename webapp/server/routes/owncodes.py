@@ -9,9 +9,9 @@ from pydantic import ValidationError
 
 from wall_client.layout import Wall
 from webapp.apps.installed import places_shown
+from webapp.changes.door import unchanged
 from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
-from webapp.door.changes import unchanged
 from webapp.engine.wall_state import read_state
 from webapp.server.deps import ServicesDep
 from webapp.server.routes.tags import tag_info

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 from functools import lru_cache
 from typing import Annotated, Literal
+from urllib.parse import quote
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from tag_service.codes import content_hash, make_symbol, normalize_code, render_png, render_svg
 from webapp.apps.hooks import Scan
+from webapp.apps.installed import REGISTRATION
+from webapp.classes.roll import roll_call
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.people.ratelimit import retry_after_s
 from webapp.people.visitors import Visitor, visitor_of
 from webapp.server.deps import ServicesDep
-from webapp.server.routes.classes import roll_call
 from webapp.tags.registry import find, payload_of
 from webapp.web.cors import AnyOriginRoute
 from webapp.web.deps import ClientAddressDep
@@ -84,8 +86,19 @@ async def _resolve(
         return problem_page(
             request, 410, "This code is no longer in use", resolution.problem, tag.wall_id
         )
-    if (asked := await roll_call(request, services, tag, visitor, address)) is not None:
-        return asked  # the class wants the student's name first; they come back here
+    if not (tag.app == REGISTRATION and tag.params.get("role") == "instructor"):
+        joining = await roll_call(
+            request,
+            services.db,
+            services.settings,
+            address,
+            services.address_rules,
+            tag.wall_id,
+            visitor.id,
+        )
+        if joining is not None:  # the class wants the student's name first; back here after
+            back = quote(f"/t/{tag.code}", safe="/")
+            return RedirectResponse(f"/classes/{joining}/join?next={back}", 303)
     services.scan_log.record(tag, visitor.id, address, request.headers.get("user-agent", ""))
     await services.scan_feed.publish(tag, visitor.id)
     return await app.on_scan(Scan(request, services, wall, tag, visitor, address))

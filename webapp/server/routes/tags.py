@@ -9,11 +9,11 @@ from fastapi.responses import JSONResponse
 
 from tag_service.codes import PayloadError, normalize_code
 from wall_client.layout import Rect, Viewport
+from webapp.changes.door import unchanged
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.database.models import TagRecord
-from webapp.door.changes import unchanged
 from webapp.engine.wall_state import read_state
 from webapp.server.deps import ServicesDep
 from webapp.server.schemas import TagInfo, TagSetChoice, TagSetsInfo

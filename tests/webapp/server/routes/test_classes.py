@@ -287,9 +287,9 @@ def test_the_roll_call_of_a_scan_reads_on_the_loop_for_sqlite(
     database server it goes to a worker thread, as every other read does."""
     import asyncio
 
-    from webapp.server.routes import classes
+    from webapp.classes import roll
 
-    original, on_loop = classes.standing, []
+    original, on_loop = roll.standing, []
 
     def standing(*args: Any) -> Any:
         try:
@@ -298,7 +298,7 @@ def test_the_roll_call_of_a_scan_reads_on_the_loop_for_sqlite(
             on_loop.append(False)
         return original(*args)
 
-    monkeypatch.setattr(classes, "standing", standing)
+    monkeypatch.setattr(roll, "standing", standing)
     start(client, app="brain", mode="quiz", names="anonymous")
     assert phone(client).get(f"/t/{a_pin(client)}").status_code == 200
     assert on_loop == [services_of(client).db.embedded]

@@ -1,4 +1,4 @@
-"""The one door for wall-state changes (webapp.door.changes), on both backends.
+"""The one door for wall-state changes (webapp.changes.door), on both backends.
 
 A small made-up app stands on the wall: its one code is anchored to where the view
 looks, so every change of view must move it, and its tag set comes up with it.
@@ -18,8 +18,8 @@ from fastapi import FastAPI
 
 from wall_client.layout import Wall
 from webapp.apps.hooks import WallApp
+from webapp.changes.door import unchanged
 from webapp.core.settings import CONTENT_DIR, PROJECT_ROOT, Settings
-from webapp.door.changes import unchanged
 from webapp.engine.wall_state import View, WallState, read_state
 from webapp.server.services import Services
 from webapp.tags.registry import TagSpec, get_layout, issue
@@ -261,7 +261,7 @@ async def test_a_tag_set_switch_racing_an_app_switch_does_not_interleave(
 
 
 def test_nothing_but_the_door_commits_wall_changes() -> None:
-    """Every state change goes through webapp.door.changes: no other module calls the hub's
+    """Every state change goes through webapp.changes.door: no other module calls the hub's
     commit or the database's commit_change."""
     webapp = PROJECT_ROOT / "webapp"
     callers = set()
@@ -275,7 +275,7 @@ def test_nothing_but_the_door_commits_wall_changes() -> None:
             )
             if hub_commit or (isinstance(node, ast.Name) and node.id == "commit_change"):
                 callers.add(path.relative_to(webapp).as_posix())
-    assert callers == {"door/changes.py", "engine/hub.py"}
+    assert callers == {"changes/door.py", "engine/hub.py"}
 
 
 async def test_a_wall_left_on_an_app_no_longer_installed_opens_on_the_first_app(
