@@ -262,8 +262,11 @@ def assume(db: Database, person: Person, role: Role, settings: Settings, address
 
 
 def sign_out(db: Database, person: Person, settings: Settings, address: str) -> Person:
-    """Back to an anonymous student: role and authority gone, a new session id."""
-    return _store(
+    """The phone goes on as a new anonymous visitor: the visitor signed out keeps its row
+    (answers, name, group, for what the class exports) with its role and authority gone
+    and its session ended, and the next person on a shared phone inherits nothing of it
+    (they saw the last person's answers, name and group)."""
+    _store(
         db,
         person,
         settings,
@@ -274,6 +277,7 @@ def sign_out(db: Database, person: Person, settings: Settings, address: str) -> 
         authority=None,
         authorized_role="student",
     )
+    return _person(Visitor.fresh(), None, None, settings)
 
 
 def update_profile(
