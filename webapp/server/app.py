@@ -53,6 +53,7 @@ from webapp.server.routes import (
 )
 from webapp.server.services import Services
 from webapp.web.deps import DEPENDENCY_ERRORS
+from webapp.web.middleware import HEADERS as SECURITY_HEADERS
 from webapp.web.middleware import (
     AccessLogMiddleware,
     ClientAddressMiddleware,
@@ -304,7 +305,12 @@ def _add_error_pages(app: FastAPI) -> None:
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:
         log.exception("unhandled error on %s", request.url.path, exc_info=error)
-        return error_page(request, 500, "Something went wrong on the server; it has been logged.")
+        response = error_page(
+            request, 500, "Something went wrong on the server; it has been logged."
+        )
+        # Starlette sends this answer outside every middleware: it brings its own headers.
+        response.headers.update({**SECURITY_HEADERS, "cache-control": "no-store"})
+        return response
 
 
 def jsonable_errors(error: RequestValidationError) -> list[dict[str, object]]:
