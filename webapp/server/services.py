@@ -25,7 +25,7 @@ from webapp.people.addresses import AddressRules
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
 from webapp.people.counters.redis import RedisCounters
-from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
+from webapp.people.ratelimit import ActionLimits, Actor, WallAction, action_limits
 from webapp.people.signin import SignInThrottle
 from webapp.people.tokens import Tokens
 from webapp.people.visitors import Visitor
@@ -161,41 +161,3 @@ def counter_store(redis: Redis | None, settings: Settings) -> Counters:
     if redis is None:
         return MemoryCounters()
     return RedisCounters(redis, settings.redis_prefix)
-
-
-def action_limits(settings: Settings, counters: Counters) -> ActionLimits:
-    """The limits on what phones do, from the settings (see docs/people.md).
-
-    Scans change nothing on the wall: a phone with a cookie is limited as itself, and
-    only phones without one share their address's budget (a hall's 300 first scans
-    fit in it). What changes the shared wall is limited per visitor, for visitors not
-    yet settled also per address together, for everyone per address and per wall.
-    """
-    scans = ActionPolicy(
-        per_visitor=settings.scan_rate_per_minute,
-        per_new_address=settings.scan_rate_per_address_per_minute,
-        per_address=None,
-        per_wall=None,
-        settle_s=0,
-    )
-
-    def on_wall(per_visitor: int) -> ActionPolicy:
-        return ActionPolicy(
-            per_visitor=per_visitor,
-            per_new_address=settings.new_visitor_actions_per_address_per_minute,
-            per_address=settings.actions_per_address_per_minute,
-            per_wall=settings.actions_per_wall_per_minute,
-            settle_s=settings.visitor_settle_s,
-        )
-
-    actions = on_wall(settings.wall_action_rate_per_minute)
-    return ActionLimits(
-        counters,
-        {
-            "scan": scans,
-            "publish": on_wall(settings.publish_rate_per_minute),
-            "balloon": actions,
-            "toggle": actions,
-            "group": actions,
-        },
-    )
