@@ -11,6 +11,7 @@ from wall_client.layout import Wall
 from webapp.apps.brain_atlas import commands, pages, routes
 from webapp.apps.brain_atlas.atlas import Atlases, group_menu
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
+from webapp.apps.brain_atlas.routes import phones
 from webapp.apps.brain_atlas.rules import (
     APP,
     MODES,
@@ -127,7 +128,7 @@ class BrainApp(Atlases, WallApp):
     async def on_scan(self, scan: Scan) -> Response:
         atlas = self.atlas(scan.context.settings)
         if scan.tag.action == "group":
-            return await pages.choose_group(atlas, scan)
+            return await phones.choose_group(atlas, scan)
         person = await scan.person()
         return await pages.pin_page(atlas, scan.request, scan.context, scan.wall, scan.tag, person)
 

@@ -1,5 +1,6 @@
 """The brain atlas's running part: its content, views, answer keys, volumes and pins,
-loaded on first use and kept, for its pages, routes and the app.
+loaded on first use and kept, for its pages, routes and the app; what a pin's code
+marks in the round on the wall (:class:`Pin`), which its pages show and phones answer.
 
 An :class:`Atlas` reads one content folder. The app object is an :class:`Atlases`,
 made before it is handed any settings, so it keeps the atlas of the content folder the
@@ -14,6 +15,8 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+
+from fastapi import HTTPException, status
 
 from wall_client.layout import Wall
 from webapp.apps.brain_atlas.content import (
@@ -33,6 +36,7 @@ from webapp.apps.brain_atlas.rules import (
     GROUP_LABELS,
     TAG_SETS,
     group_tag,
+    pin_question,
     pin_tag,
     quiz_of,
 )
@@ -41,8 +45,9 @@ from webapp.apps.brain_atlas.views import VIEWS_NAME, ViewPreset, load_views
 from webapp.core.caching import SizedCache
 from webapp.core.roles import UserGroup
 from webapp.core.settings import Settings
-from webapp.engine.wall_state import WallState
-from webapp.quiz.engine import Round, new_order
+from webapp.database.models import TagRecord
+from webapp.engine.wall_state import WallState, read_state
+from webapp.quiz.engine import Question, Round, new_order
 from webapp.tags.registry import (
     TagSpec,
     anchored_code_side_mm,
@@ -70,6 +75,35 @@ class RoundGuide:
     codes: dict[int, str]
     views: dict[int, list[str]]
     on_wall: frozenset[int]
+
+
+@dataclass(frozen=True)
+class Pin:
+    """A pin as the wall shows it now: its set, number and region in the round."""
+
+    tag: TagRecord
+    tag_set: TagSetName
+    number: int
+    region: Region
+    round: Round
+    state: WallState
+
+    @property
+    def question(self) -> Question:
+        return pin_question(self.region, self.tag_set)
+
+
+class RoundChanged(Exception):
+    """The pin's code belongs to an earlier round (or the quiz has none yet)."""
+
+    def __init__(self, tag: TagRecord) -> None:
+        super().__init__(tag.code)
+        self.tag = tag
+
+
+def set_of_pin(tag: TagRecord) -> TagSetName:
+    """The set a pin's code belongs to."""
+    return "k5" if tag.params.get("set") == "k5" else "full"
 
 
 class Atlas:
@@ -144,6 +178,29 @@ class Atlas:
         """The quiz round the wall state names (None before the brain's first)."""
         number = BrainState.of(state).quiz_round
         return None if number is None else quiz_of(context).get_round(wall_id, number)
+
+    def current_round(self, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
+        """The wall's state and the quiz round it names (synchronous: a page reads all
+        it needs in one :meth:`~webapp.database.connection.Database.read`)."""
+        _, state = read_state(context.db, wall.id)
+        return state, self.round_on_wall(context, wall.id, state)
+
+    async def round_now(self, context: AppContext, wall: Wall) -> tuple[WallState, Round | None]:
+        """:meth:`current_round`, for a handler on the event loop."""
+        return await context.db.read(self.current_round, context, wall)
+
+    def pin(self, context: AppContext, wall: Wall, tag: TagRecord) -> Pin:
+        """What the pin ``tag`` marks in the round on the wall; RoundChanged for an old
+        round's (synchronous, like :meth:`current_round`)."""
+        state, quiz_round = self.current_round(context, wall)
+        if quiz_round is None or tag.params.get("round") != quiz_round.number:
+            raise RoundChanged(tag)
+        tag_set = set_of_pin(tag)
+        number = int(tag.params.get("pin", 0))
+        region = self.pins(quiz_round, tag_set).get(number)
+        if region is None:
+            raise HTTPException(status.HTTP_404_NOT_FOUND, "That pin is no longer in the atlas.")
+        return Pin(tag, tag_set, number, region, quiz_round, state)
 
     def switch_mode(
         self, context: AppContext, wall_id: str, state: WallState, mode: str, by: str
@@ -339,14 +396,21 @@ class Atlases:
     def __init__(self) -> None:
         self._atlases_lock = threading.Lock()
         self._atlases: dict[Path, Atlas] = {}
+        self._last: tuple[Settings, Atlas] | None = None
 
     def atlas(self, settings: Settings) -> Atlas:
-        """The atlas of the content folder of ``settings``."""
+        """The atlas of the content folder of ``settings``. A server asks with the same
+        settings on every phone's request: the last answer is kept for them, not looked
+        for again on the disk (the folder is read once anyway, :class:`Atlas`)."""
+        last = self._last
+        if last is not None and last[0] is settings:
+            return last[1]
         folder = atlas_folder(settings)
         with self._atlases_lock:
             found = self._atlases.get(folder)
             if found is None:
                 found = self._atlases[folder] = Atlas(folder)
+            self._last = (settings, found)
             return found
 
 

@@ -1,19 +1,17 @@
-"""The brain atlas's pages and API: pins, the quiz, the literature search, and the
-instructor's controls (mode, view, pin set, statistics, reset, CSV export)."""
+"""The instructor's controls of the brain atlas on a wall: its status with the quiz's
+results, the mode, view preset, pin set and audience switches, and the pins no view
+shows."""
 
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Literal
 
-from fastapi import APIRouter, Form, HTTPException, Query, Request, Response, status
+from fastapi import APIRouter, HTTPException, status
 from pydantic import BaseModel, ConfigDict, Field
 
-from webapp.apps.brain_atlas import pages
 from webapp.apps.brain_atlas.atlas import brain_atlas
 from webapp.apps.brain_atlas.audience import allow_audience_switches, audience_switches
 from webapp.apps.brain_atlas.content import TagSetName
-from webapp.apps.brain_atlas.literature import literature_for
 from webapp.apps.brain_atlas.pins import VOLUME
 from webapp.apps.brain_atlas.rules import (
     APP,
@@ -24,104 +22,15 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
     set_on_wall,
 )
-from webapp.apps.brain_atlas.state import BrainState
 from webapp.core.threads import run_blocking
-from webapp.database.connection import RowId
 from webapp.engine.wall_state import WallState
 from webapp.quiz.engine import QuizError, Reveal
-from webapp.quiz.http import answers_download, round_step
+from webapp.quiz.http import round_step
 from webapp.web.context import Update
-from webapp.web.deps import ContextDep, CsrfDep, PersonDep, PhoneDep, StaffDep, WallDep
+from webapp.web.deps import ContextDep, StaffDep, WallDep
 from webapp.web.problems import errors
-from webapp.web.templating import render
 
 router = APIRouter(tags=["brain"])
-
-TagSetPath = Literal["k5", "full"]
-AnswerForm = Annotated[str, Form()]  # judged and bounded by the quiz, with its own words
-
-
-# --- phones --------------------------------------------------------------------------
-
-
-@router.get("/apps/brain/{wall_id}/pins/{code}", include_in_schema=False)
-async def pin(request: Request, phone: PhoneDep, code: str) -> Response:
-    """A pin's page again (from the progress page), without counting a scan."""
-    context, wall = phone.context, phone.wall
-    tag = await pages.tag_of(context, wall, code)
-    return await pages.pin_page(brain_atlas(context), request, context, wall, tag, phone.person)
-
-
-@router.post(
-    "/apps/brain/{wall_id}/pins/{code}/answer", include_in_schema=False, dependencies=[CsrfDep]
-)
-async def answer(request: Request, phone: PhoneDep, code: str, answer: AnswerForm = "") -> Response:
-    context = phone.context
-    return await pages.answer(
-        brain_atlas(context), request, context, phone.wall, phone.person, code, answer
-    )
-
-
-@router.post(
-    "/apps/brain/{wall_id}/pins/{code}/reveal", include_in_schema=False, dependencies=[CsrfDep]
-)
-async def reveal(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
-) -> Response:
-    """The instructor's Answer button."""
-    return await pages.revealed(brain_atlas(context), request, context, wall, person, code)
-
-
-@router.get("/apps/brain/{wall_id}/quiz/{tag_set}", include_in_schema=False)
-async def quiz_progress(request: Request, phone: PhoneDep, tag_set: TagSetPath) -> Response:
-    context = phone.context
-    return await pages.progress_page(
-        brain_atlas(context), request, context, phone.wall, phone.person, tag_set
-    )
-
-
-@router.post(
-    "/apps/brain/{wall_id}/quiz/{tag_set}/finish", include_in_schema=False, dependencies=[CsrfDep]
-)
-async def quiz_finish(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, tag_set: TagSetPath
-) -> Response:
-    return await pages.finished(brain_atlas(context), request, context, wall, person, tag_set)
-
-
-@router.get("/apps/brain/{wall_id}/pins/{code}/literature", include_in_schema=False)
-async def literature(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, code: str
-) -> Response:
-    """The research group's literature search for a pin's region (tutor mode only:
-    the query names the region)."""
-    app = brain_atlas(context)
-    tag = await pages.tag_of(context, wall, code)
-    region = await pages.tutor_region(app, context, wall, tag)
-    if not app.has_research(region):
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "This region has no literature list.")
-    result = await literature_for(region.id, app.content, app.pubmed(context.settings))
-    return render(
-        request, "brain/literature.html", wall=wall, tag=tag, region=region, literature=result
-    )
-
-
-@router.get("/apps/brain/{wall_id}/groups", include_in_schema=False)
-async def groups(request: Request, wall: WallDep, person: PersonDep) -> Response:
-    return pages.groups_page(request, wall, person)
-
-
-@router.post(
-    "/apps/brain/{wall_id}/groups/{group}", include_in_schema=False, dependencies=[CsrfDep]
-)
-async def join_group(
-    request: Request, wall: WallDep, context: ContextDep, person: PersonDep, group: str
-) -> Response:
-    """A group chosen on the phone: as scanning its menu code."""
-    return await pages.join_group(brain_atlas(context), request, context, wall, person, group)
-
-
-# --- the instructor's controls -------------------------------------------------------
 
 
 class BrainControl(BaseModel):
@@ -136,14 +45,6 @@ class BrainControl(BaseModel):
     tag_set: TagSetName | None = None
     reveal: Reveal | None = None
     audience_switches: bool | None = None
-
-
-class NewRound(BaseModel):
-    """A new round: new pin numbers and codes; when its students see the names."""
-
-    model_config = ConfigDict(extra="forbid")
-
-    reveal: Reveal = "close"
 
 
 class PresetEntry(BaseModel):
@@ -192,7 +93,7 @@ async def brain_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> B
     """The brain on a wall, its quiz round and the class's results (names included:
     staff only)."""
     app = brain_atlas(context)
-    state, quiz_round = await pages.round_now(app, context, wall)
+    state, quiz_round = await app.round_now(context, wall)
     quiz: dict[str, SetStats] = {}
     for tag_set in TAG_SETS if quiz_round is not None else ():
         assert quiz_round is not None
@@ -244,7 +145,7 @@ async def unshown_pins(
     by default the set on the wall). Apart from the status the dashboard polls: it
     places the round's pins in every view, seconds of work on a new round."""
     app = brain_atlas(context)
-    state, quiz_round = await pages.round_now(app, context, wall)
+    state, quiz_round = await app.round_now(context, wall)
     if state.app != APP:  # its pins are placed on the brain as the wall shows it
         raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
     chosen = tag_set or set_on_wall(state)
@@ -273,7 +174,7 @@ async def control(
     preset = app.preset(choice.preset) if choice.preset else None
     if choice.preset and preset is None:
         raise HTTPException(status.HTTP_404_NOT_FOUND, f"There is no view {choice.preset!r}.")
-    state, quiz_round = await pages.round_now(app, context, wall)
+    state, quiz_round = await app.round_now(context, wall)
     only_audience = choice.model_fields_set <= {"audience_switches"}
     if state.app != APP and not only_audience:
         raise HTTPException(status.HTTP_409_CONFLICT, f"The brain atlas is not on {wall.name}.")
@@ -304,50 +205,3 @@ async def control(
 
     await context.plan_change(wall, plan)
     return await brain_status(wall, context, staff)
-
-
-@router.post("/api/apps/brain/walls/{wall_id}/quiz/reset", responses=errors(409))
-async def reset_quiz(
-    wall: WallDep, context: ContextDep, staff: StaffDep, choice: NewRound | None = None
-) -> BrainStatus:
-    """A new round: the one before closes (its students see the names), the pins get
-    new numbers and codes on every tile at once; earlier rounds stay for export."""
-    app = brain_atlas(context)
-    reveal = choice.reveal if choice is not None else "close"
-    started = await round_step(
-        quiz_of(context).start_round, wall.id, staff, app.fresh_orders(), reveal
-    )
-
-    def apply(current: WallState) -> WallState:
-        return BrainState.of(current).later_round(started.number).put(current)
-
-    await context.change_wall(wall, apply)
-    return await brain_status(wall, context, staff)
-
-
-@router.post("/api/apps/brain/walls/{wall_id}/quiz/close", responses=errors(409))
-async def close_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> BrainStatus:
-    """Close the round on the wall: answers stop counting and every student sees the
-    correct names and their results."""
-    app = brain_atlas(context)
-    _, quiz_round = await pages.round_now(app, context, wall)
-    if quiz_round is None:
-        raise HTTPException(status.HTTP_409_CONFLICT, "The quiz has no round yet.")
-    await round_step(quiz_of(context).close_round, wall.id, quiz_round.number, staff)
-    return await brain_status(wall, context, staff)
-
-
-@router.get("/api/apps/brain/walls/{wall_id}/answers.csv")
-async def answers_csv(
-    wall: WallDep,
-    context: ContextDep,
-    staff: StaffDep,
-    round_number: Annotated[RowId | None, Query(alias="round")] = None,
-) -> Response:
-    """Every answer of a round (default: the one on the wall), for a spreadsheet, in a
-    file named by the wall, the round's class, the round and its day."""
-    if round_number is None:
-        _, quiz_round = await pages.round_now(brain_atlas(context), context, wall)
-    else:
-        quiz_round = await run_blocking(quiz_of(context).get_round, wall.id, round_number)
-    return await answers_download(quiz_of(context), wall, quiz_round)
