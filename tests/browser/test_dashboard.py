@@ -9,7 +9,7 @@ from playwright.sync_api import Browser, expect
 
 from tests.browser.conftest import open_tiles, serve, version_of
 from tests.browser.test_codes import shown_payloads
-from tests.webapp.apps.image.test_routes import png_bytes
+from tests.webapp.apps.image.samples import png_bytes
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import ServerProcess, wait_until
 from webapp.people.security import operator_token

@@ -1,5 +1,6 @@
-"""The image app's phone pages: a hotspot (its title and text for the phone's user
-group, or its question while a round runs) and the answer to its question.
+"""The image app's phone pages and the reads they need: a hotspot (its title and text
+for the phone's user group, or its question while a round runs) and what it publishes.
+The answer to its question is stored in ``routes/phones``; these pages write nothing.
 
 A question is a secret while its round runs: the page then shows the question and the
 form, never the hotspot's title, text or accepted answers (any of which may give the
@@ -13,22 +14,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from fastapi import HTTPException, Request, Response, status
-from fastapi.responses import RedirectResponse
 from markupsafe import Markup
 
-from tag_service.codes import normalize_code
 from wall_client.layout import Wall
 from webapp.apps.image.hotspots import Hotspot, hotspots
 from webapp.apps.image.library import image_library
 from webapp.apps.image.questions import (
-    judge,
     numbers,
-    question_of,
     quiz_of,
     reveals_answers,
     round_on_wall,
 )
-from webapp.apps.image.state import APP
 from webapp.core.markdown import markdown_html
 from webapp.core.roles import UserGroup
 from webapp.core.threads import run_blocking
@@ -36,7 +32,7 @@ from webapp.database.models import TagRecord
 from webapp.engine.wall_state import read_state
 from webapp.people.person import Person
 from webapp.publishing.publication import Block, Publication
-from webapp.quiz.engine import Progress, QuizError, Round
+from webapp.quiz.engine import Progress, Round
 from webapp.web.context import AppContext
 from webapp.web.templating import render
 
@@ -71,16 +67,6 @@ class Spot:
             return False
         finished = self.progress is not None and self.progress.finished
         return not self.round.names_shown(finished)
-
-
-async def tag_of(context: AppContext, wall: Wall, code: str) -> TagRecord:
-    """A hotspot code of this wall (switched off ones too: a question of the running
-    round may still be answered when the view moved on); 404 otherwise."""
-    normal = normalize_code(code)
-    tag = (await context.codes.resolve(normal)).tag if normal else None
-    if tag is None or tag.wall_id != wall.id or tag.app != APP or tag.action != "hotspot":
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "That is not a hotspot of this wall.")
-    return tag
 
 
 def spot_of(context: AppContext, wall: Wall, tag: TagRecord, person: Person) -> Spot:
@@ -146,43 +132,6 @@ async def hotspot_page(
         finished=bool(seen.progress and seen.progress.finished),
         problem=problem,
     )
-
-
-async def answer(
-    request: Request, context: AppContext, wall: Wall, person: Person, code: str, text: str
-) -> Response:
-    """Judge and store the visitor's answer, then show the hotspot's page again."""
-    tag = await tag_of(context, wall, code)
-    problem = await run_blocking(store_answer, context, wall, tag, person, text)
-    if problem is not None:
-        return await hotspot_page(
-            request, context, wall, tag, person, problem, status.HTTP_422_UNPROCESSABLE_CONTENT
-        )
-    return RedirectResponse(f"/apps/image/{wall.id}/hotspots/{tag.code}", status.HTTP_303_SEE_OTHER)
-
-
-def store_answer(
-    context: AppContext, wall: Wall, tag: TagRecord, person: Person, text: str
-) -> str | None:
-    """Store an answer to the hotspot ``tag`` (in a worker thread); why not, if refused."""
-    seen = spot_of(context, wall, tag, person)
-    if seen.stale:
-        return "This code is from an earlier round: scan the hotspot's code on the wall now."
-    if seen.round is None or seen.number is None:
-        return "This hotspot asks nothing now."
-    try:
-        quiz_of(context).record_answer(
-            wall.id,
-            seen.round.number,
-            person.visitor.id,
-            seen.image_id,
-            question_of(seen.spot),
-            text,
-            judge(seen.spot, seen.spots, text[:1_000]),
-        )
-    except QuizError as error:
-        return str(error)
-    return None
 
 
 async def publication(

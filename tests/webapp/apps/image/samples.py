@@ -1,7 +1,9 @@
-"""Images the image app's tests make: small, with a pattern a wrong region would break."""
+"""Images the image app's tests make: small, with a pattern a wrong region would break;
+their uploads, hotspots to mark on them, and an image on the demo wall with its codes."""
 
 from __future__ import annotations
 
+import io
 import json
 import struct
 import subprocess
@@ -10,7 +12,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from fastapi.testclient import TestClient
 from PIL import Image
+
+from tests.conftest import operator_headers, services_of
+from webapp.apps.image.app import ImageApp
+from webapp.engine.wall_state import read_state
+from webapp.tags.registry import get_layout, wall_tags
 
 
 def quadrants(width: int, height: int) -> np.ndarray:
@@ -75,3 +83,70 @@ POSTSCRIPT = (
 )
 FOREIGN = {"drawing.png": SVG, "slides.png": PDF, "poster.png": POSTSCRIPT}
 """Files libvips would decode (through librsvg, poppler, ImageMagick) under a PNG's name."""
+
+
+def png_bytes(width: int = 600, height: int = 400) -> bytes:
+    out = io.BytesIO()
+    Image.fromarray(quadrants(width, height)).save(out, format="PNG")
+    return out.getvalue()
+
+
+def image_app(client: TestClient) -> ImageApp:
+    app = services_of(client).apps["image"]
+    assert isinstance(app, ImageApp)
+    return app
+
+
+def stored_folders(client: TestClient) -> list[Path]:
+    root = image_app(client).store(services_of(client).settings).root
+    return sorted(root.iterdir()) if root.exists() else []
+
+
+def upload(client: TestClient, data: bytes, name: str = "scan.png", **headers: str):  # type: ignore[no-untyped-def]
+    return client.post(
+        "/api/apps/image/images",
+        files={"file": (name, data, "image/png")},
+        data={"title": "Scan"},
+        headers=headers,
+    )
+
+
+NUCLEUS: dict[str, Any] = {
+    "x": 150,
+    "y": 100,
+    "title": "Nucleus",
+    "texts": {"undergraduate": "Holds the **DNA**.\n\nAnd more.", "k5": "The boss."},
+    "question": "What is this part called?",
+    "accepted": ["Nucleus", "cell nucleus"],
+}
+
+
+WALL_TEXT: dict[str, Any] = {
+    "x": 450,
+    "y": 300,
+    "title": "Cell wall",
+    "texts": {"k5": "A fence <script>alert(1)</script> around the cell."},
+}
+
+
+def shown_image(client: TestClient) -> str:
+    """An image uploaded and put on the demo wall; its id."""
+    operator = operator_headers(client)
+    image = upload(client, png_bytes(), **operator).json()["id"]
+    shown = client.post("/api/apps/image/walls/demo/show", json={"image": image}, headers=operator)
+    assert shown.status_code == 200
+    return str(image)
+
+
+def hotspot_codes(client: TestClient) -> dict[str, str]:
+    """Hotspot id -> code of the live hotspot tags placed on the demo wall now."""
+    db = services_of(client).db
+    _, state = read_state(db, "demo")
+    layout = get_layout(db, "demo", state.tag_layout)
+    assert layout is not None
+    placed = {p["code"] for p in layout.placed}
+    return {
+        str(t.params["hotspot"]): t.code
+        for t in wall_tags(db, "demo")
+        if t.app == "image" and t.active and t.code in placed
+    }

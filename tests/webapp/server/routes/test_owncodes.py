@@ -10,7 +10,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from tests.conftest import operator_headers, services_of
-from tests.webapp.apps.image.test_hotspot_routes import NUCLEUS, shown_image
+from tests.webapp.apps.image.samples import NUCLEUS, shown_image
 from webapp.engine.wall_state import read_state
 from webapp.tags.registry import get_layout
 

@@ -543,7 +543,7 @@ def matrix(client: TestClient) -> list[Row]:
             (401, 401, 404, 404),
             json={},
         ),
-        # a code no wall shows: nobody gets a page (the phones' flow: test_hotspot_routes)
+        # a code no wall shows: nobody gets a page (the phones' flow: image/routes/test_phones)
         Row(
             "GET",
             "/apps/image/{wall_id}/hotspots/{code}",

@@ -1,90 +1,23 @@
-"""The image app's API: upload (instructors, CSRF), list, show, retitle, remove, manifest
-and tiles."""
+"""The instructor's images through the API (``routes/images``): upload (instructors,
+CSRF), list, show, retitle and remove."""
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 
 from fastapi.testclient import TestClient
-from PIL import Image
 
 from tests.conftest import csrf_of, operator_headers, services_of, sign_in
-from tests.webapp.apps.image.samples import FOREIGN, png_declaring, quadrants
-from webapp.apps.image.app import ImageApp
+from tests.webapp.apps.image.samples import (
+    FOREIGN,
+    image_app,
+    png_bytes,
+    png_declaring,
+    stored_folders,
+    upload,
+)
 from webapp.apps.image.state import ImageState
 from webapp.engine.wall_state import read_state
-
-
-def png_bytes(width: int = 600, height: int = 400) -> bytes:
-    out = io.BytesIO()
-    Image.fromarray(quadrants(width, height)).save(out, format="PNG")
-    return out.getvalue()
-
-
-def image_app(client: TestClient) -> ImageApp:
-    app = services_of(client).apps["image"]
-    assert isinstance(app, ImageApp)
-    return app
-
-
-def stored_folders(client: TestClient) -> list[Path]:
-    root = image_app(client).store(services_of(client).settings).root
-    return sorted(root.iterdir()) if root.exists() else []
-
-
-def upload(client: TestClient, data: bytes, name: str = "scan.png", **headers: str):  # type: ignore[no-untyped-def]
-    return client.post(
-        "/api/apps/image/images",
-        files={"file": (name, data, "image/png")},
-        data={"title": "Scan"},
-        headers=headers,
-    )
-
-
-def test_an_instructor_uploads_shows_and_every_tile_fetches_the_pyramid(
-    client: TestClient,
-) -> None:
-    sign_in(client, "instructor")
-    csrf = csrf_of(client)
-    assert upload(client, png_bytes()).status_code == 403  # no CSRF header
-    added = upload(client, png_bytes(), **{"X-CSRF-Token": csrf})
-    assert added.status_code == 201, added.text
-    image = added.json()
-    assert (image["title"], image["width"], image["height"], image["levels"]) == (
-        "Scan",
-        600,
-        400,
-        11,
-    )
-    assert [i["id"] for i in client.get("/api/apps/image/images").json()] == [image["id"]]
-
-    shown = client.post(
-        "/api/apps/image/walls/demo/show",
-        json={"image": image["id"]},
-        headers={"X-CSRF-Token": csrf},
-    )
-    assert shown.status_code == 200, shown.text
-    _, state = read_state(services_of(client).db, "demo")
-    assert state.app == "image" and ImageState.of(state).image == image["id"]
-
-    client.cookies.clear()  # tiles and the overview need no session
-    info = client.get(f"/apps/image/images/{image['id']}/info.json")
-    assert info.json() == image
-    tile = client.get(f"/apps/image/images/{image['id']}/10/1_0.jpg")
-    assert tile.status_code == 200 and tile.headers["content-type"] == "image/jpeg"
-    assert "immutable" in tile.headers["cache-control"]
-    with Image.open(io.BytesIO(tile.content)) as picture:
-        assert picture.size == (600 - 512, 400)
-    for missing in [
-        f"/apps/image/images/{image['id']}/10/2_0.jpg",
-        f"/apps/image/images/{image['id']}/11/0_0.jpg",
-        "/apps/image/images/0123456789ab/0/0_0.jpg",
-        f"/apps/image/images/{image['id']}/x/0_0.jpg",
-        f"/apps/image/images/{image['id']}/0/0_-1.jpg",
-        "/apps/image/images/nothing/info.json",
-    ]:
-        assert client.get(missing).status_code == 404, missing
 
 
 def test_only_instructors_upload_list_and_show(client: TestClient) -> None:
