@@ -115,20 +115,24 @@ PersonDep = Annotated[Person, Depends(get_person)]
 
 @dataclass(frozen=True)
 class Phone:
-    """A phone's page of a wall: the server, the wall and who asks."""
+    """A phone's request of a wall: the server, the wall, who asks and from where (the
+    address the phones' limits count by)."""
 
     context: ServerContext
     wall: Wall
     person: Person
+    address: str
 
 
 async def get_phone(request: Request, wall_id: str) -> Phone:
-    """What :data:`ContextDep`, :data:`WallDep` and :data:`PersonDep` give, as one
-    dependency: the pages phones ask for most pay FastAPI's solving of each
-    dependency once, not four times (a fifth of a quiz page's cost went to it)."""
+    """What :data:`ContextDep`, :data:`WallDep`, :data:`PersonDep` and
+    :data:`ClientAddressDep` give, as one dependency: what phones ask for most pays
+    FastAPI's solving of each dependency once, not five times (a fifth of a quiz page's
+    cost went to it)."""
     context: ServerContext = request.app.state.services
     wall = wall_of(context, wall_id)
-    return Phone(context, wall, await get_person(request, context, address_of(request)))
+    address = address_of(request)
+    return Phone(context, wall, await get_person(request, context, address), address)
 
 
 PhoneDep = Annotated[Phone, Depends(get_phone)]
@@ -176,6 +180,16 @@ async def require_staff_page(request: Request, person: PersonDep) -> Person:
 
 
 StaffPageDep = Annotated[Person, Depends(require_staff_page)]
+
+
+async def require_staff_phone(request: Request, phone: PhoneDep) -> Phone:
+    """An instructor's phone (:data:`PhoneDep`), for what only instructors do from a
+    phone page; anyone else is sent to sign in, as :data:`StaffPageDep` sends them."""
+    await require_staff_page(request, phone.person)
+    return phone
+
+
+StaffPhoneDep = Annotated[Phone, Depends(require_staff_phone)]
 
 
 async def require_admin_page(person: StaffPageDep) -> Person:

@@ -11,14 +11,14 @@ import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
-from webapp.apps.census_map import commands, pages
+from webapp.apps.census_map import commands, pages, routes
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MOST_GROUPS
 from webapp.apps.census_map.globe import map_projection
 from webapp.apps.census_map.importer import seed
 from webapp.apps.census_map.maps import CensusMaps
 from webapp.apps.census_map.mapview import on_the_map, tract_codes
-from webapp.apps.census_map.routes import camera, datasets, earth, ground, phones, tiles
+from webapp.apps.census_map.routes import phones
 from webapp.apps.census_map.rules import APP, CENSUS_SET, INDEX_TAG
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.census_map.store import current_id, first_dataset
@@ -202,7 +202,7 @@ class CensusApp(CensusMaps, WallApp):
     async def on_scan(self, scan: Scan) -> Response:
         action = scan.tag.action
         if action == "toggle":
-            return await pages.toggle(self, scan)
+            return await phones.toggle(self, scan)
         if action == "tract":
             return await pages.tract_choice(
                 self, scan.request, scan.context, scan.wall, scan.tag.params.get("geoid", "")
@@ -237,11 +237,7 @@ class CensusApp(CensusMaps, WallApp):
         return "census/panel.html"
 
     def router(self) -> APIRouter | None:
-        router = APIRouter()
-        # phones' paths first: most asked for
-        for room in (phones, tiles, earth, datasets, camera, ground):
-            router.include_router(room.router)
-        return router
+        return routes.router
 
     def commands(self) -> list[click.Command]:
         return [commands.census, commands.earth]

@@ -1,6 +1,7 @@
-"""The census map's phone pages: a tract (show on the wall, or here), the tract index,
-and the answer to a group toggle. Values shown follow the visitor's information
-class, and only ever that class's."""
+"""The census map's phone pages and the reads they need: a tract (show on the wall, or
+here), the tract index, a cluster's tracts. Values shown follow the visitor's
+information class, and only ever that class's. What phones do (a balloon, a group
+toggled, the colouring) is in ``routes/phones``; these pages write nothing."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from fastapi import HTTPException, Request, Response, status
 from sqlalchemy import select
 
 from wall_client.layout import Wall
-from webapp.apps.census_map.actions import group_shown, hidden_group, toggle_group
+from webapp.apps.census_map.actions import group_shown, hidden_group
 from webapp.apps.census_map.charts import charts_for
 from webapp.apps.census_map.dataset import MARGINS_FROM, SHARES_FROM, DataSet, Tract
 from webapp.apps.census_map.maps import CensusMaps
@@ -20,9 +21,7 @@ from webapp.core.threads import run_blocking
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import WallState
 from webapp.people.person import Person
-from webapp.people.visitors import Visitor
 from webapp.web.context import AppContext
-from webapp.web.deps import limit_action
 from webapp.web.templating import render
 
 
@@ -132,39 +131,4 @@ async def cluster(app: CensusMaps, scan: Scan) -> Response:
         dataset=dataset,
         tracts=tracts,
         hidden=hidden,
-    )
-
-
-async def toggle(app: CensusMaps, scan: Scan) -> Response:
-    """A scanned group toggle flips that group on every tile at once."""
-    _, dataset = await shown_dataset(app, scan.context, scan.wall)
-    group_id = str(scan.tag.params.get("group", ""))
-    actor = (scan.visitor, scan.address)
-    return await toggled(scan.request, scan.context, scan.wall, dataset, group_id, actor)
-
-
-async def toggled(
-    request: Request,
-    context: AppContext,
-    wall: Wall,
-    dataset: DataSet,
-    group_id: str,
-    actor: tuple[Visitor, str],
-    back: Tract | None = None,
-) -> Response:
-    """Flip a group for ``actor`` (a visitor at an address), within the wall's limits;
-    the answer leads ``back`` to a tract page when the phone came from one."""
-    group = next((g for g in dataset.groups if g.id == group_id), None)
-    if group is None:
-        raise HTTPException(status.HTTP_404_NOT_FOUND, "That tract group is not on the map now.")
-    await limit_action(context, "toggle", *actor, wall.id)
-    shown = await toggle_group(context, wall, group.id)
-    return render(
-        request,
-        "census/toggled.html",
-        wall=wall,
-        group=group,
-        shown=shown,
-        back=back,
-        back_title=dataset.tract_title(back) if back else None,
     )

@@ -25,7 +25,7 @@ from tag_service.verify import decode_image
 from tests.conftest import register_student, services_of, sign_in
 from tests.webapp.apps.census_map.conftest import grid_dataset, sacramento
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
-from tests.webapp.apps.census_map.test_app import (
+from tests.webapp.apps.census_map.walls import (
     INCOME_THEME,
     census_codes,
     change,
@@ -984,3 +984,50 @@ def test_a_caption_has_its_text_in_a_process_that_loaded_libvips_first() -> None
     )
     width, height, white = map(int, result.stdout.split())
     assert (width, height) == (300, 80) and white > 1000, result.stdout
+
+
+def test_google_earth_gets_the_wall_as_it_is(client: TestClient) -> None:
+    show_census(client)
+    codes = census_codes(client)
+    group = next(n for n in codes if n.startswith("census:group:")).removeprefix("census:group:")
+    client.get(f"/t/{codes[f'census:group:{group}']}")  # hide a group
+    register_student(client)
+    dataset = services_of(client).apps["census"].datasets.current(services_of(client).db)
+    open_balloon(client, dataset.tracts[5].geoid)
+
+    kml = client.get("/apps/census/census.kml?wall=demo")
+    assert kml.status_code == 200
+    assert kml.headers["content-type"].startswith("application/vnd.google-earth.kml+xml")
+    assert_valid_kml(kml.content)
+    text = kml.text
+    assert text.count("<Placemark") == 403 and text.count("<Folder") == 10
+    hidden = re.search(rf'<Folder id="group-{group}">.*?<visibility>(\d)</visibility>', text, re.S)
+    assert hidden and hidden.group(1) == "0"
+    assert text.count("<gx:balloonVisibility>1</gx:balloonVisibility>") == 1
+
+    kmz = client.get("/apps/census/census.kmz?wall=demo")
+    assert kmz.status_code == 200 and kmz.content[:2] == b"PK"
+    link = client.get("/apps/census/network-link.kml?wall=demo")
+    assert_valid_kml(link.content)
+    assert "/apps/census/census.kmz?wall=demo" in link.text and "onInterval" in link.text
+    assert client.get("/apps/census/census.kml?wall=nope").status_code == 404
+
+
+def test_kml_before_any_data_set_is_imported(client: TestClient) -> None:
+    response = client.get("/apps/census/census.kml")
+    assert response.status_code == 404 and "No census data set" in response.text
+
+
+def test_google_earth_gets_the_wall_s_colours(client: TestClient) -> None:
+    show_census(client)
+    colour(client, {**INCOME_THEME, "attribute": "HSG_VAL"})
+    kml = client.get("/apps/census/census.kml?wall=demo")
+    assert_valid_kml(kml.content)
+    styles = re.findall(r"<styleUrl>#(style-[a-z0-9-]+)</styleUrl>", kml.text)
+    assert len(styles) == 403 and "style-tract" not in styles
+    assert styles.count("style-class-6") == 3, "the three tracts without a value: grey"
+    assert len(set(styles)) == 7
+    assert "Coloured by Median housing value" in kml.text
+    colour(client, None)
+    plain = client.get("/apps/census/census.kml?wall=demo").text
+    assert plain.count("<styleUrl>#style-tract</styleUrl>") == 403

@@ -16,7 +16,7 @@ from click.testing import CliRunner
 from fastapi.testclient import TestClient
 
 from tests.conftest import services_of
-from tests.webapp.apps.census_map.test_app import show_census
+from tests.webapp.apps.census_map.walls import show_census
 from webapp.apps.census_map.ground import (
     RETRY_AFTER_FAILURE_S,
     TERRAIN_ACCEPT,

@@ -13,7 +13,7 @@ import shapely
 from fastapi.testclient import TestClient
 
 from tests.conftest import operator_headers, register_student, services_of
-from tests.webapp.apps.census_map.test_app import (
+from tests.webapp.apps.census_map.walls import (
     census_codes,
     change,
     open_balloon,
