@@ -172,3 +172,26 @@ def test_the_core_imports_no_app_and_apps_know_no_other_app() -> None:
         if _in(other, package) and not _in(module, package)
     )
     assert not wrong, wrong
+
+
+APP_FLOORS = {"app": 3, "routes": 2, "commands": 2, "pages": 1}
+"""The floors inside an app, the same in every app: ``app`` (its hooks) stands on its
+``routes`` and ``commands``, which stand on its ``pages`` (the phone pages and the reads
+they need), which stand on the rest (its slot, its material, its rules: floor 0)."""
+
+
+def app_floor(module: str, package: str) -> int:
+    part = module.removeprefix(package).lstrip(".").split(".")[0]
+    return APP_FLOORS.get(part, 0)
+
+
+def test_inside_an_app_the_hooks_stand_on_its_routes_on_its_pages_on_the_rest() -> None:
+    wrong = sorted(
+        f"{module} -> {other}"
+        for package in APP_PACKAGES
+        for module, imported in GRAPH.items()
+        if _in(module, package)
+        for other in imported
+        if _in(other, package) and app_floor(other, package) > app_floor(module, package)
+    )
+    assert not wrong, f"imports that go up inside an app: {wrong}"
