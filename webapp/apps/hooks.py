@@ -213,6 +213,11 @@ ATTRIBUTES: tuple[str, ...] = tuple(
 """Every attribute an app may set, in the order above."""
 
 
+VOLUME_LAYER = "/static/js/volume.js"
+"""The core's layer drawing the wall state's ``volume``: an app that shows volumes lists
+it in its ``layers`` (and the dashboard shows its Volume box while the app is up)."""
+
+
 def static_url(app_name: str) -> str:
     """Where an app's ``static`` folder is served."""
     return f"/static/apps/{app_name}"

@@ -19,7 +19,7 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.hooks import Export, Scan, WallApp
+from webapp.apps.hooks import VOLUME_LAYER, Export, Scan, WallApp
 from webapp.classes.roll import ClassSession
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
@@ -37,7 +37,7 @@ class BrainApp(Atlases, WallApp):
     state = BrainState
     name: str = APP
     default_tag_set: str | None = TAG_SETS["full"]
-    layers: tuple[str, ...] = ("/static/js/volume.js",)
+    layers: tuple[str, ...] = (VOLUME_LAYER,)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
     modes: tuple[str, ...] = MODES

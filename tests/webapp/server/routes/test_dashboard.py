@@ -37,6 +37,19 @@ def test_only_the_panel_of_the_app_on_the_wall_shows(client: TestClient) -> None
     hidden = re.findall(r'<div class="app-panel" data-app-panel="(\w+)" hidden>', page)
     assert shown == ["pattern"]  # the first app on the demo wall
     assert {"census", "brain"} <= set(hidden) and "pattern" not in hidden
+    assert '<fieldset id="volume-panel" data-for-apps="brain pattern">' in page
+
+
+def test_the_volume_box_shows_only_while_the_app_on_the_wall_draws_a_volume(
+    client: TestClient,
+) -> None:
+    """Issue 41: an image class had an empty Volume box on its dashboard."""
+    sign_in(client, "instructor")
+    client.post(
+        "/api/walls/demo/state", json={"app": "image"}, headers={"X-CSRF-Token": csrf_of(client)}
+    )
+    page = client.get("/dashboard").text
+    assert '<fieldset id="volume-panel" data-for-apps="brain pattern" hidden>' in page
 
 
 def test_admins_add_and_remove_accounts(client: TestClient) -> None:
