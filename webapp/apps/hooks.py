@@ -23,6 +23,7 @@ from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
 from webapp.classes.roll import ClassSession
+from webapp.core.settings import Settings
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import AppState, WallState
 from webapp.people.person import Person, person_of
@@ -58,6 +59,17 @@ class Scan:
         return await person_of(
             self.request, context.db, context.settings, self.address, context.address_rules
         )
+
+
+@dataclass(frozen=True)
+class ContentCheck:
+    """What an app's check of its part of the content folder found: the ``folder``
+    checked, a one-line ``summary`` of what is there, and one line per problem (the
+    file and field each, as an editor fixes them)."""
+
+    folder: Path
+    summary: str
+    problems: list[str]
 
 
 @dataclass(frozen=True)
@@ -189,6 +201,13 @@ class WallApp:
         """The template of the app's dashboard panel, shown while the app is on
         ``wall``; it is included in the dashboard with ``wall`` in its context, and
         its scripts are modules of the app's ``static`` folder. Default: no panel."""
+        return None
+
+    def check_content(self, settings: Settings) -> ContentCheck | None:
+        """Check the app's part of the content folder (its subfolder,
+        ``settings.content_folder(<its folder name>)``) as ``tagwall content check``
+        does before a term: every problem found, not the first. Default: None (the app
+        reads no content of its own)."""
         return None
 
     def router(self) -> APIRouter | None:
