@@ -61,7 +61,8 @@ class PollApp(WallApp):
 
     async def on_scan(self, scan: Scan) -> Response:
         """The phone votes for the choice it scanned, once, and sees the counts."""
-        return await ballot_page(scan, scan.tag.params["choice"])
+        page = await ballot_page(scan, scan.tag.params["choice"])
+        return page if page is not None else await super().on_scan(scan)
 
     async def on_retired_scan(self, scan: Scan, problem: str) -> Response | None:
         """A code of an earlier poll (or one switched off): the poll's counts, no vote."""
@@ -99,12 +100,13 @@ class PollApp(WallApp):
         return router
 
 
-async def ballot_page(scan: Scan, choice: str | None) -> Response:
-    """The phone's vote for ``choice`` (None: none) and the poll's counts."""
+async def ballot_page(scan: Scan, choice: str | None) -> Response | None:
+    """The phone's vote for ``choice`` (None: none) and the poll's counts (None: the
+    poll is gone)."""
     context, wall, number = scan.context, scan.wall, scan.tag.params["round"]
     ballot = await run_blocking(vote, context.db, wall.id, number, scan.visitor.id, choice)
     if ballot is None:
-        return render(scan.request, "scanned.html", wall=wall, tag=scan.tag, app=APP)
+        return None
     if ballot.refused is None:
         await show_counts(context, wall, number, ballot.question)
     return render(scan.request, "poll/vote.html", wall=wall, ballot=ballot)

@@ -9,7 +9,7 @@ const COLOURS = ["#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948
 const polls = new Map();  // round -> {question, choices, columns}, fetched once each
 
 export function createLayer({wall}) {
-  const [sx, sy, sw, sh] = wall.stage;
+  const [sx, sy, , sh] = wall.stage;
   const gap = sh * 0.03;  // kept between the drawing and what it keeps clear of
   const first = displayAt(wall, sx + gap, sy + gap);  // the question's display
   return {
@@ -29,18 +29,19 @@ export function createLayer({wall}) {
       const slot = state.apps?.poll ?? {};
       const poll = polls.get(slot.round);
       const [left, , width] = first;
+      const room = width - 2 * gap;  // the question's display, less a margin
       if (!poll) {
         ctx.textAlign = "center";
-        fitText(ctx, "No poll yet", left + width / 2, sy + sh / 2, width - 2 * gap, sh / 8, "bold ");
+        fitText(ctx, "No poll yet", left + width / 2, sy + sh / 2, room, sh / 8, "bold ");
         return;
       }
       const votes = slot.counts.reduce((sum, n) => sum + n, 0);
       const said = `${votes} vote${votes === 1 ? "" : "s"}`;
       const status = slot.closed ? `Closed: ${said} in all` : `Scan a code to vote · ${said}`;
       ctx.textAlign = "left";
-      const below = writeLines(ctx, poll.question, left + gap, sy + gap, width - 2 * gap, sh * 0.06, 2);
+      const below = writeLines(ctx, poll.question, left + gap, sy + gap, room, sh * 0.06, 2);
       ctx.fillStyle = "#b9c6e4";
-      fitText(ctx, status, left + gap, below + sh * 0.03, width - 2 * gap, sh * 0.04, "");
+      fitText(ctx, status, left + gap, below + sh * 0.03, room, sh * 0.04, "");
 
       const most = Math.max(1, ...slot.counts);
       const narrowest = Math.min(...poll.columns.map(([from, to]) => to - from));
