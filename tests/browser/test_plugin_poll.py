@@ -23,6 +23,7 @@ from sqlalchemy import inspect
 
 from tag_service.verify import decode_image
 from tests.browser.conftest import open_tiles, serve
+from tests.browser.phone_audit import SERIOUS, axe_violations, fits
 from tests.browser.test_plugin_lifecycle import pip_install
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import wait_until
@@ -109,8 +110,10 @@ def test_a_poll_asked_on_the_dashboard_is_voted_on_by_phones_and_exported(
         )
         expect(phones[0].locator("#counts th")).to_have_text(CHOICES)
         expect(phones[0].locator("#counts td:last-child")).to_have_text(["1", "1", "0"])
-        assert phones[0].evaluate("document.documentElement.scrollWidth") <= 390
         phones[0].screenshot(path=tmp_path / "phone.png", full_page=True)
+        for width, fit in fits(phones[0]).items():  # 360 to 430 px: nothing wider, all legible
+            assert not fit.problems, (width, fit.problems)
+        assert [v for v in axe_violations(phones[0]) if v["impact"] in SERIOUS] == []
         assert all(marks(t) == "1:1,1,0" for t in tiles.values())  # nothing more counted
 
         pictures = {t: screenshot(tiles[t], tmp_path / f"{t}-voted.png") for t in STAGE}
