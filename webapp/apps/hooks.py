@@ -112,8 +112,9 @@ class WallApp:
 
     migrations: Path | None = None
     """The folder of the app's Alembic revisions, for tables of its own (named
-    ``<name>_...``): its first revision carries the branch label ``<name>``, and they run
-    with the core's (``tagwall db upgrade``, ``tagwall serve``) and go down with them."""
+    ``<name>_...``): a history of their own (the first revision's ``down_revision`` is
+    None), recorded in ``alembic_version_<name>``; they run after the core's (``tagwall
+    db upgrade``, ``tagwall serve``) and go down before them."""
 
     modes: tuple[str, ...] = ()
     """The app's modes, the first its default (the brain atlas: ``quiz``, ``tutor``;
