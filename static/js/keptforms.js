@@ -12,6 +12,7 @@
 
 const PREFIX = "tagwall:kept:";
 const NOTICE_ID = "kept-notice";
+const SENT_ID = "kept-sent";
 
 function notice(form, text) {
   let element = document.getElementById(NOTICE_ID);
@@ -21,6 +22,19 @@ function notice(form, text) {
     element.className = "hint kept";
     element.setAttribute("role", "status");
     form.after(element);
+  }
+  element.textContent = text;
+}
+
+/** Say, at the top of the page now shown, what became of what was kept and sent. */
+function announce(text) {
+  let element = document.getElementById(SENT_ID);
+  if (!element) {
+    element = document.createElement("p");
+    element.id = SENT_ID;
+    element.className = "hint kept";
+    element.setAttribute("role", "status");
+    (document.querySelector("main") ?? document.body).prepend(element);
   }
   element.textContent = text;
 }
@@ -94,6 +108,9 @@ async function sendKept() {
     }
     localStorage.removeItem(key);
     if (action === currentAction()) await show(response);
+    announce(response.ok
+      ? "Sent: what you typed while offline has arrived."
+      : "Sent, but not taken: the page says why.");
   }
 }
 

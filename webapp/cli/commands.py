@@ -18,12 +18,12 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from tag_service.fit import fits_display, largest_distance
 from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
-from wall_client.config import WallConfigError, load_wall
+from wall_client.config import WallConfigError, load_wall, load_walls
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
 from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.apps.fitting import fit_lines, wall_fit
-from webapp.apps.hooks import WallApp
+from webapp.apps.hooks import ContentCheck, WallApp
 from webapp.apps.installed import wall_apps
 from webapp.cli.console import (
     EXIT_USAGE,
@@ -341,6 +341,44 @@ def _apps(settings: Settings | None = None) -> dict[str, WallApp]:
     except AppLoadError as error:
         for problem in error.problems:
             click.echo(f"error: {problem}", err=True)
+        sys.exit(EXIT_USAGE)
+
+
+@main.group()
+def content() -> None:
+    """The content folder: wall configs and what the apps read (TAGWALL_CONTENT_DIR)."""
+
+
+@content.command("check")
+@click.option(
+    "--dir",
+    "directory",
+    type=click.Path(path_type=Path, file_okay=False, exists=True),
+    default=None,
+    help="The content folder to check (default: TAGWALL_CONTENT_DIR, the one the server reads).",
+)
+def content_check(directory: Path | None) -> None:
+    """Check the content folder before a term: its wall configs and every app's part,
+    one line per problem; exit 2 on problems."""
+    settings = load_settings(**({"content_dir": directory} if directory else {}))
+    click.echo(f"checking {settings.content_dir}")
+    walls = settings.content_folder("walls")
+    try:
+        found = load_walls([walls])
+    except WallConfigError as error:
+        checks = [ContentCheck(walls, "", error.errors)]
+    else:
+        checks = [ContentCheck(walls, f"{len(found)} walls: {', '.join(sorted(found))}", [])]
+    for app in _apps(settings).values():
+        if (checked := app.check_content(settings)) is not None:
+            checks.append(checked)
+    problems = [problem for check in checks for problem in check.problems]
+    for check in checks:
+        click.echo(f"{check.folder}: {check.summary or 'problems'}")
+        for problem in check.problems:
+            click.echo(f"  {problem}")
+    if problems:
+        click.echo(f"{len(problems)} problem(s) found", err=True)
         sys.exit(EXIT_USAGE)
 
 
