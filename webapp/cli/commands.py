@@ -541,10 +541,13 @@ def user_add(name: str, role: str, password: str) -> None:
 
 @user.command("list")
 def user_list() -> None:
-    """List the accounts: username, role, created."""
+    """List the accounts: username, role, created, how it signs in (password or issuer)."""
 
     def listing(db: Database) -> str:
-        rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
+        rows = [
+            f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}\t{a.issuer or 'password'}"
+            for a in list_accounts(db)
+        ]
         return "\n".join(rows) or "no accounts"
 
     _account_action(listing)
