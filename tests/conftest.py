@@ -40,6 +40,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
 from tests.cable import Cable
+from tests.oidc.provider import OpenIDProvider, running_provider
 from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
@@ -278,6 +279,14 @@ def _answers(port: int) -> bool:
             return connection.recv(16).startswith(b"+PONG")
     except OSError:
         return False
+
+
+@pytest.fixture(scope="session")
+def openid_provider(tmp_path_factory: pytest.TempPathFactory) -> Iterator[OpenIDProvider]:
+    """The test OpenID Provider (tests/oidc/: oidc-provider from npm), started once per
+    test process; each test registers a client of its own."""
+    with running_provider(tmp_path_factory.mktemp("oidc"), server_port()) as provider:
+        yield provider
 
 
 @pytest.fixture

@@ -25,6 +25,7 @@ from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.apps.fitting import fit_lines, wall_fit
 from webapp.apps.hooks import WallApp
 from webapp.apps.installed import wall_apps
+from webapp.cli.campus import oidc
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -576,6 +577,9 @@ def user_passwd(name: str, password: str) -> None:
         return f"password of {name} changed"
 
     _account_action(change)
+
+
+main.add_command(oidc)
 
 
 @main.group()
