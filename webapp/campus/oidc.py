@@ -178,7 +178,7 @@ class Provider:
     def unreachable(self) -> SignInFailed:
         return SignInFailed(
             503,
-            f"{self.config.name} cannot be reached right now ({self.problem}). Try again "
+            f"{self.config.name} cannot be reached right now: {self.problem}. Try again "
             "in a minute; if it goes on, tell the people who run tagwall.",
             f"{self.config.issuer} cannot be reached: {self.problem}",
         )

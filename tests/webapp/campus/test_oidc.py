@@ -399,7 +399,7 @@ def test_a_provider_unreachable_at_start_leaves_the_server_up_and_says_so(
 
     assert "Sign in with Old campus" in page and "Unavailable right now" in page
     assert response.status_code == 503
-    assert "Old campus cannot be reached right now (ConnectError" in response.text
+    assert "Old campus cannot be reached right now: ConnectError" in response.text
     said = [r for r in caplog.records if "is unavailable" in r.getMessage()]
     assert len(said) == 1, "the log says why once"
 

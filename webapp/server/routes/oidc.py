@@ -28,7 +28,7 @@ router = APIRouter(include_in_schema=False)
 
 def _failed(request: Request, key: str, failed: SignInFailed, address: str) -> Response:
     log.warning("campus sign-in %r from %s refused: %s", key, address, failed.reason)
-    return render(request, "error.html", failed.status, status=failed.status, detail=failed.detail)
+    return render(request, "oidc_failed.html", failed.status, detail=failed.detail)
 
 
 def _audit_failure(services: Services, actor: str, address: str, reason: str) -> None:
@@ -107,10 +107,13 @@ def _refused(request: Request, config: OIDCProvider, signed: SignedIn) -> Respon
     naming who the admins are), and what this person's claims say of what rules read."""
     return render(
         request,
-        "oidc_refused.html",
+        "oidc_failed.html",
         status.HTTP_403_FORBIDDEN,
+        detail=(
+            f"{config.name} knows you as {signed.who}, but that gives you no role in "
+            "tagwall, so you were not signed in and nothing was kept."
+        ),
         provider=config.name,
-        who=signed.who,
         rules=[rule.describe() for rule in config.rules if rule.role == "instructor"],
         claims={claim: _shown(claim_of(signed.claims, claim)) for claim in config.claims_read},
     )
