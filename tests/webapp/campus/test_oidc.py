@@ -24,7 +24,7 @@ from webapp.cli.testing import wait_until
 from webapp.core.logs import ACCESS_LOGGER
 from webapp.core.settings import Settings
 from webapp.database.models import AccountRecord, AuditRecord
-from webapp.people.accounts import remove_account
+from webapp.people.accounts import add_account, remove_account
 from webapp.server.app import create_app
 
 
@@ -158,8 +158,6 @@ def test_a_mail_domain_makes_an_instructor_unless_the_provider_has_not_verified_
 def test_a_campus_account_never_takes_a_local_accounts_name(
     campus: TestClient, openid_provider: OpenIDProvider
 ) -> None:
-    from webapp.people.accounts import add_account
-
     add_account(services_of(campus).db, "sam", "admin", "a-long-password", actor="test")
 
     assert sign_in(campus, openid_provider, "sam").status_code == 303
