@@ -110,6 +110,7 @@ FLOORS = {
     "webapp.engine": 3,
     "webapp.people": 3,
     "webapp.classes": 3,
+    "webapp.campus": 4,
     "webapp.tags": 4,
     "webapp.quiz": 4,
     "webapp.volume": 4,

@@ -25,6 +25,7 @@ from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.apps.fitting import fit_lines, wall_fit
 from webapp.apps.hooks import ContentCheck, WallApp
 from webapp.apps.installed import wall_apps
+from webapp.cli.campus import oidc
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -579,10 +580,13 @@ def user_add(name: str, role: str, password: str) -> None:
 
 @user.command("list")
 def user_list() -> None:
-    """List the accounts: username, role, created."""
+    """List the accounts: username, role, created, how it signs in (password or issuer)."""
 
     def listing(db: Database) -> str:
-        rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
+        rows = [
+            f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}\t{a.issuer or 'password'}"
+            for a in list_accounts(db)
+        ]
         return "\n".join(rows) or "no accounts"
 
     _account_action(listing)
@@ -611,6 +615,9 @@ def user_passwd(name: str, password: str) -> None:
         return f"password of {name} changed"
 
     _account_action(change)
+
+
+main.add_command(oidc)
 
 
 @main.group()

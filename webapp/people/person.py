@@ -227,9 +227,17 @@ def address_grant(db: Database, address: str, settings: Settings) -> str | None:
 
 
 def grant(
-    db: Database, person: Person, role: Role, authority: str, settings: Settings, address: str
+    db: Database,
+    person: Person,
+    role: Role,
+    authority: str,
+    settings: Settings,
+    address: str,
+    user_group: UserGroup | None = None,
 ) -> Person:
-    """Authorise the phone up to ``role`` on ``authority`` and act in that role."""
+    """Authorise the phone up to ``role`` on ``authority`` and act in that role (in
+    ``user_group`` when the authority says which: a campus provider's rules)."""
+    group = {"user_group": user_group} if user_group else {}
     return _store(
         db,
         person,
@@ -240,6 +248,7 @@ def grant(
         role=role,
         authority=authority,
         authorized_role=role,
+        **group,
     )
 
 

@@ -14,6 +14,7 @@ from redis.asyncio import Redis
 from wall_client.layout import Wall
 from webapp.apps.hooks import WallApp
 from webapp.apps.installed import wall_apps
+from webapp.campus.oidc import CampusSignIn
 from webapp.changes.door import WallDoor
 from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
@@ -55,6 +56,7 @@ class Services:
     scan_feed: ScanFeed = field(init=False)
     login_throttle: SignInThrottle = field(init=False)
     password_checks: CapacityLimiter = field(init=False)
+    campus: CampusSignIn = field(init=False)
     volumes: VolumeCatalog = field(init=False)
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
     layouts: SizedCache[TagLayoutRecord] = field(init=False)
@@ -76,6 +78,7 @@ class Services:
         # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn (per process:
         # what it bounds is this process's memory).
         self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
+        self.campus = CampusSignIn(self.settings)
         self.tokens = Tokens(self.secret)
         self.layouts = SizedCache(LAYOUTS_CACHED)
         self.volumes = VolumeCatalog(

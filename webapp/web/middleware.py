@@ -1,5 +1,6 @@
 """The middlewares, all plain ASGI (no per-request task or body copy), outermost first:
-the client's address, the access log, the security headers, the session cookie."""
+the client's address, the access log, the security headers, the session cookie (and a
+campus sign-in's own cookie on its paths)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from http import HTTPStatus
 from urllib.parse import quote
 
 from starlette.datastructures import Headers, MutableHeaders
+from starlette.middleware.sessions import SessionMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from webapp.core.logs import redact
@@ -156,3 +158,32 @@ class SessionCookieMiddleware:
             await send(message)
 
         await self.app(scope, receive, send_with_cookie)
+
+
+class SignInStateMiddleware:
+    """Starlette's signed session cookie on the paths under ``path`` only: Authlib keeps
+    a campus sign-in's state, nonce and PKCE verifier there from the provider's button
+    to its answer, for ``max_age`` seconds at most, in the browser that started it
+    (SameSite=Lax: the provider's redirect back is a top-level navigation). Every other
+    request passes by without a cookie read."""
+
+    def __init__(
+        self, app: ASGIApp, secret: str, path: str, cookie: str, max_age: int, https: bool
+    ) -> None:
+        self.app = app
+        self.prefix = path + "/"
+        self.sessions = SessionMiddleware(
+            app,
+            secret_key=secret,
+            session_cookie=cookie,
+            max_age=max_age,
+            path=path,
+            same_site="lax",
+            https_only=https,
+        )
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope["path"].startswith(self.prefix):
+            await self.sessions(scope, receive, send)
+        else:
+            await self.app(scope, receive, send)
