@@ -39,6 +39,7 @@ from webapp.server.routes import (
     classes,
     dashboard,
     health,
+    lti,
     owncodes,
     pages,
     pairing,
@@ -108,9 +109,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             asyncio.create_task(_keep_tokens_fresh(services)),
             asyncio.create_task(services.codes.follow()),
             asyncio.create_task(services.address_rules.follow()),
+            asyncio.create_task(services.lti_outbox.run()),
         ]
         yield
         await cancel_and_wait(*tasks)
+        await services.lti.close()
         await run_blocking(services.scan_log.flush)
         await hub.close()
         if redis is not None:
@@ -143,6 +146,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         pages.router,
         people.router,
         classes.router,
+        lti.router,
         pairing.router,
         dashboard.router,
         public.router,
