@@ -41,6 +41,7 @@ from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
+from tests.lti.lms import TestLms
 from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
@@ -541,3 +542,16 @@ def routes_of(app: FastAPI) -> set[tuple[str, str]]:
         elif isinstance(route, APIWebSocketRoute):
             found.add(("WS", route.path))
     return found
+
+
+# --- a learning platform for the LTI tests, started once per test process ---------------
+
+
+@pytest.fixture(scope="session")
+def lms(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestLms]:
+    """The test LMS (lti1p3platform behind FastAPI, tests/lti/platform.py) in its own
+    process; each test points it at its own tagwall (``TestLms.serve``)."""
+    platform = TestLms(log=tmp_path_factory.mktemp("lms") / "lms.log")
+    platform.start()
+    yield platform
+    platform.stop()
