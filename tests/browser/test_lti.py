@@ -140,3 +140,33 @@ def test_a_class_launched_from_the_course(
     finally:
         db.dispose()
         server.stop()
+
+
+def test_refusals_show_in_the_courses_frame(
+    browser: Browser, tmp_path: Path, database_url: str, lms: TestLms
+) -> None:
+    """A deep link the platform refuses is its page, the course gets no link; a launch
+    tagwall refuses (the platform's keys unreachable) is tagwall's page, framed by the
+    course (only a registered platform may frame it), and nothing is created."""
+    server = serve(tmp_path, database_url)
+    db = Database(server.database_url)
+    try:
+        lms.serve(server.url, db)
+        lms.misbehave(jwks_down=True)  # before any launch: tagwall has none of its keys
+        course = browser.new_context(**DESKTOP).new_page()  # type: ignore[arg-type]
+        course.goto(lms.page("deep-link", "teacher"))
+        tool = course.frame_locator("#tool")
+        expect(tool.locator("h1")).to_have_text("tagwall cannot open this")
+        expect(tool.get_by_role("alert")).to_contain_text("could not read the learning platform")
+        shot(course, "refused-in-frame")
+        assert "LTI refused: JWKS of" in server.log.read_text()
+
+        lms.misbehave(refuse_links=True)
+        course.goto(lms.page("deep-link", "teacher"))
+        tool.get_by_role("button", name="Add to the course").click()
+        expect(tool.locator("h1")).to_have_text("The tool's link was refused")
+        assert lms.gradebook()["links"] == {}
+        assert "LTI deep link to" in server.log.read_text()
+    finally:
+        db.dispose()
+        server.stop()
