@@ -127,3 +127,18 @@ def test_every_path_a_browser_module_asks_for_is_a_route(client: TestClient) -> 
             ):
                 lost.append(f"{module.name}: {found}")
     assert not lost, lost
+
+
+def test_no_template_styles_inline_what_the_policy_blocks() -> None:
+    """The pages' Content-Security-Policy allows styles only from files (style-src
+    'self'): an inline ``style=`` or ``<style>`` is dropped by the browser (the image
+    panel's picture of hotspots lost its size and cursor so)."""
+    folders = [PROJECT_ROOT / "webapp" / "web" / "templates"]
+    folders += [app.templates for app in APPS.values() if app.templates is not None]
+    inline = [
+        str(page)
+        for folder in folders
+        for page in folder.rglob("*.html")
+        if re.search(r"\sstyle=|<style", page.read_text())
+    ]
+    assert not inline, inline
