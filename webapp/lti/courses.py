@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 
 from sqlalchemy import select, update
+from sqlalchemy.exc import IntegrityError
 
 from webapp.classes.roll import ClassSession, join
 from webapp.database.connection import Database, as_utc
@@ -15,6 +16,7 @@ from webapp.database.models import LtiClassRecord, LtiRosterRecord, LtiScoreReco
 from webapp.lti.messages import Member, Score
 from webapp.people.person import plain_text
 from webapp.quiz.engine import Quiz
+from webapp.quiz.engine import Score as QuizScore
 
 MAX_NAME = 80
 MAX_PROBLEM = 300
@@ -181,11 +183,17 @@ def roster(db: Database, class_id: int) -> list[Expected]:
 
 def queue_scores(db: Database, held: ClassSession, ended: datetime) -> int:
     """At End class: each student who joined gets their score queued for the line item
-    (a student who did not join gets none). Returns how many were queued."""
+    (a student who did not join gets none); one queued already keeps it. Returns how many
+    were queued."""
     course = course_class(db, held.id)
     if course is None or course.lineitem_url is None:
         return 0
     with db.reading() as connection:
+        queued = set(
+            connection.scalars(
+                select(LtiScoreRecord.user_id).where(LtiScoreRecord.class_id == held.id)
+            )
+        )
         joined = {
             row.visitor_id: row.user_id
             for row in connection.execute(
@@ -195,8 +203,23 @@ def queue_scores(db: Database, held: ClassSession, ended: datetime) -> int:
                     LtiRosterRecord.visitor_id.is_not(None),
                 )
             )
+            if row.user_id not in queued
         }
     scores = Quiz(db, course.app).scores(held.wall_id, held, joined)
+    try:
+        _add_scores(db, held, joined, scores, ended)
+    except IntegrityError:  # queued at the same moment by another request: theirs stand
+        return 0
+    return len(scores)
+
+
+def _add_scores(
+    db: Database,
+    held: ClassSession,
+    joined: dict[str, str],
+    scores: dict[str, QuizScore],
+    ended: datetime,
+) -> None:
     with db.session() as session:
         for visitor_id, score in scores.items():
             posted = Score(
@@ -214,7 +237,6 @@ def queue_scores(db: Database, held: ClassSession, ended: datetime) -> int:
                     next_try_at=ended,
                 )
             )
-    return len(scores)
 
 
 @dataclass(frozen=True)
@@ -225,8 +247,9 @@ class Pending:
     attempts: int
 
 
-def due_scores(db: Database, limit: int = 50) -> list[Pending]:
-    """Scores not yet accepted whose next try is due."""
+def claim_due_scores(db: Database, lease_s: float, limit: int = 50) -> list[Pending]:
+    """Scores not yet accepted whose next try is due, each claimed for ``lease_s``
+    seconds by one conditional UPDATE: of several server processes, one posts it."""
     now = datetime.now(UTC)
     with db.reading() as connection:
         rows = connection.execute(
@@ -235,12 +258,28 @@ def due_scores(db: Database, limit: int = 50) -> list[Pending]:
                 LtiScoreRecord.class_id,
                 LtiScoreRecord.score,
                 LtiScoreRecord.attempts,
+                LtiScoreRecord.next_try_at,
             )
             .where(LtiScoreRecord.posted_at.is_(None), LtiScoreRecord.next_try_at <= now)
             .order_by(LtiScoreRecord.next_try_at)
             .limit(limit)
         ).all()
-    return [Pending(r.id, r.class_id, Score.model_validate(r.score), r.attempts) for r in rows]
+    claimed = []
+    with db.engine.begin() as connection:
+        for row in rows:
+            taken = connection.execute(
+                update(LtiScoreRecord)
+                .where(
+                    LtiScoreRecord.id == row.id,
+                    LtiScoreRecord.next_try_at == row.next_try_at,
+                    LtiScoreRecord.posted_at.is_(None),
+                )
+                .values(next_try_at=now + timedelta(seconds=lease_s))
+            ).rowcount
+            if taken:
+                score = Score.model_validate(row.score)
+                claimed.append(Pending(row.id, row.class_id, score, row.attempts))
+    return claimed
 
 
 def score_posted(db: Database, score_id: int) -> None:

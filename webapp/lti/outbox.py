@@ -12,18 +12,19 @@ import logging
 from sqlalchemy.exc import SQLAlchemyError
 
 from webapp.core.threads import run_blocking
-from webapp.lti.courses import course_class, due_scores, score_failed, score_posted
+from webapp.lti.courses import claim_due_scores, course_class, score_failed, score_posted
 from webapp.lti.platforms import get_platform
 from webapp.lti.tool import LtiTool, ServiceError
 
 log = logging.getLogger(__name__)
 
 POLL_S = 5.0  # scores whose wait is over are looked for this often (and at End class)
+LEASE_S = 60.0  # a score being posted is left to its process this long
 
 
 class Outbox:
-    """Posts the due scores; one per server process (several agree: a score posted
-    twice carries the same timestamp, which a platform takes as the same score)."""
+    """Posts the due scores; one per server process, each score claimed by one of them
+    at a time."""
 
     def __init__(self, tool: LtiTool) -> None:
         self.tool = tool
@@ -45,7 +46,7 @@ class Outbox:
 
     async def send_due(self) -> None:
         db, settings = self.tool.db, self.tool.settings
-        for pending in await run_blocking(due_scores, db):
+        for pending in await run_blocking(claim_due_scores, db, LEASE_S):
             course = await run_blocking(course_class, db, pending.class_id)
             platform = None
             if course is not None:

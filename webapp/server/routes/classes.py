@@ -21,6 +21,7 @@ from webapp.classes.roll import (
     joined_count,
     latest_class,
     roll_name,
+    running_class,
     start_class,
 )
 from webapp.core.threads import run_blocking
@@ -84,6 +85,15 @@ async def course_info(services: Services, held: ClassSession) -> CourseInfo | No
     )
 
 
+async def send_grades(services: Services, ended: ClassSession) -> None:
+    """An ended class launched from a course: its students' scores go to the course's
+    gradebook (queued, posted by the outbox until accepted)."""
+    if ended.ended_at is None:
+        return
+    if await run_blocking(queue_scores, services.db, ended, ended.ended_at):
+        services.lti_outbox.wake()
+
+
 @router.get("/api/walls/{wall_id}/class")
 async def class_now(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInfo | None:
     """The class running at the wall, else the last one (null: none ever ran)."""
@@ -119,12 +129,15 @@ async def start_on_wall(
     app = showable_app(services, app_name or state.app, mode)
     if state.app != app.name:  # before the class starts: what the app settles is not its
         await services.change_wall(wall, lambda s: s.model_copy(update={"app": app.name}))
+    before = await run_blocking(running_class, services.db, wall.id)
     try:
         held = await run_blocking(
             start_class, services.db, wall.id, title, names, staff, wall.time_zone
         )
     except ClassError as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
+    if before is not None and (ended := await run_blocking(get_class, services.db, before.id)):
+        await send_grades(services, ended)  # the class this start ended
 
     async def plan(current: WallState) -> Update:
         fresh = current.model_copy(
@@ -154,9 +167,7 @@ async def end(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInf
         return lambda s: s.model_copy(update=fields)
 
     await services.plan_change(wall, plan)
-    queued = await run_blocking(queue_scores, services.db, held, held.ended_at or held.started_at)
-    if queued:
-        services.lti_outbox.wake()  # a class from a course: its grades go back now
+    await send_grades(services, held)
     return await class_info(services, wall, held)
 
 
