@@ -96,6 +96,7 @@ def test_a_class_launched_from_the_course(
             "Ada Lovelace, Ben Absent, Sam Student"
         )
         expect(dashboard.locator("#app")).to_have_text("brain")
+        expect(dashboard.locator("header")).to_contain_text("Signed in as Ines Teacher")
 
         layout = fetch_layout(server.url, "demo", operator_token(server.secret))[1]
         pins = [c.payload for c in layout.placed if c.label.startswith("Pin ")]
@@ -113,6 +114,13 @@ def test_a_class_launched_from_the_course(
         expect(dashboard.locator("#class-joined-names")).to_have_text("Ada Lovelace, Sam Student")
         expect(dashboard.locator("#class-missing")).to_have_text("Ben Absent")
         shot(dashboard, "dashboard-roster")
+        # the instructor opens the link again: the same class, not a new one
+        course.goto(lms.page("link-1", "teacher"))
+        with teacher.expect_page() as opened:
+            tool.get_by_role("button", name="Open the dashboard").click()
+        again = opened.value
+        expect(again.locator("#class-joined-names")).to_have_text("Ada Lovelace, Sam Student")
+        again.close()
 
         for phone, answer in ((sam, "thalamus"), (ada, "hippocampus")):
             phone.goto(pins[0])  # the first scan: no name asked, the pin's question
@@ -134,7 +142,8 @@ def test_a_class_launched_from_the_course(
             assert score["scoreMaximum"] >= 1
             assert 0 <= score["scoreGiven"] <= score["scoreMaximum"]
         expect(dashboard.locator("#class-grades")).to_have_text(
-            "2 scores in the course's gradebook", timeout=20_000
+            "2 scores in the course's gradebook; no score for Ben Absent (not joined)",
+            timeout=20_000,
         )
         shot(dashboard, "dashboard-grades")
     finally:

@@ -63,7 +63,9 @@ function showGrades(course) {
   const shown = Boolean(course && course.graded);
   $("class-grades").hidden = !shown;
   if (!shown) return;
-  const posted = `${course.grades_posted} score${course.grades_posted === 1 ? "" : "s"} in the course's gradebook`;
+  const absent = course.missing.length ? `; no score for ${course.missing.join(", ")} (not joined)` : "";
+  const posted =
+    `${course.grades_posted} score${course.grades_posted === 1 ? "" : "s"} in the course's gradebook${absent}`;
   if (!course.grades_waiting) {
     $("class-grades").textContent = posted;
     $("class-grades").className = "";

@@ -43,7 +43,7 @@ from webapp.lti.platforms import (
     tool_values,
 )
 from webapp.lti.tool import LaunchError, ServiceError, Verified
-from webapp.people.person import grant, remember_person
+from webapp.people.person import grant, remember_person, update_profile
 from webapp.server.deps import ServicesDep
 from webapp.server.routes.classes import start_on_wall
 from webapp.server.services import Services
@@ -349,6 +349,17 @@ async def carry_on(
         person = await run_blocking(
             grant, services.db, person, "instructor", authority, services.settings, address
         )
+        if over.name and not person.display_name:  # the dashboard names them as the course does
+            person = await run_blocking(
+                lambda: update_profile(
+                    services.db,
+                    person,
+                    services.settings,
+                    user_group=person.user_group,
+                    info_class=person.info_class,
+                    display_name=over.name,
+                )
+            )
         remember_person(request, person)
     if not ours:
         await _start_for_course(services, over, person.authority or "lti")
