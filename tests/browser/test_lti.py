@@ -17,7 +17,7 @@ import pytest
 from playwright.sync_api import Browser, Page, expect, sync_playwright
 
 from tests.browser.conftest import serve
-from tests.browser.phone_audit import fits
+from tests.browser.phone_audit import SERIOUS, axe_violations, fits
 from tests.lti.lms import TestLms
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import CHROMIUM_ARGS, wait_until
@@ -73,6 +73,8 @@ def test_a_class_launched_from_the_course(
         course.goto(lms.page("deep-link", "teacher"))
         tool = course.frame_locator("#tool")
         expect(tool.locator("h1")).to_have_text("Add tagwall to Biology 101")
+        picker = next(f for f in course.frames if f.url.endswith("/lti/launch"))
+        assert not [v for v in axe_violations(picker) if v["impact"] in SERIOUS]
         tool.get_by_label("Wall").select_option("demo")
         tool.get_by_label("Lesson").select_option("brain:quiz")
         tool.get_by_label("Title in the course").fill("Brain quiz")
@@ -86,6 +88,7 @@ def test_a_class_launched_from_the_course(
         # the instructor's launch: the dashboard opens in its own tab, the class started
         course.goto(lms.page("link-1", "teacher"))
         expect(tool.locator("h1")).to_have_text("Biology 101")
+        assert teacher.cookies(server.url) == []  # deep link and launch: no cookie needed
         shot(course, "instructor-launch")
         with teacher.expect_page() as opened:
             tool.get_by_role("button", name="Open the dashboard").click()
@@ -107,6 +110,7 @@ def test_a_class_launched_from_the_course(
         sam.goto(f"{lms.url}/start?user=sam&hint=link-1")
         expect(sam.locator("#joined")).to_contain_text("You are in the class as Sam Student")
         assert not [p for f in fits(sam).values() for p in f.problems]
+        assert not [v for v in axe_violations(sam) if v["impact"] in SERIOUS]
         shot(sam, "student-joined-390")
         # Ada's phone browser shows the course page: the launch in its frame, one tap
         ada = student_joins_in_the_frame(browser, lms, "ada", "link-1")

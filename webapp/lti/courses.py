@@ -42,10 +42,6 @@ def teaches(roles: list[str]) -> bool:
     return any(role in TEACHING_ROLES for role in roles)
 
 
-def member_name(member: Member) -> str:
-    return _name(member.name or f"{member.given_name} {member.family_name}")
-
-
 def _name(text: str) -> str:
     return plain_text(text)[:MAX_NAME].strip()
 
@@ -128,7 +124,7 @@ def save_roster(db: Database, class_id: int, members: list[Member]) -> None:
             if record is None:
                 record = LtiRosterRecord(class_id=class_id, user_id=member.user_id)
                 session.add(record)
-            record.name = member_name(member) or record.name
+            record.name = _name(member.full_name) or record.name
             record.learner = not teaches(member.roles)
         session.execute(
             update(LtiClassRecord)

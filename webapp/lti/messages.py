@@ -1,6 +1,7 @@
 """Every LTI message tagwall reads or writes, as pydantic models (1EdTech LTI Core 1.3,
 Deep Linking 2.0, NRPS 2.0, AGS 2.0). Claims arrive under their URIs; the models name
-them by alias, so the code reads ``launch.context.title``."""
+them by alias, so the code reads ``launch.context.title``. The services' JSON fields keep
+the specs' own (camelCase) names."""
 
 from __future__ import annotations
 
@@ -19,6 +20,19 @@ Text = Annotated[str, StringConstraints(min_length=1, max_length=1_000)]
 
 class Claims(BaseModel):
     model_config = ConfigDict(populate_by_name=True, extra="ignore")
+
+
+class Named(Claims):
+    """A person as a launch or a roster names them (OpenID Connect's name claims)."""
+
+    name: str = Field(default="", max_length=1_000)
+    given_name: str = Field(default="", max_length=1_000)
+    family_name: str = Field(default="", max_length=1_000)
+
+    @property
+    def full_name(self) -> str:
+        """``name``, else the given and family names (platforms send one or the other)."""
+        return self.name or f"{self.given_name} {self.family_name}".strip()
 
 
 class LoginInitiation(BaseModel):
@@ -62,15 +76,12 @@ class DeepLinkingSettings(Claims):
     data: str | None = None
 
 
-class Launch(Claims):
+class Launch(Named):
     """A verified id_token's LTI claims (signature, issuer, audience, times and nonce
     are checked before this model reads it). The aliases are the claims' URIs written
     out: type checkers take only literal aliases."""
 
     sub: Text
-    name: str = Field(default="", max_length=1_000)
-    given_name: str = Field(default="", max_length=1_000)
-    family_name: str = Field(default="", max_length=1_000)
     message_type: Literal["LtiResourceLinkRequest", "LtiDeepLinkingRequest"] = Field(
         alias="https://purl.imsglobal.org/spec/lti/claim/message_type"
     )
@@ -98,11 +109,6 @@ class Launch(Claims):
     deep_linking: DeepLinkingSettings | None = Field(
         default=None, alias="https://purl.imsglobal.org/spec/lti-dl/claim/deep_linking_settings"
     )
-
-    @property
-    def person_name(self) -> str:
-        """How the course names the person: ``name``, else given and family names."""
-        return self.name or f"{self.given_name} {self.family_name}".strip()
 
 
 class LineItem(BaseModel):
@@ -136,17 +142,12 @@ class Score(BaseModel):
     comment: str = ""
 
 
-class Member(BaseModel):
+class Member(Named):
     """One person of a course's roster (NRPS 2.0)."""
-
-    model_config = ConfigDict(extra="ignore")
 
     user_id: Text
     roles: list[str]
     status: str = "Active"
-    name: str = Field(default="", max_length=1_000)
-    given_name: str = Field(default="", max_length=1_000)
-    family_name: str = Field(default="", max_length=1_000)
 
 
 class MembershipContainer(BaseModel):

@@ -69,7 +69,6 @@ class Verified:
 
     platform: Platform
     launch: Launch
-    nonce: str
 
 
 @dataclass
@@ -205,7 +204,7 @@ class LtiTool:
                 "back to. Ask the platform's administrator.",
                 f"deep linking request from {platform.issuer} without its settings",
             )
-        return Verified(platform, launch, str(kept["nonce"]))
+        return Verified(platform, launch)
 
     async def _platform_keys(self, platform: Platform, *, refresh: bool) -> KeySet:
         kept = self._keys.get(platform.id)

@@ -187,7 +187,7 @@ def _hand_over(services: Services, verified: Verified) -> HandOver:
         platform=verified.platform.id,
         deployment_id=launch.deployment_id,
         user_id=launch.sub,
-        name=launch.person_name,
+        name=launch.full_name,
         wall=wall,
         app=str(custom["app"]) if custom.get("app") else None,
         mode=str(custom["mode"]) if custom.get("mode") else None,
