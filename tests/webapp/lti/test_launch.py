@@ -11,6 +11,8 @@ from urllib.parse import urlsplit
 import httpx
 import pytest
 from fastapi.testclient import TestClient
+from joserfc import jwt
+from joserfc.jwk import KeySet
 from sqlalchemy import func, select
 
 from tests.conftest import services_of
@@ -163,3 +165,36 @@ def test_a_platform_whose_keys_cannot_be_fetched(
     assert page.status_code == 502
     refused(page, caplog, "could not read the learning platform", "unreadable")
     nothing_created(client)
+
+
+def test_the_deep_link_goes_back_signed_once(
+    client: TestClient, lms: TestLms, platform: Platform, caplog: pytest.LogCaptureFixture
+) -> None:
+    page = launched(client, login(client, lms))
+    choice = re.search(r'name="choice" value="([^"]+)"', page.text)
+    assert choice
+    form = {"choice": choice.group(1), "wall": "demo", "lesson": "brain:quiz"}
+    wrong = client.post("/lti/deep-link", data={**form, "points": "0"})
+    assert wrong.status_code == 400 and "Points: a whole number from 1 to 1000" in wrong.text
+    assert f"frame-ancestors {lms.url}" in wrong.headers["content-security-policy"]
+
+    sent = client.post("/lti/deep-link", data={**form, "points": "12", "title": "Brain quiz"})
+    assert sent.status_code == 200, sent.text
+    assert f'action="{lms.url}/deep-link-return"' in sent.text
+    assert f"form-action 'self' {lms.url}" in sent.headers["content-security-policy"]
+    token = re.search(r'name="JWT" value="([^"]+)"', sent.text)
+    assert token
+    keys = KeySet.import_key_set(client.get("/lti/jwks").json())
+    claims = jwt.decode(token.group(1), keys, algorithms=["RS256"]).claims
+    assert (claims["iss"], claims["aud"]) == (platform.client_id, platform.issuer)
+    assert claims["https://purl.imsglobal.org/spec/lti/claim/deployment_id"] == "deployment-1"
+    (item,) = claims["https://purl.imsglobal.org/spec/lti-dl/claim/content_items"]
+    assert item["custom"] == {"wall": "demo", "app": "brain", "mode": "quiz"}
+    assert item["lineItem"] == {
+        "label": "Brain quiz",
+        "scoreMaximum": 12,
+        "resourceId": "demo:brain",
+    }
+
+    again = client.post("/lti/deep-link", data={**form, "points": "12"})
+    refused(again, caplog, "This choice has expired", "used choice")

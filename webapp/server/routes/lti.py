@@ -18,7 +18,7 @@ from fastapi.responses import HTMLResponse, JSONResponse, RedirectResponse, Resp
 from pydantic import BaseModel, ValidationError
 
 from webapp.apps.installed import modes_of
-from webapp.classes.roll import running_class
+from webapp.classes.roll import ClassError, running_class
 from webapp.core.threads import run_blocking
 from webapp.lti import passes
 from webapp.lti.courses import (
@@ -55,6 +55,7 @@ router = APIRouter(tags=["lti"])
 log = logging.getLogger(__name__)
 
 DEFAULT_POINTS = 10
+MAX_POINTS = 1_000
 
 
 class HandOver(BaseModel):
@@ -253,6 +254,7 @@ async def _picker(
         lessons=_lessons(services),
         course_title=course_title,
         points=DEFAULT_POINTS,
+        max_points=MAX_POINTS,
         error=error,
     )
 
@@ -261,17 +263,22 @@ async def _picker(
 async def deep_link(
     request: Request,
     services: ServicesDep,
-    choice: Annotated[str, Form(max_length=200)],
-    wall: Annotated[str, Form(max_length=64)],
-    lesson: Annotated[str, Form(max_length=130)],
+    choice: Annotated[str, Form(max_length=200)] = "",
+    wall: Annotated[str, Form(max_length=64)] = "",
+    lesson: Annotated[str, Form(max_length=130)] = "",
     title: Annotated[str, Form(max_length=200)] = "",
-    points: Annotated[int, Form(ge=1, le=1_000)] = DEFAULT_POINTS,
+    points: Annotated[str, Form(max_length=10)] = "",
 ) -> HTMLResponse:
     """The instructor's pick goes back to the platform as a signed deep-linking response
-    (an auto-submitted form): the link, its wall and lesson, and a gradebook column."""
+    (an auto-submitted form): the link, its wall and lesson, and a gradebook column.
+    Whatever is wrong in the form is said on the picker (a page the course frames)."""
     app_name, _, mode = lesson.partition(":")
     if wall not in services.walls or f"{app_name}:{mode}" not in dict(_lessons(services)):
         return await _picker(request, services, choice, "", "Pick a wall and a lesson.")
+    if not points.strip().isdigit() or not 1 <= int(points) <= MAX_POINTS:
+        return await _picker(
+            request, services, choice, "", f"Points: a whole number from 1 to {MAX_POINTS}."
+        )
     kept = await run_blocking(passes.take, services.db, "choice", choice)
     platform = None
     if kept is not None:
@@ -292,7 +299,7 @@ async def deep_link(
         text=f"A class at the {services.walls[wall].name} wall: {app_name}.",
         url=services.base_url + "/lti/launch",
         custom={"wall": wall, "app": app_name, "mode": mode},
-        lineItem=LineItem(label=name, scoreMaximum=points, resourceId=f"{wall}:{app_name}"),
+        lineItem=LineItem(label=name, scoreMaximum=int(points), resourceId=f"{wall}:{app_name}"),
     )
     token = await services.lti.deep_link_response(platform, picked.deployment_id, picked.data, item)
     log.info("LTI deep link to %s: %s at wall %s", platform.issuer, lesson, wall)
@@ -340,9 +347,12 @@ async def carry_on(
     if over.role == "learn":
         if running is None or not ours:
             return render(request, "lti_waiting.html", course_title=over.course_title)
-        await run_blocking(
-            join_as, services.db, running.id, person.visitor.id, over.user_id, over.name
-        )
+        try:
+            await run_blocking(
+                join_as, services.db, running.id, person.visitor.id, over.user_id, over.name
+            )
+        except ClassError as error:  # ended meanwhile
+            raise HTTPException(status.HTTP_410_GONE, str(error)) from error
         return RedirectResponse(f"/classes/{running.id}/join", status.HTTP_303_SEE_OTHER)
     if not person.is_staff:
         authority = f"lti:{platform.id}:{over.user_id}"[:120]
