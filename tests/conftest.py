@@ -40,6 +40,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
 from tests.cable import Cable
+from tests.lti.lms import TestLms
 from tests.oidc.provider import OpenIDProvider, running_provider
 from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
@@ -472,3 +473,16 @@ def routes_of(app: FastAPI) -> set[tuple[str, str]]:
         elif isinstance(route, APIWebSocketRoute):
             found.add(("WS", route.path))
     return found
+
+
+# --- a learning platform for the LTI tests, started once per test process ---------------
+
+
+@pytest.fixture(scope="session")
+def lms(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestLms]:
+    """The test LMS (lti1p3platform behind FastAPI, tests/lti/platform.py) in its own
+    process; each test points it at its own tagwall (``TestLms.serve``)."""
+    platform = TestLms(log=tmp_path_factory.mktemp("lms") / "lms.log")
+    platform.start()
+    yield platform
+    platform.stop()
