@@ -110,7 +110,9 @@ WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ... ("" without 
 # machine (two worktrees) seldom share blocks; a port in use is passed over anyway.
 PORT_BLOCK = 200
 _BLOCKS = (32_768 - 20_000) // PORT_BLOCK
-_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "0")[:8] or "0", 16)
+# Without xdist, the process id stands for the run: two runs without -n on one machine
+# (two worktrees) would otherwise both take the first block.
+_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "")[:8] or str(os.getpid()), 16)
 _FIRST_PORT = 20_000 + PORT_BLOCK * ((_RUN + int(WORKER.removeprefix("gw") or 0)) % _BLOCKS)
 _next_ports = itertools.cycle(range(_FIRST_PORT, _FIRST_PORT + PORT_BLOCK))
 
