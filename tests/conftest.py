@@ -40,6 +40,7 @@ from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
 from tests.cable import Cable
+from tests.lti.lms import TestLms
 from tests.oidc.provider import OpenIDProvider, running_provider
 from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
@@ -109,7 +110,9 @@ WORKER = os.environ.get("PYTEST_XDIST_WORKER", "")  # gw0, gw1, ... ("" without 
 # machine (two worktrees) seldom share blocks; a port in use is passed over anyway.
 PORT_BLOCK = 200
 _BLOCKS = (32_768 - 20_000) // PORT_BLOCK
-_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "0")[:8] or "0", 16)
+# Without xdist, the process id stands for the run: two runs without -n on one machine
+# (two worktrees) would otherwise both take the first block.
+_RUN = int(os.environ.get("PYTEST_XDIST_TESTRUNUID", "")[:8] or str(os.getpid()), 16)
 _FIRST_PORT = 20_000 + PORT_BLOCK * ((_RUN + int(WORKER.removeprefix("gw") or 0)) % _BLOCKS)
 _next_ports = itertools.cycle(range(_FIRST_PORT, _FIRST_PORT + PORT_BLOCK))
 
@@ -472,3 +475,16 @@ def routes_of(app: FastAPI) -> set[tuple[str, str]]:
         elif isinstance(route, APIWebSocketRoute):
             found.add(("WS", route.path))
     return found
+
+
+# --- a learning platform for the LTI tests, started once per test process ---------------
+
+
+@pytest.fixture(scope="session")
+def lms(tmp_path_factory: pytest.TempPathFactory) -> Iterator[TestLms]:
+    """The test LMS (lti1p3platform behind FastAPI, tests/lti/platform.py) in its own
+    process; each test points it at its own tagwall (``TestLms.serve``)."""
+    platform = TestLms(log=tmp_path_factory.mktemp("lms") / "lms.log")
+    platform.start()
+    yield platform
+    platform.stop()

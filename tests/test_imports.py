@@ -115,6 +115,7 @@ FLOORS = {
     "webapp.quiz": 4,
     "webapp.volume": 4,
     "webapp.web": 5,
+    "webapp.lti": 5,  # tagwall as an LTI tool: over the classes, the people and the quiz
     "webapp.publishing": 6,
     "webapp.apps": 6,
     "webapp.changes": 7,

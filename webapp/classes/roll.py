@@ -26,14 +26,16 @@ from webapp.database.models import ClassMemberRecord, ClassRecord
 from webapp.people.addresses import AddressRules
 from webapp.people.person import person_with, plain_text
 
-NameMode = Literal["anonymous", "nickname", "roster"]
-NAME_MODES: tuple[NameMode, ...] = get_args(NameMode)
-NAME_PROMPTS: dict[NameMode, str] = {
+ChosenNameMode = Literal["anonymous", "nickname", "roster"]
+NameMode = ChosenNameMode | Literal["course"]
+NAME_MODES: tuple[NameMode, ...] = (*get_args(ChosenNameMode), "course")
+NAME_PROMPTS: dict[ChosenNameMode, str] = {
     "anonymous": "No names",
     "nickname": "A nickname",
     "roster": "A roster id (student number)",
 }
-"""What the dashboard offers; the join page asks for the class's kind of name."""
+"""What the dashboard offers; the join page asks for the class's kind of name. A class
+launched from a course (LTI) is named by the course: ``course``, never typed."""
 MAX_NAME = 40
 MAX_TITLE = 80
 
@@ -94,7 +96,7 @@ def clean_name(text: str, names: NameMode) -> str:
     """A student's name for a class as kept: plain text, at most :data:`MAX_NAME`
     characters, never empty (the class asked for it)."""
     name = plain_text(text)
-    what = "roster id" if names == "roster" else "nickname"
+    what = {"roster": "roster id", "course": "name"}.get(names, "nickname")
     if not name:
         raise ClassError(f"Please type your {what}.")
     if len(name) > MAX_NAME:
@@ -227,23 +229,36 @@ def standing(db: Database, wall_id: str, visitor_id: str) -> Standing | None:
     return None if row is None else Standing(_session(row), joined=row.member is not None)
 
 
-def join(db: Database, class_id: int, visitor_id: str, name: str = "") -> ClassSession:
+def join(
+    db: Database, class_id: int, visitor_id: str, name: str = "", *, named_by_course: bool = False
+) -> ClassSession:
     """Put the visitor on the roll of a running class (again: their name changes).
 
     ``name`` is checked against what the class asks for: none for an anonymous class.
+    A class named by its course takes only names its course gave (``named_by_course``:
+    the student's own launch from the course said who they are).
     """
     try:
-        return _join(db, class_id, visitor_id, name)
+        return _join(db, class_id, visitor_id, name, named_by_course)
     except IntegrityError:  # the same phone joining twice at once: the second renames
-        return _join(db, class_id, visitor_id, name)
+        return _join(db, class_id, visitor_id, name, named_by_course)
 
 
-def _join(db: Database, class_id: int, visitor_id: str, name: str) -> ClassSession:
+def _join(
+    db: Database, class_id: int, visitor_id: str, name: str, named_by_course: bool
+) -> ClassSession:
     with db.session() as session:
         record = session.get(ClassRecord, class_id) if is_row_id(class_id) else None
         if record is None or record.ended_at is not None:
             raise ClassError("This class has ended.")
         held = _session(record)
+        if (held.names == "course") != named_by_course:
+            raise ClassError(
+                "This class takes your name from your course: open tagwall from the course "
+                "on this phone."
+                if held.names == "course"
+                else "This class was not started from a course."
+            )
         kept = "" if held.names == "anonymous" else clean_name(name, held.names)
         member = session.get(ClassMemberRecord, (class_id, visitor_id))
         if member is None:
@@ -259,6 +274,16 @@ def joined_count(db: Database, class_id: int) -> int:
             select(func.count()).where(ClassMemberRecord.class_id == class_id)
         )
     return int(count or 0)
+
+
+def roll_name(db: Database, class_id: int, visitor_id: str) -> str | None:
+    """The name the visitor is on the class's roll under (None: not on it)."""
+    with db.reading() as connection:
+        return connection.scalar(
+            select(ClassMemberRecord.name).where(
+                ClassMemberRecord.class_id == class_id, ClassMemberRecord.visitor_id == visitor_id
+            )
+        )
 
 
 def roll_names(db: Database, class_id: int) -> dict[str, str]:

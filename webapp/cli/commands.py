@@ -41,6 +41,14 @@ from webapp.core.logs import redact, redact_root_handlers, uvicorn_log_config
 from webapp.core.settings import Settings, lan_address
 from webapp.database.connection import Database, database_problem
 from webapp.database.migrate import downgrade, downgrade_app, upgrade
+from webapp.lti.keys import rotate_keys
+from webapp.lti.platforms import (
+    PlatformError,
+    add_platform,
+    list_platforms,
+    remove_platform,
+    tool_values,
+)
 from webapp.people.accounts import (
     AccountError,
     add_account,
@@ -626,13 +634,27 @@ def tokens() -> None:
 
 
 @tokens.command("rotate")
-@click.argument("which", type=click.Choice(["operator", "tiles"]))
+@click.argument("which", type=click.Choice(["operator", "tiles", "lti"]))
 @click.option("--wall", "wall_id", default=None, help="Only this wall's tile token.")
 def tokens_rotate(which: str, wall_id: str | None) -> None:
-    """Replace the operator token or the tile tokens; the old ones stop working within
-    seconds, on every server process, and the new URLs are printed."""
+    """Replace the operator token, the tile tokens or tagwall's LTI signing key; the old
+    tokens stop working within seconds, on every server process, and the new URLs are
+    printed. The old LTI key stays in the published key set for
+    TAGWALL_LTI_KEY_OVERLAP_H hours, so what it signed still verifies."""
 
     settings = load_settings()
+    if which == "lti":
+        database = open_database(settings)
+        try:
+            kid = rotate_keys(database, actor="cli")
+        except SQLAlchemyError as error:
+            fail(database_problem(error, settings.resolved_database_url))
+        finally:
+            database.dispose()
+        jwks = tool_values(settings.resolved_public_base_url).jwks_url
+        click.echo(f"new LTI signing key {kid}; the old one stays at {jwks}")
+        click.echo(f"for another {settings.lti_key_overlap_h:g} hours")
+        return
     walls = load_configured_walls(settings)
     chosen = [pick_wall(walls, wall_id, settings)] if wall_id else list(walls.values())
     database = open_database(settings)
@@ -655,6 +677,101 @@ def tokens_rotate(which: str, wall_id: str | None) -> None:
         click.echo(f"wall {wall.id}: new tile URLs (open tiles are closed within seconds)")
         for display in wall.displays:
             click.echo(f"  {tile_url(settings, new, wall.id, display.id)}")
+
+
+@main.group()
+def lti() -> None:
+    """Learning platforms (LMS) that launch tagwall as an LTI 1.3 tool."""
+
+
+@lti.command("add")
+@click.option("--name", default="", help="What to call the platform (default: its issuer).")
+@click.option("--issuer", required=True, help="The platform's issuer (its platform ID).")
+@click.option("--client-id", required=True, help="The client id the platform made for tagwall.")
+@click.option(
+    "--deployment",
+    "deployments",
+    multiple=True,
+    required=True,
+    help="A deployment id tagwall may be launched from (repeat for several).",
+)
+@click.option("--auth-url", required=True, help="The platform's authentication request URL.")
+@click.option("--token-url", required=True, help="The platform's access token URL.")
+@click.option("--jwks-url", required=True, help="The platform's public keyset URL.")
+def lti_add(
+    name: str,
+    issuer: str,
+    client_id: str,
+    deployments: tuple[str, ...],
+    auth_url: str,
+    token_url: str,
+    jwks_url: str,
+) -> None:
+    """Register a platform (the same issuer and client id again: update it)."""
+
+    database = open_database(load_settings())
+    try:
+        platform = add_platform(
+            database,
+            name=name,
+            issuer=issuer,
+            client_id=client_id,
+            deployment_ids=list(deployments),
+            auth_url=auth_url,
+            token_url=token_url,
+            jwks_url=jwks_url,
+            actor="cli",
+        )
+    except PlatformError as error:
+        fail(str(error))
+    finally:
+        database.dispose()
+    click.echo(
+        f"platform {platform.id} ({platform.name}): {len(platform.deployment_ids)} deployments"
+    )
+
+
+@lti.command("list")
+def lti_list() -> None:
+    """The platforms registered: id, name, issuer, client id, deployments."""
+
+    database = open_database(load_settings())
+    try:
+        platforms = list_platforms(database)
+    finally:
+        database.dispose()
+    for p in platforms:
+        click.echo(f"{p.id}\t{p.name}\t{p.issuer}\t{p.client_id}\t{' '.join(p.deployment_ids)}")
+    if not platforms:
+        click.echo("no platforms; add one with `tagwall lti add`")
+
+
+@lti.command("remove")
+@click.argument("platform_id", type=int)
+def lti_remove(platform_id: int) -> None:
+    """Remove a platform: its launches are refused from then on."""
+
+    database = open_database(load_settings())
+    try:
+        removed = remove_platform(database, platform_id, actor="cli")
+    finally:
+        database.dispose()
+    if not removed:
+        fail(f"no platform {platform_id} (see `tagwall lti list`)")
+    click.echo(f"removed platform {platform_id}")
+
+
+@lti.command("values")
+def lti_values() -> None:
+    """What an LMS administrator enters to register tagwall (from TAGWALL_PUBLIC_BASE_URL)."""
+
+    values = tool_values(load_settings().resolved_public_base_url)
+    click.echo(f"login initiation URL: {values.login_url}")
+    for uri in values.redirect_uris:
+        click.echo(f"redirect URI:         {uri}")
+    click.echo(f"target link URI:      {values.target_link_uri}")
+    click.echo(f"deep linking URL:     {values.deep_linking_url}")
+    click.echo(f"public keyset URL:    {values.jwks_url}")
 
 
 @main.group()

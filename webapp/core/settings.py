@@ -120,6 +120,11 @@ class Settings(BaseSettings):
     pubmed_cache_seconds: int = Field(default=86_400, ge=0)
     pubmed_email: str | None = None  # sent with tool=tagwall, as NCBI asks of clients
     brain_group_switch_cooldown: float = Field(default=30.0, ge=0, le=3_600)
+    # LTI 1.3 (webapp/lti): classes launched from the campus's learning platforms.
+    lti_leeway_s: int = Field(default=60, ge=0, le=600)  # clocks off by this much still agree
+    lti_key_overlap_h: float = Field(default=24.0, ge=0, le=24 * 90)
+    lti_retry_first_s: float = Field(default=30.0, gt=0, le=3_600)
+    lti_retry_max_s: float = Field(default=3_600.0, gt=0, le=7 * 86_400)
 
     @field_validator("wall_configs", mode="before")
     @classmethod

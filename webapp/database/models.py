@@ -414,3 +414,113 @@ class TokenSaltRecord(Base):
     rotated_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, nullable=False
     )
+
+
+# --- LTI 1.3: tagwall as a tool of the campus's learning platforms (webapp/lti) ----------
+
+
+class LtiPlatformRecord(Base):
+    """A learning platform (an LMS) registered with tagwall: who signs its launches
+    (``issuer``, its keys at ``jwks_url``), the client id it gave tagwall, the
+    deployments it may launch from, and where tagwall sends people and asks for tokens."""
+
+    __tablename__ = "lti_platforms"
+    __table_args__ = (UniqueConstraint("issuer", "client_id"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    name: Mapped[str] = mapped_column(String(80), nullable=False)
+    issuer: Mapped[str] = mapped_column(String(500), nullable=False)
+    client_id: Mapped[str] = mapped_column(String(255), nullable=False)
+    deployment_ids: Mapped[list[str]] = mapped_column(JSON, nullable=False, default=list)
+    auth_url: Mapped[str] = mapped_column(String(500), nullable=False)
+    token_url: Mapped[str] = mapped_column(String(500), nullable=False)
+    jwks_url: Mapped[str] = mapped_column(String(500), nullable=False)
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+
+
+class LtiKeyRecord(Base):
+    """One of tagwall's own signing keys as an LTI tool (a private JWK): the newest
+    signs; a retired one stays in the published key set a while, so what it signed
+    still verifies."""
+
+    __tablename__ = "lti_keys"
+
+    kid: Mapped[str] = mapped_column(String(64), primary_key=True)
+    private_jwk: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(
+        DateTime(timezone=True), default=_utcnow, nullable=False
+    )
+    retired_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+
+
+class LtiPassRecord(Base):
+    """A single-use pass of an LTI flow, found by the SHA-256 of its random value:
+    a login's ``state`` (with its nonce), a verified deep-linking request waiting for
+    the instructor's choice, a launch's hand-over to a first-party page. Launch state
+    lives here, not in a cookie: the platform's iframe gets no cookies in Safari."""
+
+    __tablename__ = "lti_passes"
+
+    digest: Mapped[str] = mapped_column(String(64), primary_key=True)
+    purpose: Mapped[str] = mapped_column(String(16), nullable=False)
+    payload: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    expires_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), index=True)
+    used_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)
+
+
+class LtiClassRecord(Base):
+    """A class started by a platform's launch: the course (context) and the link it
+    came from, the app whose answers make the grades, and the platform's services for
+    the roster (NRPS) and the grades (AGS line item)."""
+
+    __tablename__ = "lti_classes"
+
+    class_id: Mapped[int] = mapped_column(
+        Integer, ForeignKey("classes.id", ondelete="CASCADE"), primary_key=True
+    )
+    platform_id: Mapped[int] = mapped_column(
+        Integer, ForeignKey("lti_platforms.id", ondelete="CASCADE"), nullable=False
+    )
+    deployment_id: Mapped[str] = mapped_column(String(255), nullable=False)
+    context_id: Mapped[str] = mapped_column(String(255), nullable=False)
+    resource_link_id: Mapped[str] = mapped_column(String(255), nullable=False)
+    app: Mapped[str] = mapped_column(String(64), nullable=False)
+    lineitem_url: Mapped[str | None] = mapped_column(String(500), nullable=True)
+    memberships_url: Mapped[str | None] = mapped_column(String(500), nullable=True)
+    roster_problem: Mapped[str] = mapped_column(String(300), nullable=False, default="")
+
+
+class LtiRosterRecord(Base):
+    """A person of the course, as the platform's roster (NRPS) or their own launch
+    names them: ``visitor_id`` once their phone joined the class."""
+
+    __tablename__ = "lti_roster"
+
+    class_id: Mapped[int] = mapped_column(
+        Integer, ForeignKey("classes.id", ondelete="CASCADE"), primary_key=True
+    )
+    user_id: Mapped[str] = mapped_column(String(255), primary_key=True)
+    name: Mapped[str] = mapped_column(String(80), nullable=False, default="")
+    learner: Mapped[bool] = mapped_column(nullable=False, default=True)
+    visitor_id: Mapped[str | None] = mapped_column(String(64), nullable=True)
+
+
+class LtiScoreRecord(Base):
+    """A student's score of a class on its way to the platform's gradebook (AGS): kept
+    until the platform accepts it, retried with a growing wait, never dropped."""
+
+    __tablename__ = "lti_scores"
+    __table_args__ = (UniqueConstraint("class_id", "user_id"),)
+
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    class_id: Mapped[int] = mapped_column(
+        Integer, ForeignKey("classes.id", ondelete="CASCADE"), nullable=False
+    )
+    user_id: Mapped[str] = mapped_column(String(255), nullable=False)
+    score: Mapped[dict[str, Any]] = mapped_column(JSON, nullable=False)
+    attempts: Mapped[int] = mapped_column(Integer, nullable=False, default=0)
+    problem: Mapped[str] = mapped_column(String(300), nullable=False, default="")
+    next_try_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), index=True)
+    posted_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True), nullable=True)

@@ -27,7 +27,7 @@ import csv
 import io
 import secrets
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from typing import Any, Literal, Protocol, TypeVar, get_args
@@ -188,6 +188,14 @@ class ItemStats:
     def share_correct(self) -> float | None:
         """The share of judged answers that are right (None: none judged, as in a poll)."""
         return self.correct / self.judged if self.judged else None
+
+
+@dataclass(frozen=True)
+class Score:
+    """A student's score of a class: answers judged right of the questions asked."""
+
+    right: int
+    asked: int
 
 
 @dataclass(frozen=True)
@@ -427,6 +435,59 @@ class Quiz:
                 .order_by(QuizRoundRecord.number)
             ).all()
         return [row.number for row in rows if held.holds(as_utc(row.started_at))]
+
+    def scores(self, wall_id: str, held: ClassSession, students: Iterable[str]) -> dict[str, Score]:
+        """The score of each of ``students`` (visitor ids) in the class ``held``, the one
+        rule of a grade: over the rounds the class ran, the answers judged right against
+        the questions asked. In each round a student is asked the set they answered most
+        in, and one who answered nothing there the round's largest set. A round whose
+        answers are judged neither right nor wrong (a poll) asks nothing; a class that
+        asked nothing judged scores no one."""
+        rounds = self.rounds_during(wall_id, held)
+        if not rounds:
+            return {}
+        with self.db.reading() as connection:
+            sizes = {
+                row.number: {name: len(order) for name, order in row.orders.items()}
+                for row in connection.execute(
+                    select(QuizRoundRecord.number, QuizRoundRecord.orders).where(
+                        QuizRoundRecord.app == self.app,
+                        QuizRoundRecord.wall_id == wall_id,
+                        QuizRoundRecord.number.in_(rounds),
+                    )
+                )
+            }
+            answers = connection.execute(
+                select(
+                    QuizAnswerRecord.round,
+                    QuizAnswerRecord.visitor_id,
+                    QuizAnswerRecord.set_name,
+                    QuizAnswerRecord.correct,
+                ).where(
+                    QuizAnswerRecord.app == self.app,
+                    QuizAnswerRecord.wall_id == wall_id,
+                    QuizAnswerRecord.round.in_(rounds),
+                )
+            ).all()
+        judged = sorted({row.round for row in answers if row.correct is not None})
+        sets: dict[tuple[int, str], Counter[str]] = {}
+        right: Counter[str] = Counter()
+        for row in answers:
+            sets.setdefault((row.round, row.visitor_id), Counter())[row.set_name] += 1
+            right[row.visitor_id] += row.correct is True
+        scores = {}
+        for visitor in students:
+            asked = 0
+            for number in judged:
+                in_round = sizes.get(number, {})
+                answered = sets.get((number, visitor))
+                if answered:
+                    asked += in_round.get(answered.most_common(1)[0][0], 0)
+                else:
+                    asked += max(in_round.values(), default=0)
+            if asked:
+                scores[visitor] = Score(right=right[visitor], asked=asked)
+        return scores
 
     def _latest_number(self, session: Session, wall_id: str) -> int | None:
         number = session.scalar(

@@ -40,6 +40,7 @@ from webapp.server.routes import (
     classes,
     dashboard,
     health,
+    lti,
     oidc,
     owncodes,
     pages,
@@ -111,11 +112,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             asyncio.create_task(_keep_tokens_fresh(services)),
             asyncio.create_task(services.codes.follow()),
             asyncio.create_task(services.address_rules.follow()),
+            asyncio.create_task(services.lti_outbox.run()),
         ]
         if services.campus.providers:
             tasks.append(asyncio.create_task(services.campus.follow()))
         yield
         await cancel_and_wait(*tasks)
+        await services.lti.close()
         await run_blocking(services.scan_log.flush)
         await hub.close()
         if redis is not None:
@@ -158,6 +161,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         people.router,
         oidc.router,
         classes.router,
+        lti.router,
         pairing.router,
         dashboard.router,
         public.router,

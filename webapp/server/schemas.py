@@ -8,7 +8,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, HttpUrl, UrlConstraints, model_validator
 
 from wall_client.layout import Wall
-from webapp.classes.roll import NameMode
+from webapp.classes.roll import ChosenNameMode, NameMode
 from webapp.database.models import PublicationRecord
 from webapp.engine.hub import TileStatus
 from webapp.engine.wall_state import PublicItem, PublicPolicy, View, VolumeLayer
@@ -223,12 +223,26 @@ class ClassStart(BaseModel):
     title: str = Field(default="", max_length=200)  # made plain and short
     app: str | None = Field(default=None, max_length=64)  # None: the app on the wall
     mode: str | None = Field(default=None, max_length=64)  # None: the app's first mode
-    names: NameMode = "anonymous"
+    names: ChosenNameMode = "anonymous"
 
 
 class ExportLink(BaseModel):
     label: str
     url: str
+
+
+class CourseInfo(BaseModel):
+    """A class launched from a course (LTI): the course's students by name, who joined
+    and who is missing, and how its grades stand in the course's gradebook."""
+
+    joined: list[str]
+    missing: list[str]
+    roster_problem: str  # why the course's roster could not be read ("": it was)
+    graded: bool  # the link has a gradebook column for the class's scores
+    grades_posted: int
+    grades_waiting: int  # not accepted yet: tried again
+    grades_problem: str  # the last reason a score was not accepted
+    next_try_at: datetime | None
 
 
 class ClassInfo(BaseModel):
@@ -242,6 +256,7 @@ class ClassInfo(BaseModel):
     ended_at: datetime | None
     joined: int  # students on the roll
     exports: list[ExportLink]  # what the class produced, once it ended
+    course: CourseInfo | None = None  # a class launched from a course (LTI)
 
 
 OWN_APP = "core"

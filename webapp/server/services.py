@@ -22,6 +22,8 @@ from webapp.database.connection import Database
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.hub import WallHub
 from webapp.engine.wall_state import Change, WallState, read_state
+from webapp.lti.outbox import Outbox
+from webapp.lti.tool import LtiTool
 from webapp.people.addresses import AddressRules
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
@@ -61,6 +63,8 @@ class Services:
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
     layouts: SizedCache[TagLayoutRecord] = field(init=False)
     door: WallDoor = field(init=False)
+    lti: LtiTool = field(init=False)  # tagwall as an LTI tool: platforms' keys, tokens
+    lti_outbox: Outbox = field(init=False)  # scores on their way to the gradebooks
 
     def __post_init__(self) -> None:
         self.codes = CodeDirectory(self.db, bus=self.hub.bus)
@@ -84,6 +88,8 @@ class Services:
         self.volumes = VolumeCatalog(
             self.settings.resolved_volume_dir, cache_voxels=self.settings.volume_cache_voxels
         )
+        self.lti = LtiTool(self.db, self.settings)
+        self.lti_outbox = Outbox(self.lti)
         self.door = WallDoor(
             self, self.hub, self.apps, self.settings.first_app, lambda: self.base_url
         )

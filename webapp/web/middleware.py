@@ -18,14 +18,26 @@ from webapp.people.addresses import Network, client_address, is_trusted_peer
 from webapp.people.visitors import Visitor, cookie_header
 from webapp.web.templating import IMPORT_MAP_HASH
 
-HEADERS = {
-    # Scripts and styles only from our own static files, nothing foreign; the one inline
-    # script is the import map, allowed by its hash.
-    "content-security-policy": (
+
+def content_security_policy(
+    frame_ancestors: Sequence[str] = (), form_action: Sequence[str] = ()
+) -> str:
+    """The one policy of every page: scripts and styles only from our own static files,
+    nothing foreign; the one inline script is the import map, allowed by its hash. No
+    page is framed, and forms go only to this site, but for the pages a learning
+    platform frames (``frame_ancestors``: its origins) and the form that carries a deep
+    link back to it (``form_action``)."""
+    ancestors = " ".join(frame_ancestors) or "'none'"
+    actions = " ".join(["'self'", *form_action])
+    return (
         f"default-src 'self'; script-src 'self' '{IMPORT_MAP_HASH}'; style-src 'self'; "
-        "img-src 'self' data: blob:; connect-src 'self'; frame-ancestors 'none'; "
-        "base-uri 'none'; form-action 'self'"
-    ),
+        f"img-src 'self' data: blob:; connect-src 'self'; frame-ancestors {ancestors}; "
+        f"base-uri 'none'; form-action {actions}"
+    )
+
+
+HEADERS = {
+    "content-security-policy": content_security_policy(),
     "x-frame-options": "DENY",
     "x-content-type-options": "nosniff",
     "referrer-policy": "same-origin",
@@ -125,6 +137,8 @@ class SecurityHeadersMiddleware:
             if message["type"] == "http.response.start":
                 given = {name.lower(): value for name, value in message.get("headers", [])}
                 extra = [(n, v) for n, v in _RAW if n not in given]
+                if b"content-security-policy" in given:  # its own frame-ancestors rule
+                    extra = [(n, v) for n, v in extra if n != b"x-frame-options"]
                 # A page is made for one person at one moment: never shown again from a
                 # browser's cache (a code's page once it works again, or another
                 # person's page on a shared phone); pages may say otherwise themselves.

@@ -7,6 +7,7 @@ const NAMING = {
   anonymous: "no names asked",
   nickname: "students give a nickname",
   roster: "students give their roster id",
+  course: "students named by the course",
 };
 const CLOCK = {hour: "2-digit", minute: "2-digit"};
 
@@ -42,6 +43,41 @@ function showRunning(running) {
   $("class-naming").textContent = NAMING[running.names];
   $("class-joined").textContent = running.joined;
   $("class-joined-label").textContent = running.joined === 1 ? "student joined" : "students joined";
+  showCourse(running.course);
+}
+
+// A class launched from a course: its roster, who joined and who is missing.
+function showCourse(course) {
+  $("class-course").hidden = !course;
+  if (!course) return;
+  $("class-roster-problem").hidden = !course.roster_problem;
+  $("class-roster-problem").textContent =
+    course.roster_problem ? `The course's roster could not be read: ${course.roster_problem}` : "";
+  $("class-missing-count").textContent = course.missing.length;
+  $("class-missing").textContent = course.missing.join(", ") || "nobody";
+  $("class-joined-names").textContent = course.joined.join(", ") || "nobody yet";
+}
+
+// An ended class from a course: how its grades stand in the course's gradebook.
+function showGrades(course) {
+  const shown = Boolean(course && course.graded);
+  $("class-grades").hidden = !shown;
+  if (!shown) return;
+  const absent = course.missing.length ? `; no score for ${course.missing.join(", ")} (not joined)` : "";
+  const posted =
+    `${course.grades_posted} score${course.grades_posted === 1 ? "" : "s"} in the course's gradebook${absent}`;
+  if (!course.grades_waiting) {
+    $("class-grades").textContent = posted;
+    $("class-grades").className = "";
+    return;
+  }
+  const next = course.next_try_at ? localTime(course.next_try_at, CLOCK) : "soon";
+  $("class-grades").textContent =
+    `${posted}; ${course.grades_waiting} not accepted yet, tried again at ${next}` +
+    (course.grades_problem ? ` (${course.grades_problem})` : "");
+  $("class-grades").className = "down";
+  // the scores are tried again on the server: look again until they are all in
+  setTimeout(() => { if (!running) api(`/api/walls/${wallId}/class`).then(show, say); }, 5000);
 }
 
 function showEnded(ended) {
@@ -51,6 +87,7 @@ function showEnded(ended) {
   $("class-ended-joined").textContent =
     ended.joined === 1 ? "1 student" : `${ended.joined} students`;
   $("class-exports").replaceChildren(...ended.exports.map(link));
+  showGrades(ended.course);
 }
 
 function show(info) {

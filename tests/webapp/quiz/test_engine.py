@@ -10,8 +10,9 @@ from typing import Any
 import pytest
 from sqlalchemy import event
 
+from webapp.classes.roll import end_class, start_class
 from webapp.database.connection import Database
-from webapp.quiz.engine import Columns, Question, Quiz, QuizError, new_order
+from webapp.quiz.engine import Columns, Question, Quiz, QuizError, Score, new_order
 
 WALL = "demo"
 R = 1  # the round the tests answer in (opened by the fixture)
@@ -412,3 +413,24 @@ def test_an_app_that_names_no_columns_gets_set_and_item() -> None:
     assert Columns().header()[3:5] == ["set", "item"]
     with pytest.raises(ValueError, match="each column once"):
         Columns(set="poll", item="question", about=("answer",))
+
+
+def test_a_students_score_is_right_answers_of_the_questions_asked(db: Database) -> None:
+    """The one rule of a grade (a class from a course posts it): over the class's
+    rounds, the answers judged right against the questions of the set each answered
+    (the largest set where they answered nothing); only the students named count."""
+    quiz(db).close_round(WALL, R, "test")  # before the class: not the class's round
+    held = start_class(db, WALL, "Bio", "anonymous", "test")
+    number = quiz(db).open_round(WALL, "test", {"k5": ["alpha", "beta"], "full": ["alpha"]})
+    quiz(db).record_answer(WALL, number.number, "v1", "k5", ALPHA, "alpha", True)
+    quiz(db).record_answer(WALL, number.number, "v1", "k5", BETA, "x", False)
+    quiz(db).record_answer(WALL, number.number, "v2", "full", ALPHA, "alpha", True)
+    ended = end_class(db, WALL, "test")
+    assert ended is not None
+    scores = quiz(db).scores(WALL, ended, ["v1", "v2", "v3"])
+    assert scores == {
+        "v1": Score(right=1, asked=2),
+        "v2": Score(right=1, asked=1),
+        "v3": Score(right=0, asked=2),  # joined, answered nothing: the largest set
+    }
+    assert held.id == ended.id

@@ -14,17 +14,22 @@ from webapp.classes.roll import (
     NAME_PROMPTS,
     ClassError,
     ClassSession,
+    NameMode,
     end_class,
     get_class,
     join,
     joined_count,
     latest_class,
+    roll_name,
+    running_class,
     start_class,
 )
 from webapp.core.threads import run_blocking
 from webapp.engine.wall_state import View, WallState, differing_fields, read_state
+from webapp.lti.courses import course_class, grades, queue_scores, roster
+from webapp.people.person import Person
 from webapp.server.deps import ServicesDep, showable_app
-from webapp.server.schemas import ClassInfo, ClassStart, ExportLink
+from webapp.server.schemas import ClassInfo, ClassStart, CourseInfo, ExportLink
 from webapp.server.services import Services
 from webapp.web.context import Update
 from webapp.web.deps import CsrfDep, PersonDep, StaffDep, WallDep
@@ -48,6 +53,7 @@ async def class_info(services: Services, wall: Wall, held: ClassSession) -> Clas
             found = await run_blocking(app.class_exports, services, wall, held)
             exports = [ExportLink(label=e.label, url=e.url) for e in found]
     return ClassInfo(
+        course=await course_info(services, held),
         id=held.id,
         title=held.title,
         names=held.names,
@@ -57,6 +63,35 @@ async def class_info(services: Services, wall: Wall, held: ClassSession) -> Clas
         joined=joined,
         exports=exports,
     )
+
+
+async def course_info(services: Services, held: ClassSession) -> CourseInfo | None:
+    """A class launched from a course: its roster (who joined, who is missing) and how
+    its grades stand."""
+    course = await run_blocking(course_class, services.db, held.id)
+    if course is None:
+        return None
+    expected = await run_blocking(roster, services.db, held.id)
+    standing = await run_blocking(grades, services.db, held.id)
+    return CourseInfo(
+        joined=[person.name for person in expected if person.joined],
+        missing=[person.name for person in expected if not person.joined],
+        roster_problem=course.roster_problem,
+        graded=course.lineitem_url is not None,
+        grades_posted=standing.posted,
+        grades_waiting=standing.waiting,
+        grades_problem=standing.problem,
+        next_try_at=standing.next_try_at,
+    )
+
+
+async def send_grades(services: Services, ended: ClassSession) -> None:
+    """An ended class launched from a course: its students' scores go to the course's
+    gradebook (queued, posted by the outbox until accepted)."""
+    if ended.ended_at is None:
+        return
+    if await run_blocking(queue_scores, services.db, ended, ended.ended_at):
+        services.lti_outbox.wake()
 
 
 @router.get("/api/walls/{wall_id}/class")
@@ -73,27 +108,47 @@ async def begin(
     """Start class: the running class ends; the chosen app comes on the wall at its
     first view, in the chosen mode (a fresh quiz round), with its own tag set, no
     balloons and an empty public screen, on every tile at once."""
+    held = await start_on_wall(
+        services, wall, choice.title, choice.app, choice.mode, choice.names, staff
+    )
+    return await class_info(services, wall, held)
+
+
+async def start_on_wall(
+    services: Services,
+    wall: Wall,
+    title: str,
+    app_name: str | None,
+    mode: str | None,
+    names: NameMode,
+    staff: str,
+) -> ClassSession:
+    """The one way a class starts, from the dashboard or a course's launch (a 409 when
+    another start won the moment; a 422 for an app or mode there is not)."""
     _, state = await run_blocking(read_state, services.db, wall.id)
-    app = showable_app(services, choice.app or state.app, choice.mode)
+    app = showable_app(services, app_name or state.app, mode)
     if state.app != app.name:  # before the class starts: what the app settles is not its
         await services.change_wall(wall, lambda s: s.model_copy(update={"app": app.name}))
+    before = await run_blocking(running_class, services.db, wall.id)
     try:
         held = await run_blocking(
-            start_class, services.db, wall.id, choice.title, choice.names, staff, wall.time_zone
+            start_class, services.db, wall.id, title, names, staff, wall.time_zone
         )
     except ClassError as error:
         raise HTTPException(status.HTTP_409_CONFLICT, str(error)) from error
+    if before is not None and (ended := await run_blocking(get_class, services.db, before.id)):
+        await send_grades(services, ended)  # the class this start ended
 
     async def plan(current: WallState) -> Update:
         fresh = current.model_copy(
             update={"view": View(), "balloons": [], "public": None, "tag_set": app.default_tag_set}
         )
-        began = await run_blocking(app.begin_class, services, wall, fresh, choice.mode)
+        began = await run_blocking(app.begin_class, services, wall, fresh, mode)
         fields = differing_fields(began, current)
         return lambda s: s.model_copy(update=fields)
 
     await services.plan_change(wall, plan)
-    return await class_info(services, wall, held)
+    return held
 
 
 @router.post("/api/walls/{wall_id}/class/end", responses=errors(409))
@@ -112,6 +167,7 @@ async def end(wall: WallDep, services: ServicesDep, staff: StaffDep) -> ClassInf
         return lambda s: s.model_copy(update=fields)
 
     await services.plan_change(wall, plan)
+    await send_grades(services, held)
     return await class_info(services, wall, held)
 
 
@@ -130,7 +186,7 @@ async def join_page(
     person: PersonDep,
     next_path: Annotated[str | None, Query(alias="next", max_length=64)] = None,
 ) -> HTMLResponse:
-    return await _join_form(request, services, class_id, _back_to(next_path), None)
+    return await _join_form(request, services, class_id, _back_to(next_path), None, person)
 
 
 @router.post("/classes/{class_id}/join", include_in_schema=False, dependencies=[CsrfDep])
@@ -146,7 +202,7 @@ async def join_class(
     try:
         await run_blocking(join, services.db, class_id, person.visitor.id, name)
     except ClassError as error:
-        return await _join_form(request, services, class_id, back, str(error), name)
+        return await _join_form(request, services, class_id, back, str(error), person, name)
     return RedirectResponse(back, status.HTTP_303_SEE_OTHER)
 
 
@@ -156,6 +212,7 @@ async def _join_form(
     class_id: int,
     back: str,
     error: str | None,
+    person: Person,
     typed: str = "",
 ) -> HTMLResponse:
     held = await run_blocking(get_class, services.db, class_id)
@@ -163,12 +220,16 @@ async def _join_form(
         return render(
             request, "join_class.html", status.HTTP_410_GONE, held=None, back=back, error=None
         )
+    # A class named by its course: its students join by their launch from the course,
+    # and this page says under which name (or how to join); nothing is typed.
+    member = await run_blocking(roll_name, services.db, held.id, person.visitor.id)
     return render(
         request,
         "join_class.html",
         status.HTTP_400_BAD_REQUEST if error else status.HTTP_200_OK,
         held=held,
-        prompt=NAME_PROMPTS[held.names],
+        member=member,
+        prompt="" if held.names == "course" else NAME_PROMPTS[held.names],
         back=back,
         error=error,
         typed=typed,
