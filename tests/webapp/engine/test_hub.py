@@ -9,7 +9,8 @@ import pytest
 from anyio import to_thread
 from redis.exceptions import RedisError
 
-from tests.conftest import RedisCable, migrate
+from tests.cable import Cable
+from tests.conftest import migrate
 from webapp.database.connection import Database
 from webapp.database.redis import connect_redis
 from webapp.engine.bus.base import EventBus, Subscription
@@ -183,7 +184,7 @@ async def test_tile_status_tracks_connections_and_reports(hub: WallHub) -> None:
 
 
 async def test_a_change_the_bus_cannot_publish_stays_committed(
-    database_url: str, redis_cable: RedisCable, redis_prefix: str, caplog: pytest.LogCaptureFixture
+    database_url: str, redis_cable: Cable, redis_prefix: str, caplog: pytest.LogCaptureFixture
 ) -> None:
     """Redis gone between holding the wall and publishing: the change is made (the
     database is the truth) and said so in the log; tiles catch up by the version gap."""
