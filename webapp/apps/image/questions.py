@@ -76,3 +76,12 @@ def reveals_answers(person: Person) -> bool:
     """The one rule for early answers: instructors see them at once; students when
     their round says so (``Round.names_shown``)."""
     return person.is_staff
+
+
+def start_round(
+    context: AppContext, store: ImageStore, wall_id: str, image_id: str, by: str
+) -> Round:
+    """A new round of ``image_id``'s questions on the wall (the one before closes):
+    fresh numbers, so fresh codes once the wall shows it (a worker thread)."""
+    spots = hotspots(store, image_id)
+    return quiz_of(context).start_round(wall_id, by, fresh_orders(image_id, spots))

@@ -9,6 +9,7 @@ from typing import ClassVar
 from wall_client.layout import Wall
 from webapp.database.connection import Database, RowId
 from webapp.engine.wall_state import AppState, read_state
+from webapp.web.context import Update
 
 APP = "image"
 
@@ -27,6 +28,11 @@ class ImageState(AppState):
         """The slot showing round ``number`` unless a later one is already up (two
         instructors starting rounds at once: the wall keeps the newest)."""
         return self.model_copy(update={"quiz_round": max(number, self.quiz_round or 0)})
+
+
+def shows_round(number: int) -> Update:
+    """The wall showing round ``number`` of the image's questions (or a later one)."""
+    return lambda current: ImageState.of(current).later_round(number).put(current)
 
 
 def walls_showing(db: Database, walls: Iterable[Wall], image_id: str) -> list[Wall]:

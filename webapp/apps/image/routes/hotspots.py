@@ -10,9 +10,12 @@ from fastapi import APIRouter, HTTPException, status
 
 from webapp.apps.image import hotspots
 from webapp.apps.image.hotspots import Hotspot, HotspotFields, HotspotRefused
+from webapp.apps.image.questions import asked, round_on_wall, start_round
 from webapp.apps.image.routes.common import store_of
-from webapp.apps.image.state import walls_showing
+from webapp.apps.image.state import APP, shows_round, walls_showing
+from webapp.classes.roll import running_class
 from webapp.core.threads import run_blocking
+from webapp.engine.wall_state import read_state
 from webapp.web.context import AppContext
 from webapp.web.deps import ContextDep, StaffOnly
 from webapp.web.problems import errors
@@ -35,10 +38,29 @@ async def _hotspot_step(step: Callable[..., T], *args: object) -> T:
 
 async def _replace_codes(context: AppContext, image_id: str) -> None:
     """The walls showing ``image_id`` place their codes again (a hotspot came, moved or
-    went); the others have nothing of it up."""
+    went); the others have nothing of it up. A wall whose class is running with no round
+    of the image's questions open starts one, as Start class would have had the image
+    asked them then (the instructor added the first question during the class)."""
     walls = context.walls.values()
     for wall in await context.db.read(walls_showing, context.db, walls, image_id):
-        await context.change_wall(wall, lambda current: current, replace_codes=True)
+        if await run_blocking(_round_wanted, context, wall.id, image_id):
+            started = await run_blocking(
+                start_round, context, store_of(context), wall.id, image_id, f"app:{APP}"
+            )
+            await context.change_wall(wall, shows_round(started.number))
+        else:
+            await context.change_wall(wall, lambda current: current, replace_codes=True)
+
+
+def _round_wanted(context: AppContext, wall_id: str, image_id: str) -> bool:
+    """Whether the wall's running class waits for a round of the image's questions."""
+    if running_class(context.db, wall_id) is None:
+        return False
+    if not asked(hotspots.hotspots(store_of(context), image_id)):
+        return False
+    _, state = read_state(context.db, wall_id)
+    shown = round_on_wall(context, wall_id, state)
+    return shown is None or not shown.open
 
 
 @router.get(

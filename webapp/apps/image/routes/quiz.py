@@ -13,17 +13,17 @@ from webapp.apps.image import hotspots
 from webapp.apps.image.questions import (
     asked,
     described,
-    fresh_orders,
     numbers,
     question_of,
     quiz_of,
     round_on_wall,
+    start_round,
 )
 from webapp.apps.image.routes.common import store_of
-from webapp.apps.image.state import APP, ImageState
+from webapp.apps.image.state import APP, ImageState, shows_round
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
-from webapp.engine.wall_state import WallState, read_state
+from webapp.engine.wall_state import read_state
 from webapp.quiz.http import answers_download, round_step
 from webapp.web.context import AppContext
 from webapp.web.deps import ContextDep, StaffDep, WallDep
@@ -113,21 +113,14 @@ async def quiz_status(wall: WallDep, context: ContextDep, staff: StaffDep) -> Qu
 
 
 @router.post("/api/apps/image/walls/{wall_id}/quiz/start", responses=errors(409))
-async def start_round(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
+async def start_quiz(wall: WallDep, context: ContextDep, staff: StaffDep) -> QuizStatus:
     """A new round on the image on the wall: the one before closes (its students see
     the answers), its questions get new numbers and codes on every tile at once."""
     now = await run_blocking(_quiz_status, context, wall.id)
     if now.image is None or not now.questions:
         raise HTTPException(status.HTTP_409_CONFLICT, f"No image with questions is on {wall.name}.")
-    spots = await run_blocking(hotspots.hotspots, store_of(context), now.image)
-    started = await round_step(
-        quiz_of(context).start_round, wall.id, staff, fresh_orders(now.image, spots)
-    )
-
-    def apply(current: WallState) -> WallState:
-        return ImageState.of(current).later_round(started.number).put(current)
-
-    await context.change_wall(wall, apply)
+    started = await round_step(start_round, context, store_of(context), wall.id, now.image, staff)
+    await context.change_wall(wall, shows_round(started.number))
     return await run_blocking(_quiz_status, context, wall.id)
 
 

@@ -172,9 +172,11 @@ function showQuiz(status) {
     const share = item.share_correct === null ? "–" : `${Math.round(item.share_correct * 100)} %`;
     return `Q${item.number} ${item.title}: ${item.answered} answered, ${share} right`;
   });
+  const waiting = status.questions && !round?.open;
   quizSaid.textContent = !round ? `${status.questions} questions, no round yet`
     : `Round ${round.number} ${round.open ? "running" : "closed"}: ${status.participants} `
       + `taking part. ${items.join("; ")}`;
+  if (waiting) quizSaid.textContent += ": press Start round to ask them (a new class asks them itself).";
 }
 
 for (const button of box.querySelectorAll("[data-quiz]")) {

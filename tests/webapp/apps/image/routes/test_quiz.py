@@ -91,3 +91,29 @@ def test_an_untitled_class_is_named_in_the_walls_time_zone_as_its_answers_are(
     assert exported.headers["content-disposition"] == (
         f'attachment; filename="demo-class-of-{local:%Y-%m-%d-%H-%M}-round-{number}.csv"'
     )
+
+
+def test_the_first_question_added_during_a_class_starts_its_round(client: TestClient) -> None:
+    """Issue 41: an instructor who added a question once the class ran (the image had
+    none at Start class) found no round running and was not told why. During a class the
+    question starts the round Start class would have; outside one, nothing starts and
+    the dashboard's status says to start a round."""
+    image = shown_image(client)
+    operator = operator_headers(client)
+    url = f"/api/apps/image/images/{image}/hotspots"
+    client.post(url, json=NUCLEUS, headers=operator)
+    status = client.get("/api/apps/image/walls/demo", headers=operator).json()
+    assert status["questions"] == 1 and status["round"] is None  # no class: no round
+
+    began = client.post("/api/walls/demo/class", json={"app": "image"}, headers=operator)
+    assert began.status_code == 200, began.text
+    status = client.get("/api/apps/image/walls/demo", headers=operator).json()
+    first = status["round"]
+    assert first is not None and first["open"]  # the class asked the question already
+    client.post("/api/apps/image/walls/demo/quiz/close", headers=operator)
+
+    second = {**NUCLEUS, "x": 400, "title": "Membrane", "accepted": ["membrane"]}
+    assert client.post(url, json=second, headers=operator).status_code == 201
+    status = client.get("/api/apps/image/walls/demo", headers=operator).json()
+    assert status["round"]["open"] and status["round"]["number"] == first["number"] + 1
+    assert status["questions"] == 2 and len(hotspot_codes(client)) == 2
