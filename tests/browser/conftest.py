@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import subprocess
+import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 
@@ -17,6 +19,7 @@ from playwright.sync_api import Browser, Page, expect, sync_playwright
 
 from tests.conftest import TEST_SECRET, server_port, wall_files, walls_of
 from webapp.cli.testing import CHROMIUM_ARGS, ServerProcess, skewed_clock
+from webapp.core.settings import PROJECT_ROOT
 
 # Playwright's assertions wait 5 s by default; with a test beside it on each core a tile
 # can take longer to draw what it was sent (a dashboard colouring check missed 5 s under
@@ -116,3 +119,18 @@ def assert_applied_at_one_instant(
 def version_of(page: Page) -> int | None:
     value = page.evaluate("document.body.dataset.version")
     return None if value is None else int(value)
+
+
+PLUGINS = PROJECT_ROOT / "tests" / "plugins"
+
+
+def install_plugin(name: str, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The plug-in ``tests/plugins/<name>`` installed into a folder of its own, as pip
+    leaves an app (its entry point's metadata too), for a server's PYTHONPATH: beside
+    tagwall, never into it."""
+    source = tmp_path_factory.mktemp("source") / name
+    shutil.copytree(PLUGINS / name, source)  # building writes beside the sources
+    target = tmp_path_factory.mktemp("site")
+    pip = [sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-build-isolation"]
+    subprocess.run([*pip, "--target", str(target), str(source)], check=True)
+    return target

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import io
 import os
-import shutil
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -23,37 +22,16 @@ from PIL import Image
 from playwright.sync_api import Browser, Page
 
 from tag_service.verify import decode_image
-from tests.browser.conftest import open_tiles, serve
+from tests.browser.conftest import install_plugin, open_tiles, serve
 from webapp.cli.testing import ServerProcess, wait_until
-from webapp.core.settings import PROJECT_ROOT
 
-PLUGIN = PROJECT_ROOT / "tests" / "plugins" / "hello_app"
 TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
 
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The hello app installed into a folder of its own (with its entry point's metadata)."""
-    source = tmp_path_factory.mktemp("source") / "hello_app"
-    shutil.copytree(PLUGIN, source)  # building writes beside the sources: not in the checkout
-    target = tmp_path_factory.mktemp("site")
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--no-deps",
-            "--no-build-isolation",
-            "--target",
-            str(target),
-            str(source),
-        ],
-        check=True,
-    )
-    return target
+    return install_plugin("hello_app", tmp_path_factory)
 
 
 @pytest.fixture

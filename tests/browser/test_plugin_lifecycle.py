@@ -12,7 +12,6 @@ code, when the app is installed again.
 from __future__ import annotations
 
 import io
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -22,44 +21,17 @@ from PIL import Image
 from playwright.sync_api import Browser, Page
 
 from tag_service.verify import decode_image
-from tests.browser.conftest import open_tiles, serve
+from tests.browser.conftest import install_plugin, open_tiles, serve
 from webapp.cli.testing import ServerProcess, wait_until
-from webapp.core.settings import PROJECT_ROOT
 
-PLUGINS = PROJECT_ROOT / "tests" / "plugins"
 TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
-
-
-def pip_install(source: Path, target: Path) -> None:
-    """``source`` installed into ``target`` as pip leaves an app, its entry point too."""
-    subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "pip",
-            "install",
-            "--quiet",
-            "--no-deps",
-            "--no-build-isolation",
-            "--target",
-            str(target),
-            str(source),
-        ],
-        check=True,
-    )
 
 
 @pytest.fixture(scope="module")
 def sites(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     """Each plug-in installed into a folder of its own."""
-    installed = {}
-    for name in ("minimal_app", "rogue_app"):
-        source = tmp_path_factory.mktemp("source") / name
-        shutil.copytree(PLUGINS / name, source)  # building writes beside the sources
-        installed[name] = tmp_path_factory.mktemp("site")
-        pip_install(source, installed[name])
-    return installed
+    return {name: install_plugin(name, tmp_path_factory) for name in ("minimal_app", "rogue_app")}
 
 
 def test_an_app_reaching_outside_its_name_stops_the_server_with_one_line_each(
@@ -127,6 +99,14 @@ def test_an_uninstalled_apps_codes_leave_every_tile_and_come_back_when_installed
             server.log.read_text()
         )
         assert server.status("demo")["state"]["app"] == "pattern"  # the first app
+        version = server.version("demo")
+        wait_until(
+            lambda: all(
+                int(t.evaluate("document.body.dataset.version") or 0) >= version for t in tiles
+            ),
+            timeout=60,
+            what="every tile to show the restarted wall",
+        )
         tags = server.http.get("/api/walls/demo/tags", headers=server.operator()).json()
         student = next(t["code"] for t in tags if t["name"] == "register-student")
         wait_until(

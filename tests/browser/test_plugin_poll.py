@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import io
-import shutil
 from pathlib import Path
 
 import pytest
@@ -22,16 +21,13 @@ from playwright.sync_api import Browser, Page, expect
 from sqlalchemy import inspect
 
 from tag_service.verify import decode_image
-from tests.browser.conftest import open_tiles, serve
+from tests.browser.conftest import install_plugin, open_tiles, serve
 from tests.browser.phone_audit import SERIOUS, axe_violations, fits
-from tests.browser.test_plugin_lifecycle import pip_install
 from webapp.cli.check import fetch_layout
 from webapp.cli.testing import wait_until
-from webapp.core.settings import PROJECT_ROOT
 from webapp.database.connection import make_engine
 from webapp.people.security import operator_token
 
-PLUGIN = PROJECT_ROOT / "tests" / "plugins" / "poll_app"
 TILES = ["r1c1", "r1c2", "r1c3", "r2c1", "r2c2", "r2c3"]
 STAGE = ["r2c2", "r2c3"]  # the demo's stage: where the bars and codes stand
 PHONE = {"viewport": {"width": 390, "height": 844}, "is_mobile": True, "has_touch": True}
@@ -44,12 +40,7 @@ BARS = [(0x4E, 0x79, 0xA7), (0xF2, 0x8E, 0x2B), (0xE1, 0x57, 0x59)]
 
 @pytest.fixture(scope="module")
 def site(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The poll installed into a folder of its own, as pip leaves an app."""
-    source = tmp_path_factory.mktemp("source") / "poll_app"
-    shutil.copytree(PLUGIN, source)  # building writes beside the sources: not in the checkout
-    target = tmp_path_factory.mktemp("site")
-    pip_install(source, target)
-    return target
+    return install_plugin("poll_app", tmp_path_factory)
 
 
 def marks(tile: Page) -> str | None:
