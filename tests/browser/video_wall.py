@@ -16,7 +16,6 @@ from __future__ import annotations
 import asyncio
 import base64
 import io
-import math
 import threading
 import time
 from dataclasses import dataclass
@@ -138,11 +137,6 @@ class Capture:
     def spread(self) -> int:
         numbers = [f for f in self.frames if f is not None]
         return max(numbers) - min(numbers)
-
-    @property
-    def window_frames(self) -> int:
-        """How many frame times the capture window spans, rounded up."""
-        return math.ceil(self.window_ms * FPS / 1000)
 
     def off(self, clock: dict[str, Any]) -> list[int]:
         """Per tile, how far (in frames) what it showed lies outside what ``clock``

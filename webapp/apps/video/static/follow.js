@@ -8,8 +8,11 @@
 // A statement takes effect at its wall_ms, on every tile at once; until then the one
 // before it holds (the server makes them continuous there, unless it is a seek).
 
-/** Steer by rate while the error is under this; seek past it (seconds). */
+/** Steer by rate while the error is under this; seek past it (seconds)... */
 export const SEEK_S = 0.2;
+/** ...when it stays past it this many frames in a row: a tile that stalled (a busy
+ * machine) shows the frame due when it comes back, and needs no seek. */
+const FAR_FRAMES = 3;
 /** The largest change of rate: 10 % faster or slower. */
 export const MAX_RATE_STEP = 0.1;
 /** Rate change per second of error: 50 ms behind plays 10 % faster. */
@@ -80,6 +83,7 @@ export class Follower {
     this.timer = null;
     this.seeks = 0;
     this.lastError = null;       // the last frame's error (s), for the tile's marks
+    this.far = 0;                // frames in a row past SEEK_S
     this.muted = false;          // the browser refused its sound: it plays muted
     this.stopped = false;
     this.interval = setInterval(() => this.tick(), TICK_MS);
@@ -161,9 +165,11 @@ export class Follower {
     const error = wrapped(meta.mediaTime + 0.5 / this.fps - position, this.duration, this.loop);
     this.lastError = error;
     if (Math.abs(error) > SEEK_S) {
-      this.seekAhead();
+      this.far += 1;
+      if (this.far >= FAR_FRAMES) this.seekAhead();
       return;
     }
+    this.far = 0;
     if (this.starting) {
       this.learnStart(error);
       return;
@@ -247,6 +253,7 @@ export class Follower {
     this.holding = true;
     this.heldSince = this.clock();
     this.seeks += 1;
+    this.far = 0;
     this.smoothed = null;
     video.pause();
     video.playbackRate = 1;
