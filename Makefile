@@ -40,9 +40,10 @@ $(DEMO_VOLUME)/volume.json: $(MNI) $(STAMP)
 	$(BIN)/tagwall volume build $(MNI) $(DEMO_VOLUME)
 
 # From the npm registry, pinned by package-lock.json: CesiumJS, which the server serves
-# from its own origin at /static/cesium (the census map's globe), and axe-core, the
-# accessibility audit the browser tests inject into pages (never served to users). npm
-# comes with Node.js; Debian's npm package where it does not.
+# from its own origin at /static/cesium (the census map's globe); axe-core, the
+# accessibility audit the browser tests inject into pages (never served to users); and
+# oidc-provider, the OpenID Provider the tests run with node to sign staff in through
+# (tests/oidc/). npm comes with Node.js; Debian's npm package where it does not.
 #
 # One string of CesiumJS is replaced: the knockout it bundles (for widgets tagwall does
 # not use) finds the global object with (0,eval)("this") as the module is imported,

@@ -16,7 +16,6 @@ the shipped atlas's volumes and the pictures of them per view (``_ShippedAtlas``
 from __future__ import annotations
 
 import atexit
-import contextlib
 import fcntl
 import functools
 import itertools
@@ -31,7 +30,6 @@ import uuid
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
 import hypothesis
 import numpy as np
@@ -41,6 +39,8 @@ from fastapi.routing import APIRoute, APIWebSocketRoute
 from fastapi.testclient import TestClient
 from sqlalchemy.engine import make_url
 
+from tests.cable import Cable
+from tests.oidc.provider import OpenIDProvider, running_provider
 from webapp.apps.brain_atlas import app as brain_app
 from webapp.apps.brain_atlas import pins
 from webapp.apps.brain_atlas.content import ATLAS_DIR, Region
@@ -281,93 +281,24 @@ def _answers(port: int) -> bool:
         return False
 
 
+@pytest.fixture(scope="session")
+def openid_provider(tmp_path_factory: pytest.TempPathFactory) -> Iterator[OpenIDProvider]:
+    """The test OpenID Provider (tests/oidc/: oidc-provider from npm), started once per
+    test process; each test registers a client of its own."""
+    with running_provider(tmp_path_factory.mktemp("oidc"), server_port()) as provider:
+        yield provider
+
+
 @pytest.fixture
 def redis_prefix() -> str:
     """Each test's own key prefix on the shared Redis, so tests never see each other's keys."""
     return f"tagwall-test:{uuid.uuid4().hex[:12]}"
 
 
-class RedisCable:
-    """A TCP link to Redis that a test cuts and mends, as a network (or a Redis restart)
-    would: cutting drops every connection through it, and while cut it takes new ones
-    and drops them at once (counting them, so a test can tell its client kept trying).
-    """
-
-    def __init__(self, target_url: str) -> None:
-        target = urlsplit(target_url)
-        if target.hostname is None or target.port is None:
-            pytest.skip("the test Redis is not on TCP")
-        self._target = (target.hostname, target.port)
-        self._parts = target
-        self._sockets: set[socket.socket] = set()
-        self._guard = threading.Lock()
-        self._connected = True
-        self.dropped = 0
-        self._listener = socket.create_server(("127.0.0.1", 0))
-        self._listener.settimeout(0.05)
-        self._open = True
-        threading.Thread(target=self._accept, daemon=True).start()
-
-    @property
-    def url(self) -> str:
-        """The Redis URL through this cable."""
-        user = self._parts.netloc.rpartition("@")[0]
-        address = f"127.0.0.1:{self._listener.getsockname()[1]}"
-        return self._parts._replace(netloc=f"{user}@{address}" if user else address).geturl()
-
-    def cut(self) -> None:
-        with self._guard:
-            self._connected = False
-            for connection in self._sockets:
-                _drop(connection)
-            self._sockets.clear()
-
-    def mend(self) -> None:
-        with self._guard:
-            self._connected = True
-
-    def close(self) -> None:
-        self.cut()
-        self._open = False
-
-    def _accept(self) -> None:
-        while self._open:
-            try:
-                client, _ = self._listener.accept()
-            except TimeoutError:
-                continue
-            with self._guard:
-                if not self._connected:
-                    self.dropped += 1
-                    _drop(client)
-                    continue
-                upstream = socket.create_connection(self._target)
-                self._sockets |= {client, upstream}
-            for source, sink in ((client, upstream), (upstream, client)):
-                threading.Thread(target=_pipe, args=(source, sink), daemon=True).start()
-        self._listener.close()
-
-
-def _pipe(source: socket.socket, sink: socket.socket) -> None:
-    try:
-        while data := source.recv(65536):
-            sink.sendall(data)
-    except OSError:
-        pass
-    _drop(source)
-    _drop(sink)
-
-
-def _drop(connection: socket.socket) -> None:
-    with contextlib.suppress(OSError):
-        connection.shutdown(socket.SHUT_RDWR)
-    connection.close()
-
-
 @pytest.fixture
-def redis_cable(redis_server: str) -> Iterator[RedisCable]:
+def redis_cable(redis_server: str) -> Iterator[Cable]:
     """A cable to the test Redis: pass ``redis_cable.url`` to what should lose Redis."""
-    cable = RedisCable(redis_server)
+    cable = Cable(redis_server)
     yield cable
     cable.close()
 

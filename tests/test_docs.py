@@ -157,3 +157,25 @@ def test_every_hook_and_attribute_of_an_app_is_documented(name: str) -> None:
 def test_everything_an_app_is_handed_is_documented(name: str) -> None:
     body = section((DOCS / "apps.md").read_text(), "What an app is handed")
     assert re.search(rf"`(await )?{name}[`(]", body), f"AppContext.{name} is not in docs/apps.md"
+
+
+POLL_APP = PROJECT_ROOT / "tests" / "plugins" / "poll_app"
+
+
+def fenced(markdown: str) -> list[str]:
+    """The code blocks of ``markdown``, each as written between its fences."""
+    return re.findall(r"^```[a-z]*\n(.*?)^```$", markdown, re.MULTILINE | re.DOTALL)
+
+
+@pytest.mark.parametrize(
+    ("doc", "heading"),
+    [("apps.md", "A worked example: a poll"), ("quiz.md", "Example: a live poll")],
+)
+def test_the_poll_example_quotes_the_poll_app_as_it_is(doc: str, heading: str) -> None:
+    """The worked example quotes tests/plugins/poll_app: each block word for word."""
+    sources = [p for p in POLL_APP.rglob("*") if p.suffix in {".py", ".js", ".html", ".toml"}]
+    files = [path.read_text() for path in sources]
+    blocks = fenced(section((DOCS / doc).read_text(), heading))
+    assert blocks, f"no code in {doc}'s {heading!r}"
+    for block in blocks:
+        assert any(block in text for text in files), f"not in the poll app:\n{block}"

@@ -8,6 +8,7 @@ the modules together), so the rules hold whatever Python happens to import first
 from __future__ import annotations
 
 import ast
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -109,6 +110,7 @@ FLOORS = {
     "webapp.engine": 3,
     "webapp.people": 3,
     "webapp.classes": 3,
+    "webapp.campus": 4,
     "webapp.tags": 4,
     "webapp.quiz": 4,
     "webapp.volume": 4,
@@ -170,5 +172,26 @@ def test_the_core_imports_no_app_and_apps_know_no_other_app() -> None:
         for other in imported
         for package in APP_PACKAGES
         if _in(other, package) and not _in(module, package)
+    )
+    assert not wrong, wrong
+
+
+def test_the_test_plug_ins_import_only_what_an_app_may() -> None:
+    """The apps of tests/plugins are written on the contract alone: from tagwall, only
+    the rooms docs/apps.md lets an app import (the poll is what authors copy)."""
+    text = (PROJECT_ROOT / "docs" / "apps.md").read_text()
+    allowed = text.split("**What an app may import**", 1)[1].split("; never", 1)[0]
+    rooms = [name for name in re.findall(r"`([a-z_.]+)`", allowed) if not name.endswith(".md")]
+    assert "webapp.quiz" in rooms and "webapp.apps.hooks" in rooms
+    plugins = PROJECT_ROOT / "tests" / "plugins"
+    wrong = sorted(
+        {
+            f"{path.relative_to(plugins)} -> {name}"
+            for path in plugins.rglob("*.py")
+            for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.stmt)
+            for name in _imported(node)
+            if not _in(name, *rooms)
+        }
     )
     assert not wrong, wrong

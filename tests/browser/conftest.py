@@ -25,15 +25,20 @@ expect.set_options(timeout=15_000)
 
 
 def serve(
-    tmp_path: Path, database_url: str, walls: Sequence[str] = ("demo",), **extra_env: str
+    tmp_path: Path,
+    database_url: str,
+    walls: Sequence[str] = ("demo",),
+    port: int | None = None,
+    **extra_env: str,
 ) -> ServerProcess:
     """A started server on the shipped ``walls`` (each costs its codes' placement at
-    start); ``extra_env`` adds ``TAGWALL_*`` settings."""
+    start), on ``port`` when its URLs must be known before (a provider's redirect URI);
+    ``extra_env`` adds ``TAGWALL_*`` settings."""
     process = ServerProcess(
         var_dir=tmp_path / "var",
         database_url=database_url,
         secret=TEST_SECRET,
-        port=server_port(),
+        port=port or server_port(),
         extra_env={
             "TAGWALL_WALL_CONFIGS": os.pathsep.join(str(path) for path in wall_files(*walls)),
             "TAGWALL_APPLY_LEAD_MS": "400",

@@ -87,6 +87,9 @@ def test_a_class_from_start_to_end_with_roster_ids(
             late.screenshot(path=f"{SHOTS}/kept-390.png", full_page=True)
         late.context.set_offline(False)
         expect(late.locator("#answered")).to_contain_text("1 of")
+        expect(late.locator("#kept-sent")).to_have_text(  # the phone says it went
+            "Sent: what you typed while offline has arrived."
+        )
         late.reload()  # the same student, the same score
         expect(late.locator("#answered")).to_contain_text("1 of")
 

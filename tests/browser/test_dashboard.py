@@ -45,6 +45,7 @@ def test_the_dashboard_shows_the_panel_of_the_app_on_the_wall_and_follows_switch
     page.goto(f"{server.url}/login/operator?token={operator_token(server.secret)}")
     expect(page.locator("#app")).to_have_text("pattern")
     expect(page.locator("#pattern-panel")).to_be_visible()
+    expect(page.locator("#volume-panel")).to_be_visible()
     expect(page.locator("#census-panel")).to_be_hidden()
     expect(page.locator("#brain-panel")).to_be_hidden()
     server.change("demo", {"app": "census"})
@@ -52,6 +53,7 @@ def test_the_dashboard_shows_the_panel_of_the_app_on_the_wall_and_follows_switch
     expect(page.locator("#census-panel")).to_be_visible()
     expect(page.locator("#pattern-panel")).to_be_hidden()
     expect(page.locator("#brain-panel")).to_be_hidden()
+    expect(page.locator("#volume-panel")).to_be_hidden()  # the census map draws no volume
     page.close()
 
 

@@ -188,3 +188,71 @@ def test_a_student_cannot_open_the_dashboard(
     student.goto({code.label: code.payload for code in layout.placed}["Student"])
     student.goto(f"{server.url}/dashboard")
     expect(student.locator("h1")).to_have_text("Sign in")
+
+
+def kept_on(page: Page) -> list[str]:
+    """The answers a phone keeps to send later (static/js/keptforms.js), as it stores them."""
+    return page.evaluate(
+        "Object.keys(localStorage).filter((key) => key.startsWith('tagwall:kept:'))"
+        ".map((key) => JSON.parse(localStorage[key]).fields.answer)"
+    )
+
+
+def keep_an_answer(phone: Page, pin: str, answer: str) -> None:
+    """Type ``answer`` on the pin's question page while sending answers fails (until
+    the caller's ``unroute``): kept, not sent yet."""
+    phone.goto(pin)
+    phone.route("**/answer", lambda route: route.abort())  # the network fails for them
+    phone.locator("#answer").fill(answer)
+    phone.get_by_role("button", name="Send").click()
+    expect(phone.locator("#kept-notice")).to_contain_text("kept on this phone")
+
+
+def shows_nothing_kept(phone: Page, pin: str) -> None:
+    """The pin's question page opened afresh: an empty answer, no word of a kept one,
+    and nothing sent in this session's name (its count stays at none answered)."""
+    phone.goto(pin)
+    expect(phone.locator("#answer")).to_have_value("")
+    expect(phone.locator("#kept-notice")).to_have_count(0)
+    phone.wait_for_load_state("networkidle")
+    assert kept_on(phone) == []
+    expect(phone.locator(".hint", has_text="pins answered")).to_contain_text("0 of")
+
+
+def test_a_kept_answer_leaves_a_shared_phone_with_the_person_who_typed_it(
+    browser: Browser, server: ServerProcess, contexts: list[BrowserContext]
+) -> None:
+    """An answer typed where the connection failed is kept on the phone to send later;
+    the phone passed to the next person (its user signed out, or its session gone)
+    keeps, shows and sends nothing of it."""
+    database = Database(server.database_url)
+    add_account(database, "ines", "instructor", TEST_PASSWORD, actor="test")
+    database.dispose()
+    server.change("demo", {"app": "brain"})  # its pins, a quiz round open
+    _, layout = fetch_layout(server.url, "demo", operator_token(server.secret))
+    pin = next(code.payload for code in layout.placed if code.label.startswith("Pin "))
+    phone = new_page(browser, contexts, **PHONE)
+
+    # The instructor, signed in on the room's phone, answers a pin; it is kept.
+    phone.goto(f"{server.url}/login?next=/me")
+    phone.get_by_label("Username").fill("ines")
+    phone.get_by_label("Password").fill(TEST_PASSWORD)
+    phone.get_by_role("button", name="Sign in").click()
+    expect(phone.locator("#role")).to_have_text("instructor")
+    keep_an_answer(phone, pin, "thalamus")
+    assert kept_on(phone) == ["thalamus"]
+    # She signs out before it could be sent: the phone forgets what it kept for her.
+    phone.goto(f"{server.url}/me")
+    with phone.expect_navigation():
+        phone.get_by_role("button", name="Sign out").click()
+    assert kept_on(phone) == []
+    phone.unroute("**/answer")
+    shows_nothing_kept(phone, pin)
+
+    # A student's kept answer, then the phone in other hands with a session of its own
+    # (the cookie gone): not shown, not sent as theirs, forgotten.
+    keep_an_answer(phone, pin, "hippocampus")
+    assert kept_on(phone) == ["hippocampus"]
+    phone.unroute("**/answer")
+    phone.context.clear_cookies()
+    shows_nothing_kept(phone, pin)

@@ -92,7 +92,7 @@ def test_an_installed_app_draws_its_layer_and_its_code_opens_its_page(
     assert phone.evaluate("document.documentElement.scrollWidth") <= 390
 
     answer = httpx.post(
-        f"{server.url}/apps/hello/demo/greeting",
+        f"{server.url}/api/apps/hello/walls/demo/greeting",
         json={"greeting": "Hi, class"},
         headers=server.operator(),
     )

@@ -23,6 +23,7 @@ from fastapi import APIRouter, Request, Response
 
 from wall_client.layout import Wall
 from webapp.classes.roll import ClassSession
+from webapp.core.settings import Settings
 from webapp.database.models import TagRecord
 from webapp.engine.wall_state import AppState, WallState
 from webapp.people.person import Person, person_of
@@ -58,6 +59,17 @@ class Scan:
         return await person_of(
             self.request, context.db, context.settings, self.address, context.address_rules
         )
+
+
+@dataclass(frozen=True)
+class ContentCheck:
+    """What an app's check of its part of the content folder found: the ``folder``
+    checked, a one-line ``summary`` of what is there, and one line per problem (the
+    file and field each, as an editor fixes them)."""
+
+    folder: Path
+    summary: str
+    problems: list[str]
 
 
 @dataclass(frozen=True)
@@ -100,8 +112,9 @@ class WallApp:
 
     migrations: Path | None = None
     """The folder of the app's Alembic revisions, for tables of its own (named
-    ``<name>_...``): its first revision carries the branch label ``<name>``, and they run
-    with the core's (``tagwall db upgrade``, ``tagwall serve``) and go down with them."""
+    ``<name>_...``): a history of their own (the first revision's ``down_revision`` is
+    None), recorded in ``alembic_version_<name>``; they run after the core's (``tagwall
+    db upgrade``, ``tagwall serve``) and go down before them."""
 
     modes: tuple[str, ...] = ()
     """The app's modes, the first its default (the brain atlas: ``quiz``, ``tutor``;
@@ -191,6 +204,13 @@ class WallApp:
         its scripts are modules of the app's ``static`` folder. Default: no panel."""
         return None
 
+    def check_content(self, settings: Settings) -> ContentCheck | None:
+        """Check the app's part of the content folder (its subfolder,
+        ``settings.content_folder(<its folder name>)``) as ``tagwall content check``
+        does before a term: every problem found, not the first. Default: None (the app
+        reads no content of its own)."""
+        return None
+
     def router(self) -> APIRouter | None:
         """The app's own pages and API, every path under ``/apps/<name>/`` or
         ``/api/apps/<name>/`` (checked at start). Default: none."""
@@ -211,6 +231,11 @@ ATTRIBUTES: tuple[str, ...] = tuple(
     name for name in WallApp.__annotations__ if not name.startswith("_")
 )
 """Every attribute an app may set, in the order above."""
+
+
+VOLUME_LAYER = "/static/js/volume.js"
+"""The core's layer drawing the wall state's ``volume``: an app that shows volumes lists
+it in its ``layers`` (and the dashboard shows its Volume box while the app is up)."""
 
 
 def static_url(app_name: str) -> str:

@@ -21,7 +21,7 @@ from starlette.requests import HTTPConnection
 
 from webapp.core.settings import Settings
 from webapp.core.threads import run_blocking
-from webapp.database.connection import Database, as_utc
+from webapp.database.connection import Database, as_utc, is_row_id
 from webapp.database.models import ClassMemberRecord, ClassRecord
 from webapp.people.addresses import AddressRules
 from webapp.people.person import person_with, plain_text
@@ -154,6 +154,10 @@ def end_class(db: Database, wall_id: str, ended_by: str) -> ClassSession | None:
 
 
 def get_class(db: Database, class_id: int) -> ClassSession | None:
+    """The class ``class_id`` (from a join page's address: any number), None when
+    there is none."""
+    if not is_row_id(class_id):
+        return None
     with db.reading() as connection:
         row = connection.execute(
             select(ClassRecord.__table__).where(ClassRecord.id == class_id)
@@ -236,7 +240,7 @@ def join(db: Database, class_id: int, visitor_id: str, name: str = "") -> ClassS
 
 def _join(db: Database, class_id: int, visitor_id: str, name: str) -> ClassSession:
     with db.session() as session:
-        record = session.get(ClassRecord, class_id)
+        record = session.get(ClassRecord, class_id) if is_row_id(class_id) else None
         if record is None or record.ended_at is not None:
             raise ClassError("This class has ended.")
         held = _session(record)

@@ -18,13 +18,14 @@ from sqlalchemy.exc import SQLAlchemyError
 
 from tag_service.fit import fits_display, largest_distance
 from tag_service.sizing import Camera, code_size, min_module_mm, symbol_modules
-from wall_client.config import WallConfigError, load_wall
+from wall_client.config import WallConfigError, load_wall, load_walls
 from wall_client.kiosk import KioskError, KioskSupervisor, find_browser, format_plan, plan
 from wall_client.layout import CodePurpose, Wall
 from webapp.apps.discovery import AppLoadError, installed_apps
 from webapp.apps.fitting import fit_lines, wall_fit
-from webapp.apps.hooks import WallApp
+from webapp.apps.hooks import ContentCheck, WallApp
 from webapp.apps.installed import wall_apps
+from webapp.cli.campus import oidc
 from webapp.cli.console import (
     EXIT_USAGE,
     check_bus,
@@ -345,6 +346,44 @@ def _apps(settings: Settings | None = None) -> dict[str, WallApp]:
 
 
 @main.group()
+def content() -> None:
+    """The content folder: wall configs and what the apps read (TAGWALL_CONTENT_DIR)."""
+
+
+@content.command("check")
+@click.option(
+    "--dir",
+    "directory",
+    type=click.Path(path_type=Path, file_okay=False, exists=True),
+    default=None,
+    help="The content folder to check (default: TAGWALL_CONTENT_DIR, the one the server reads).",
+)
+def content_check(directory: Path | None) -> None:
+    """Check the content folder before a term: its wall configs and every app's part,
+    one line per problem; exit 2 on problems."""
+    settings = load_settings(**({"content_dir": directory} if directory else {}))
+    click.echo(f"checking {settings.content_dir}")
+    walls = settings.content_folder("walls")
+    try:
+        found = load_walls([walls])
+    except WallConfigError as error:
+        checks = [ContentCheck(walls, "", error.errors)]
+    else:
+        checks = [ContentCheck(walls, f"{len(found)} walls: {', '.join(sorted(found))}", [])]
+    for app in _apps(settings).values():
+        if (checked := app.check_content(settings)) is not None:
+            checks.append(checked)
+    problems = [problem for check in checks for problem in check.problems]
+    for check in checks:
+        click.echo(f"{check.folder}: {check.summary or 'problems'}")
+        for problem in check.problems:
+            click.echo(f"  {problem}")
+    if problems:
+        click.echo(f"{len(problems)} problem(s) found", err=True)
+        sys.exit(EXIT_USAGE)
+
+
+@main.group()
 def codes() -> None:
     """QR codes: how big they must be."""
 
@@ -541,10 +580,13 @@ def user_add(name: str, role: str, password: str) -> None:
 
 @user.command("list")
 def user_list() -> None:
-    """List the accounts: username, role, created."""
+    """List the accounts: username, role, created, how it signs in (password or issuer)."""
 
     def listing(db: Database) -> str:
-        rows = [f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}" for a in list_accounts(db)]
+        rows = [
+            f"{a.username}\t{a.role}\t{a.created_at:%Y-%m-%d}\t{a.issuer or 'password'}"
+            for a in list_accounts(db)
+        ]
         return "\n".join(rows) or "no accounts"
 
     _account_action(listing)
@@ -573,6 +615,9 @@ def user_passwd(name: str, password: str) -> None:
         return f"password of {name} changed"
 
     _account_action(change)
+
+
+main.add_command(oidc)
 
 
 @main.group()

@@ -1,6 +1,7 @@
 """Logging without secrets: tokens in URLs never reach a log file.
 
-Tile URLs and the operator's sign-in link carry their token in the query string, and
+Tile URLs and the operator's sign-in link carry their token in the query string (and a
+campus provider's answer its sign-in ``code``), and
 every request's path is logged (tagwall's own access log, :data:`ACCESS_LOGGER`, which
 masks them as it writes the line), as uvicorn logs every websocket's (error log).
 :class:`RedactSecrets` masks them on the handlers, whatever logger the line came from.
@@ -13,13 +14,14 @@ import logging
 import re
 from typing import Any
 
-_SECRET_QUERY = re.compile(r"((?:^|[?&;\s])(?:token|csrf)=)[^&;\s\"']+", re.IGNORECASE)
+_SECRET_QUERY = re.compile(r"((?:^|[?&;\s])(?:token|csrf|code)=)[^&;\s\"']+", re.IGNORECASE)
 REDACTED = "[redacted]"
 ACCESS_LOGGER = "tagwall.access"  # one line per HTTP response (webapp.web.middleware)
 
 
 def redact(text: str) -> str:
-    """``text`` with the values of ``token=`` and ``csrf=`` query parameters masked."""
+    """``text`` with the values of ``token=``, ``csrf=`` and ``code=`` query parameters
+    masked."""
     return _SECRET_QUERY.sub(rf"\g<1>{REDACTED}", text)
 
 

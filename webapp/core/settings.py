@@ -12,6 +12,7 @@ from typing import Annotated, Literal
 from pydantic import Field, IPvAnyNetwork, ValidationError, field_validator, model_validator
 from pydantic_settings import BaseSettings, NoDecode, SettingsConfigDict
 
+from webapp.core.oidc import OIDCProvider, ProviderName
 from webapp.core.roles import (
     DEFAULT_INFO_CLASS,
     MAX_INFO_CLASS,
@@ -45,7 +46,11 @@ class Settings(BaseSettings):
     Each field maps to ``TAGWALL_<NAME>``; see the README's configuration reference.
     """
 
-    model_config = SettingsConfigDict(env_prefix="TAGWALL_", extra="ignore")
+    # A JSON setting may also be given a key at a time (TAGWALL_OIDC_PROVIDERS__CAMPUS__
+    # CLIENT_SECRET): a secret in a variable of its own, the rest in a file more may read.
+    model_config = SettingsConfigDict(
+        env_prefix="TAGWALL_", extra="ignore", env_nested_delimiter="__"
+    )
 
     env: Literal["dev", "production"] = "dev"
     host: str = "0.0.0.0"
@@ -89,6 +94,10 @@ class Settings(BaseSettings):
         default_factory=lambda: dict(DEFAULT_INFO_CLASS)
     )
     pairing_ttl_s: int = Field(default=60, ge=10, le=3_600)
+    # Staff sign-in: local accounts' passwords, and the campus's OpenID providers.
+    password_sign_in: bool = True
+    oidc_providers: dict[ProviderName, OIDCProvider] = Field(default_factory=dict)
+    oidc_leeway_s: int = Field(default=120, ge=0, le=600)
     login_free_attempts: int = Field(default=3, ge=1)
     login_client_free_attempts: int = Field(default=10, ge=1)
     login_max_delay_s: float = Field(default=300.0, ge=1)
@@ -163,6 +172,15 @@ class Settings(BaseSettings):
                 raise ValueError(
                     f"TAGWALL_SECRET_KEY must be at least {MIN_SECRET_LENGTH} characters"
                 )
+        return self
+
+    @model_validator(mode="after")
+    def _someone_can_sign_in(self) -> Settings:
+        if not self.password_sign_in and not self.oidc_providers:
+            raise ValueError(
+                "TAGWALL_PASSWORD_SIGN_IN=false needs an OpenID provider in "
+                "TAGWALL_OIDC_PROVIDERS: otherwise no instructor can sign in"
+            )
         return self
 
     @model_validator(mode="after")

@@ -47,6 +47,13 @@ RowId = Annotated[int, Interval(ge=1, le=ROW_ID_MAX)]
 """A row id (publication, layout, census data set, quiz round) as the API accepts it."""
 
 
+def is_row_id(value: int) -> bool:
+    """Whether ``value`` can be a row's id (:data:`RowId`) on both databases: an id from
+    a page's address that cannot is no row, answered as one that is not there, where
+    the driver would fail on it (SQLite takes 64 bits, PostgreSQL's INTEGER 32)."""
+    return 1 <= value <= ROW_ID_MAX
+
+
 class Base(DeclarativeBase):
     """Declarative base of every tagwall table."""
 

@@ -127,14 +127,21 @@ class TagLayoutRecord(Base):
 
 
 class AccountRecord(Base):
-    """An instructor or admin who signs in with a password (argon2 hash, never the text)."""
+    """An instructor or admin: a local account signs in with a password (argon2 hash,
+    never the text), a campus account through its OpenID provider (``issuer`` and the
+    provider's ``subject`` for the person; no password)."""
 
     __tablename__ = "accounts"
+    __table_args__ = (UniqueConstraint("issuer", "subject"),)
 
     id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
     username: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
     role: Mapped[str] = mapped_column(String(16), nullable=False)
-    password_hash: Mapped[str] = mapped_column(String(200), nullable=False)
+    password_hash: Mapped[str | None] = mapped_column(String(200), nullable=True)
+    issuer: Mapped[str | None] = mapped_column(String(500), nullable=True)
+    subject: Mapped[str | None] = mapped_column(String(255), nullable=True)
+    # As the provider names the person (its ``name`` claim), updated at each sign-in.
+    full_name: Mapped[str] = mapped_column(String(80), nullable=False, default="")
     created_at: Mapped[datetime] = mapped_column(
         DateTime(timezone=True), default=_utcnow, nullable=False
     )

@@ -227,9 +227,17 @@ def address_grant(db: Database, address: str, settings: Settings) -> str | None:
 
 
 def grant(
-    db: Database, person: Person, role: Role, authority: str, settings: Settings, address: str
+    db: Database,
+    person: Person,
+    role: Role,
+    authority: str,
+    settings: Settings,
+    address: str,
+    user_group: UserGroup | None = None,
 ) -> Person:
-    """Authorise the phone up to ``role`` on ``authority`` and act in that role."""
+    """Authorise the phone up to ``role`` on ``authority`` and act in that role (in
+    ``user_group`` when the authority says which: a campus provider's rules)."""
+    group = {"user_group": user_group} if user_group else {}
     return _store(
         db,
         person,
@@ -240,6 +248,7 @@ def grant(
         role=role,
         authority=authority,
         authorized_role=role,
+        **group,
     )
 
 
@@ -262,8 +271,11 @@ def assume(db: Database, person: Person, role: Role, settings: Settings, address
 
 
 def sign_out(db: Database, person: Person, settings: Settings, address: str) -> Person:
-    """Back to an anonymous student: role and authority gone, a new session id."""
-    return _store(
+    """The phone goes on as a new anonymous visitor: the visitor signed out keeps its row
+    (answers, name, group, for what the class exports) with its role and authority gone
+    and its session ended, and the next person on a shared phone inherits nothing of it
+    (they saw the last person's answers, name and group)."""
+    _store(
         db,
         person,
         settings,
@@ -274,6 +286,7 @@ def sign_out(db: Database, person: Person, settings: Settings, address: str) -> 
         authority=None,
         authorized_role="student",
     )
+    return _person(Visitor.fresh(), None, None, settings)
 
 
 def update_profile(

@@ -1,7 +1,10 @@
-"""The limits on what phones do to a shared wall: which budgets each action meets.
+"""The limits on what phones do to a shared wall, in one home: the budgets each kind of
+action meets (:func:`action_limits`, from the settings), the sliding windows that count
+them (:class:`ActionLimits`) and the burst rule for flipping the wall's settings.
 
 The counts live in a :class:`~webapp.people.counters.Counters` store: in this process's
-memory with one server process, in Redis when several share the wall.
+memory with one server process, in Redis when several share the wall. Requests meet the
+limits through one check, ``webapp.web.deps.limit_action`` (a 429 with Retry-After).
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal
 
+from webapp.core.settings import Settings
 from webapp.people.counters.base import Counters, Hit, SlidingWindow
 
 if TYPE_CHECKING:
@@ -24,6 +28,14 @@ def retry_after_s(wait: float) -> int:
 
 WallAction = Literal["scan", "publish", "balloon", "toggle", "group"]
 Scope = Literal["visitor", "new", "address", "wall"]
+
+FLIPS: tuple[WallAction, ...] = ("toggle", "group")
+FLIP_BURST = 2
+FLIP_BURST_S = 10.0
+"""What flips a setting of the whole wall (a census group, the audience the brain's pins
+are for) does so at most ``FLIP_BURST`` times in ``FLIP_BURST_S`` per phone, and per
+address for new phones together, beside the per-minute budgets: a phone's six fast taps
+show on the wall as on and off, never as six flickers."""
 
 
 @dataclass(frozen=True)
@@ -73,7 +85,7 @@ class ActionLimits:
     ) -> None:
         self.counters = counters
         self.policies = dict(policies)
-        self._windows: dict[tuple[WallAction, Scope], SlidingWindow] = {}
+        self._windows: list[tuple[WallAction, Scope, SlidingWindow]] = []
         for kind, policy in self.policies.items():
             scopes: tuple[tuple[Scope, int | None], ...] = (
                 ("visitor", policy.per_visitor),
@@ -83,7 +95,12 @@ class ActionLimits:
             )
             for scope, limit in scopes:
                 if limit is not None:
-                    self._windows[kind, scope] = SlidingWindow(f"{kind}:{scope}", limit, window_s)
+                    window = SlidingWindow(f"{kind}:{scope}", limit, window_s)
+                    self._windows.append((kind, scope, window))
+            if kind in FLIPS:
+                for scope in ("visitor", "new"):
+                    burst = SlidingWindow(f"{kind}:{scope}:burst", FLIP_BURST, FLIP_BURST_S)
+                    self._windows.append((kind, scope, burst))
 
     async def hit(
         self, kind: WallAction, actor: Actor, wall_id: str, now: float | None = None
@@ -99,7 +116,45 @@ class ActionLimits:
         }
         hits: list[Hit] = [
             (window, key)
-            for (action, scope), window in self._windows.items()
+            for action, scope, window in self._windows
             if action == kind and (key := keys[scope]) is not None
         ]
         return await self.counters.hit(hits, now)
+
+
+def action_limits(settings: Settings, counters: Counters) -> ActionLimits:
+    """The limits on what phones do, from the settings (see docs/people.md).
+
+    Scans change nothing on the wall: a phone with a cookie is limited as itself, and
+    only phones without one share their address's budget (a hall's 300 first scans
+    fit in it). What changes the shared wall is limited per visitor, for visitors not
+    yet settled also per address together, for everyone per address and per wall.
+    """
+    scans = ActionPolicy(
+        per_visitor=settings.scan_rate_per_minute,
+        per_new_address=settings.scan_rate_per_address_per_minute,
+        per_address=None,
+        per_wall=None,
+        settle_s=0,
+    )
+
+    def on_wall(per_visitor: int) -> ActionPolicy:
+        return ActionPolicy(
+            per_visitor=per_visitor,
+            per_new_address=settings.new_visitor_actions_per_address_per_minute,
+            per_address=settings.actions_per_address_per_minute,
+            per_wall=settings.actions_per_wall_per_minute,
+            settle_s=settings.visitor_settle_s,
+        )
+
+    actions = on_wall(settings.wall_action_rate_per_minute)
+    return ActionLimits(
+        counters,
+        {
+            "scan": scans,
+            "publish": on_wall(settings.publish_rate_per_minute),
+            "balloon": actions,
+            "toggle": actions,
+            "group": actions,
+        },
+    )

@@ -103,6 +103,16 @@ class SignInThrottle:
             return counted
         return Attempt(counted=counted, forget_on_success=(strikes[0],))
 
+    async def reserve_client(self, address: str, now: float | None = None) -> Attempt | float:
+        """Count a campus sign-in's answer from ``address`` as failed before it is
+        checked (the provider's answer names the account only once it is): the
+        client's limit alone, since one per provider would let anyone who fails often
+        enough slow down every browser's campus sign-in."""
+        counted = await self.counters.fail([Strike(self.per_client, address)], now)
+        if isinstance(counted, float):
+            return counted
+        return Attempt(counted=counted, forget_on_success=())
+
     async def succeeded(self, attempt: Attempt) -> None:
         """The password was right: the attempt was no failure, and the account's
         failures from this client (or browser) are forgotten."""

@@ -23,6 +23,7 @@ from wall_client.config import load_walls
 from webapp.apps.discovery import installed_apps
 from webapp.apps.hooks import static_url
 from webapp.apps.installed import heavy_keys
+from webapp.campus.oidc import SIGN_IN_COOKIE, SIGN_IN_PATH, SIGN_IN_WINDOW_S
 from webapp.core.logs import ACCESS_LOGGER
 from webapp.core.settings import PROJECT_ROOT, Settings
 from webapp.core.tasks import cancel_and_wait
@@ -39,6 +40,7 @@ from webapp.server.routes import (
     classes,
     dashboard,
     health,
+    oidc,
     owncodes,
     pages,
     pairing,
@@ -53,11 +55,13 @@ from webapp.server.routes import (
 )
 from webapp.server.services import Services
 from webapp.web.deps import DEPENDENCY_ERRORS
+from webapp.web.middleware import HEADERS as SECURITY_HEADERS
 from webapp.web.middleware import (
     AccessLogMiddleware,
     ClientAddressMiddleware,
     SecurityHeadersMiddleware,
     SessionCookieMiddleware,
+    SignInStateMiddleware,
 )
 from webapp.web.problems import ERROR_MEANINGS, Problem
 from webapp.web.templating import make_templates
@@ -108,6 +112,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             asyncio.create_task(services.codes.follow()),
             asyncio.create_task(services.address_rules.follow()),
         ]
+        if services.campus.providers:
+            tasks.append(asyncio.create_task(services.campus.follow()))
         yield
         await cancel_and_wait(*tasks)
         await run_blocking(services.scan_log.flush)
@@ -119,6 +125,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app = FastAPI(title="tagwall", lifespan=lifespan, docs_url=None, redoc_url=None)
     app.state.services = services
     app.state.templates = make_templates([a.templates for a in apps.values() if a.templates])
+    if settings.oidc_providers:
+        app.add_middleware(
+            SignInStateMiddleware,
+            secret=settings.resolved_secret_key,
+            path=SIGN_IN_PATH,
+            cookie=SIGN_IN_COOKIE,
+            max_age=SIGN_IN_WINDOW_S,
+            https=settings.resolved_public_base_url.startswith("https://"),
+        )
     app.add_middleware(SessionCookieMiddleware, secret=settings.resolved_secret_key)
     app.add_middleware(SecurityHeadersMiddleware)
     app.add_middleware(AccessLogMiddleware, log=logging.getLogger(ACCESS_LOGGER))
@@ -141,6 +156,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         health.router,
         pages.router,
         people.router,
+        oidc.router,
         classes.router,
         pairing.router,
         dashboard.router,
@@ -304,7 +320,12 @@ def _add_error_pages(app: FastAPI) -> None:
     @app.exception_handler(Exception)
     async def server_error(request: Request, error: Exception) -> Response:
         log.exception("unhandled error on %s", request.url.path, exc_info=error)
-        return error_page(request, 500, "Something went wrong on the server; it has been logged.")
+        response = error_page(
+            request, 500, "Something went wrong on the server; it has been logged."
+        )
+        # Starlette sends this answer outside every middleware: it brings its own headers.
+        response.headers.update({**SECURITY_HEADERS, "cache-control": "no-store"})
+        return response
 
 
 def jsonable_errors(error: RequestValidationError) -> list[dict[str, object]]:

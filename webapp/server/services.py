@@ -14,6 +14,7 @@ from redis.asyncio import Redis
 from wall_client.layout import Wall
 from webapp.apps.hooks import WallApp
 from webapp.apps.installed import wall_apps
+from webapp.campus.oidc import CampusSignIn
 from webapp.changes.door import WallDoor
 from webapp.core.caching import SizedCache
 from webapp.core.settings import Settings
@@ -25,7 +26,7 @@ from webapp.people.addresses import AddressRules
 from webapp.people.counters.base import Counters
 from webapp.people.counters.memory import MemoryCounters
 from webapp.people.counters.redis import RedisCounters
-from webapp.people.ratelimit import ActionLimits, ActionPolicy, Actor, WallAction
+from webapp.people.ratelimit import ActionLimits, Actor, WallAction, action_limits
 from webapp.people.signin import SignInThrottle
 from webapp.people.tokens import Tokens
 from webapp.people.visitors import Visitor
@@ -55,6 +56,7 @@ class Services:
     scan_feed: ScanFeed = field(init=False)
     login_throttle: SignInThrottle = field(init=False)
     password_checks: CapacityLimiter = field(init=False)
+    campus: CampusSignIn = field(init=False)
     volumes: VolumeCatalog = field(init=False)
     tokens: Tokens = field(init=False)  # replaced as stored salts change (webapp.people.tokens)
     layouts: SizedCache[TagLayoutRecord] = field(init=False)
@@ -76,6 +78,7 @@ class Services:
         # Each argon2 check holds 64 MiB: a burst of sign-ins waits its turn (per process:
         # what it bounds is this process's memory).
         self.password_checks = CapacityLimiter(self.settings.login_parallel_checks)
+        self.campus = CampusSignIn(self.settings)
         self.tokens = Tokens(self.secret)
         self.layouts = SizedCache(LAYOUTS_CACHED)
         self.volumes = VolumeCatalog(
@@ -161,41 +164,3 @@ def counter_store(redis: Redis | None, settings: Settings) -> Counters:
     if redis is None:
         return MemoryCounters()
     return RedisCounters(redis, settings.redis_prefix)
-
-
-def action_limits(settings: Settings, counters: Counters) -> ActionLimits:
-    """The limits on what phones do, from the settings (see docs/people.md).
-
-    Scans change nothing on the wall: a phone with a cookie is limited as itself, and
-    only phones without one share their address's budget (a hall's 300 first scans
-    fit in it). What changes the shared wall is limited per visitor, for visitors not
-    yet settled also per address together, for everyone per address and per wall.
-    """
-    scans = ActionPolicy(
-        per_visitor=settings.scan_rate_per_minute,
-        per_new_address=settings.scan_rate_per_address_per_minute,
-        per_address=None,
-        per_wall=None,
-        settle_s=0,
-    )
-
-    def on_wall(per_visitor: int) -> ActionPolicy:
-        return ActionPolicy(
-            per_visitor=per_visitor,
-            per_new_address=settings.new_visitor_actions_per_address_per_minute,
-            per_address=settings.actions_per_address_per_minute,
-            per_wall=settings.actions_per_wall_per_minute,
-            settle_s=settings.visitor_settle_s,
-        )
-
-    actions = on_wall(settings.wall_action_rate_per_minute)
-    return ActionLimits(
-        counters,
-        {
-            "scan": scans,
-            "publish": on_wall(settings.publish_rate_per_minute),
-            "balloon": actions,
-            "toggle": actions,
-            "group": actions,
-        },
-    )

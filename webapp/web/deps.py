@@ -96,9 +96,11 @@ def too_fast(wait: float) -> HTTPException:
 
 
 async def limit_action(
-    context: AppContext, kind: WallAction, visitor: Visitor, address: str, wall_id: str
+    context: AppContext, kind: WallAction, visitor: Visitor, address: str, wall_id: str = ""
 ) -> None:
-    """Count one ``kind`` of action on the wall; 429 when it is one too many."""
+    """The one check of the phones' limits (``webapp.people.ratelimit``): count one
+    ``kind`` of action on the wall; a 429 with Retry-After when it is one too many (a
+    page says "Slow down" and how long to wait, the API the same in JSON)."""
     wait = await context.action_allowed(kind, visitor, address, wall_id)
     if wait is not None:
         raise too_fast(wait)

@@ -1,5 +1,6 @@
 """The middlewares, all plain ASGI (no per-request task or body copy), outermost first:
-the client's address, the access log, the security headers, the session cookie."""
+the client's address, the access log, the security headers, the session cookie (and a
+campus sign-in's own cookie on its paths)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from http import HTTPStatus
 from urllib.parse import quote
 
 from starlette.datastructures import Headers, MutableHeaders
+from starlette.middleware.sessions import SessionMiddleware
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from webapp.core.logs import redact
@@ -67,7 +69,11 @@ class AccessLogMiddleware:
     tagwall sees it, behind trusted proxies), the request line and the status. Secrets in
     the query string are masked as the line is made. uvicorn's own access log passed
     five arguments through the redaction filter and copied each record to format it:
-    3-5 % of a phone's request (issue 32)."""
+    3-5 % of a phone's request (issue 32).
+
+    An unhandled error's 500 is sent outside every middleware (by Starlette's
+    ``ServerErrorMiddleware``), so its line is written here as the error passes on the
+    way there, when no response had started."""
 
     def __init__(self, app: ASGIApp, log: logging.Logger) -> None:
         self.app = app
@@ -77,13 +83,21 @@ class AccessLogMiddleware:
         if scope["type"] != "http" or not self.log.isEnabledFor(logging.INFO):
             await self.app(scope, receive, send)
             return
+        started = False
 
         async def send_logged(message: Message) -> None:
+            nonlocal started
             if message["type"] == "http.response.start":
+                started = True
                 self.log.info(access_line(scope, message["status"]))
             await send(message)
 
-        await self.app(scope, receive, send_logged)
+        try:
+            await self.app(scope, receive, send_logged)
+        except Exception:
+            if not started:
+                self.log.info(access_line(scope, HTTPStatus.INTERNAL_SERVER_ERROR))
+            raise
 
 
 def access_line(scope: Scope, status: int) -> str:
@@ -144,3 +158,32 @@ class SessionCookieMiddleware:
             await send(message)
 
         await self.app(scope, receive, send_with_cookie)
+
+
+class SignInStateMiddleware:
+    """Starlette's signed session cookie on the paths under ``path`` only: Authlib keeps
+    a campus sign-in's state, nonce and PKCE verifier there from the provider's button
+    to its answer, for ``max_age`` seconds at most, in the browser that started it
+    (SameSite=Lax: the provider's redirect back is a top-level navigation). Every other
+    request passes by without a cookie read."""
+
+    def __init__(
+        self, app: ASGIApp, secret: str, path: str, cookie: str, max_age: int, https: bool
+    ) -> None:
+        self.app = app
+        self.prefix = path + "/"
+        self.sessions = SessionMiddleware(
+            app,
+            secret_key=secret,
+            session_cookie=cookie,
+            max_age=max_age,
+            path=path,
+            same_site="lax",
+            https_only=https,
+        )
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] == "http" and scope["path"].startswith(self.prefix):
+            await self.sessions(scope, receive, send)
+        else:
+            await self.app(scope, receive, send)

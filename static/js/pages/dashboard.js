@@ -47,6 +47,9 @@ function showStatus({status, waiting, class_session}) {
   $("mode").textContent = state.mode;
   follow("mode-choice", state.mode);
   follow("app-choice", state.app);
+  for (const panel of document.querySelectorAll("[data-for-apps]")) {
+    panel.hidden = !panel.dataset.forApps.split(" ").includes(state.app);
+  }
   for (const panel of document.querySelectorAll("[data-app-panel]")) {
     panel.hidden = panel.dataset.appPanel !== state.app;  // only the app on the wall's
   }

@@ -6,6 +6,7 @@ import re
 from importlib.metadata import EntryPoint
 
 import pytest
+from fastapi.routing import APIWebSocketRoute, iter_route_contexts
 from fastapi.testclient import TestClient
 
 from tests.conftest import services_of
@@ -91,3 +92,53 @@ def test_apps_without_places_offer_none_the_hello_app_too(
     wall = services.walls["demo"]
     for app in [*APPS.values(), hello]:
         assert app.places(services, wall, WallState(app=app.name)) == [], app.name
+
+
+URL_IN_JS = re.compile(r"""[`"'](/(?:api|apps|wall|walls|ws|t|static)/[^`"'\s]*)[`"']""")
+
+
+def test_every_path_a_browser_module_asks_for_is_a_route(client: TestClient) -> None:
+    """The apps' and the core's modules build their API's paths in strings: each, its
+    ``${...}`` parts filled in, is answered by a route (a move of an app's API under
+    /api/apps/<name>/ once left a panel's link on the old path)."""
+    modules = [*(PROJECT_ROOT / "static" / "js").rglob("*.js")]
+    for wall_app in APPS.values():
+        if wall_app.static is not None:
+            modules += wall_app.static.glob("*.js")
+    routes = [
+        (route.path_format.split("/"), isinstance(route.original_route, APIWebSocketRoute))
+        for route in iter_route_contexts(client.app.routes)  # type: ignore[attr-defined]
+    ]
+    lost = []
+    for module in modules:
+        for found in URL_IN_JS.findall(module.read_text()):
+            path = found.split("?")[0]
+            if path.startswith("/static/") or path.endswith("/") or re.search(r"[^/]\$\{", path):
+                continue  # files (checked above), and paths a module completes by itself
+            segments = path.split("/")
+            if not any(
+                len(segments) == len(template)
+                and is_socket == path.startswith("/ws/")
+                and all(
+                    given == wanted or given.startswith("${") or wanted.startswith("{")
+                    for given, wanted in zip(segments, template, strict=True)
+                )
+                for template, is_socket in routes
+            ):
+                lost.append(f"{module.name}: {found}")
+    assert not lost, lost
+
+
+def test_no_template_styles_inline_what_the_policy_blocks() -> None:
+    """The pages' Content-Security-Policy allows styles only from files (style-src
+    'self'): an inline ``style=`` or ``<style>`` is dropped by the browser (the image
+    panel's picture of hotspots lost its size and cursor so)."""
+    folders = [PROJECT_ROOT / "webapp" / "web" / "templates"]
+    folders += [app.templates for app in APPS.values() if app.templates is not None]
+    inline = [
+        str(page)
+        for folder in folders
+        for page in folder.rglob("*.html")
+        if re.search(r"\sstyle=|<style", page.read_text())
+    ]
+    assert not inline, inline

@@ -218,7 +218,7 @@ def test_user_add_asks_for_the_password_twice_and_the_account_signs_in(
 def test_user_list_remove_and_passwd(env: dict[str, str], database_url: str) -> None:
     run(env, "user", "add", "bob", "--role", "admin", "--password", "first-pass")
     code, out, _ = run(env, "user", "list")
-    assert code == 0 and out.startswith("bob\tadmin\t")
+    assert code == 0 and out.startswith("bob\tadmin\t") and out.endswith("\tpassword\n")
     code, out, _ = run(env, "user", "passwd", "bob", "--password", "second-pass")
     assert code == 0 and "password of bob changed" in out
     database = Database(database_url)

@@ -17,7 +17,8 @@ from redis.asyncio import Redis
 from redis.asyncio.lock import Lock
 from redis.exceptions import RedisError
 
-from tests.conftest import RedisCable, migrate
+from tests.cable import Cable
+from tests.conftest import migrate
 from webapp.core.settings import PROJECT_ROOT
 from webapp.database.connection import Database
 from webapp.database.redis import connect_redis
@@ -473,7 +474,7 @@ async def test_a_reader_resumes_after_its_connection_is_lost(
         assert inbox.drain() == [] and not inbox.overflowed
 
 
-async def cable_cut(cable: RedisCable, caplog: pytest.LogCaptureFixture) -> None:
+async def cable_cut(cable: Cable, caplog: pytest.LogCaptureFixture) -> None:
     """Cut ``cable`` and wait until its reader noticed, and tried again more than once."""
     cable.cut()
     await soon(lambda: "lost the event bus" in caplog.text)
@@ -482,7 +483,7 @@ async def cable_cut(cable: RedisCable, caplog: pytest.LogCaptureFixture) -> None
 
 
 async def test_a_reader_rides_out_an_outage_and_says_so_once(
-    redis_buses: MakeBus, redis_cable: RedisCable, caplog: pytest.LogCaptureFixture
+    redis_buses: MakeBus, redis_cable: Cable, caplog: pytest.LogCaptureFixture
 ) -> None:
     caplog.set_level(logging.INFO, "webapp.engine.bus")
     reader, publisher = redis_buses(url=redis_cable.url), redis_buses()
@@ -503,7 +504,7 @@ async def test_a_reader_rides_out_an_outage_and_says_so_once(
 @pytest.mark.parametrize("loss", ["trimmed", "stream gone"])
 async def test_a_reader_that_lost_frames_has_its_subscribers_resynchronise(
     redis_buses: MakeBus,
-    redis_cable: RedisCable,
+    redis_cable: Cable,
     admin: Redis,
     redis_prefix: str,
     caplog: pytest.LogCaptureFixture,
@@ -535,7 +536,7 @@ async def test_a_reader_that_lost_frames_has_its_subscribers_resynchronise(
 
 
 async def test_without_redis_publishing_and_subscribing_fail_clearly(
-    redis_buses: MakeBus, redis_cable: RedisCable
+    redis_buses: MakeBus, redis_cable: Cable
 ) -> None:
     bus = redis_buses(url=redis_cable.url)
     redis_cable.cut()

@@ -11,8 +11,12 @@ from webapp.database.connection import Database
 from webapp.database.models import AccountRecord, AuditRecord, VisitorRecord
 from webapp.people.accounts import (
     AccountError,
+    CampusIdentity,
     add_account,
     authenticate,
+    campus_account,
+    campus_issuer,
+    forget_campus_account,
     list_accounts,
     remove_account,
     set_password,
@@ -177,3 +181,79 @@ def test_a_new_password_for_an_unknown_account_is_refused(db: Database) -> None:
         set_password(db, "nobody", TEST_PASSWORD, actor="admin")
     assert str(error.value) == "there is no account called 'nobody'"
     assert audit_rows(db, "password_changed") == []
+
+
+CAMPUS = "https://login.example.edu"
+
+
+def person_at(subject: str, hint: str, issuer: str = CAMPUS) -> CampusIdentity:
+    return CampusIdentity(issuer=issuer, subject=subject, name_hint=hint, full_name="Zoë Ng")
+
+
+@pytest.mark.parametrize(
+    "hint,username",
+    [
+        ("Zoë.Ng@example.edu", "zoe.ng"),
+        ("jean claude", "jean-claude"),
+        ("-_odd__", "odd"),
+        ("x", "staff"),
+        ("日本", "staff"),
+        ("a" * 80, "a" * 56),
+    ],
+)
+def test_a_campus_account_is_named_after_the_providers_name_for_the_person(
+    db: Database, hint: str, username: str
+) -> None:
+    assert campus_account(db, person_at("1", hint), "instructor", "oidc:campus").username == (
+        username
+    )
+
+
+def test_a_campus_account_takes_a_name_no_account_has(db: Database) -> None:
+    add_account(db, "zoe", "admin", TEST_PASSWORD, actor="admin")
+    first = campus_account(db, person_at("1", "zoe@example.edu"), "instructor", "oidc:a")
+    second = campus_account(db, person_at("1", "zoe", "https://other.example.org"), "admin", "b")
+    assert (first.username, second.username) == ("zoe-2", "zoe-3")
+    [entry, *_] = audit_rows(db, "account_added")[1:]
+    assert entry.detail == {"username": "zoe-2", "role": "instructor", "issuer": CAMPUS}
+
+
+def test_a_campus_account_has_no_password(db: Database) -> None:
+    campus_account(db, person_at("1", "zoe"), "instructor", "oidc:campus")
+    assert authenticate(db, "zoe", "") is None
+    with pytest.raises(AccountError, match=f"zoe signs in at {CAMPUS}: it has no password here"):
+        set_password(db, "zoe", TEST_PASSWORD, actor="admin")
+    assert campus_issuer(db, "zoe") == CAMPUS
+    add_account(db, "ines", "instructor", TEST_PASSWORD, actor="admin")
+    assert campus_issuer(db, "ines") is None
+
+
+def test_a_lower_role_at_a_later_sign_in_signs_out_the_accounts_phones(
+    db: Database, settings: Settings
+) -> None:
+    campus_account(db, person_at("1", "zoe"), "instructor", "oidc:campus")
+    phone = phone_of(db, settings, "login:zoe")
+    campus_account(db, person_at("1", "Zoë Renamed"), "admin", "oidc:campus")
+    assert role_of(db, phone) == ("instructor", "login:zoe")  # a higher role takes nothing
+
+    account = campus_account(db, person_at("1", "zoe"), "instructor", "oidc:campus")
+
+    assert (account.username, account.role) == ("zoe", "instructor")
+    assert role_of(db, phone) == ("student", None)
+    [change, _] = audit_rows(db, "account_role_changed")
+    assert change.detail == {"username": "zoe", "role": "admin", "was": "instructor"}
+
+
+def test_a_campus_account_whose_role_is_gone_is_removed_with_its_phones(
+    db: Database, settings: Settings
+) -> None:
+    campus_account(db, person_at("1", "zoe"), "instructor", "oidc:campus")
+    phone = phone_of(db, settings, "login:zoe")
+
+    assert forget_campus_account(db, CAMPUS, "1", "oidc:campus") == "zoe"
+    assert forget_campus_account(db, CAMPUS, "1", "oidc:campus") is None
+
+    assert list_accounts(db) == []
+    assert role_of(db, phone) == ("student", None)
+    [entry] = audit_rows(db, "account_removed")
+    assert entry.detail == {"username": "zoe", "reason": "no role"}

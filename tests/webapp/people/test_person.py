@@ -206,8 +206,8 @@ def test_sign_out_drops_the_role_and_the_authority(db: Database, settings: Setti
     out = sign_out(db, granted, settings, HERE)
     assert out.role == "student" and out.authorized_role == "student"
     assert out.authority is None
-    assert out.visitor.id == granted.visitor.id
-    assert out.visitor.session_id != granted.visitor.session_id
+    assert out.visitor.id != granted.visitor.id  # a new visitor: nothing of the last one
+    assert not out.stored and out.display_name == ""
     with pytest.raises(PermissionError):
         assume(db, out, "instructor", settings, HERE)
     assert len(audit_rows(db, "logout")) == 1

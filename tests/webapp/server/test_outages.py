@@ -14,10 +14,10 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import Engine, make_url
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 
+from tests.cable import Cable
 from tests.conftest import (
     POSTGRES_URL,
     TEST_SECRET,
-    RedisCable,
     csrf_of,
     migrate,
     operator_headers,
@@ -114,7 +114,7 @@ def test_a_server_out_of_connections_is_503_not_500(
 
 
 def test_a_redis_outage_is_503_not_500(
-    settings: Settings, redis_cable: RedisCable, redis_prefix: str
+    settings: Settings, redis_cable: Cable, redis_prefix: str
 ) -> None:
     """With several server processes the limits count in Redis: while it does not
     answer, what a limit guards (scans, sign-ins) gets 503 with Retry-After, never a
@@ -143,7 +143,7 @@ def test_a_redis_outage_is_503_not_500(
 
 
 def test_a_redis_outage_is_503_and_tiles_ride_it_out(
-    settings: Settings, redis_cable: RedisCable, redis_prefix: str
+    settings: Settings, redis_cable: Cable, redis_prefix: str
 ) -> None:
     """With TAGWALL_BUS=redis and Redis gone, a change answers 503 with Retry-After. A
     tile connecting meanwhile gets its snapshot from the database: the process reads the

@@ -8,6 +8,7 @@ from ipaddress import ip_network
 
 import pytest
 from fastapi import FastAPI, Request
+from fastapi.responses import PlainTextResponse
 from fastapi.testclient import TestClient
 
 from webapp.core.logs import ACCESS_LOGGER, RedactSecrets, uvicorn_log_config
@@ -79,6 +80,50 @@ def test_each_response_is_one_access_line_with_its_secrets_masked(
         '198.51.100.7:5000 - "GET /wall/demo/tile/r1c1?token=[redacted]&csrf=[redacted]&x=1'
         ' HTTP/1.1" 200 OK',
         '198.51.100.7:5000 - "GET /nowhere HTTP/1.1" 404 Not Found',
+    ]
+
+
+def test_a_response_to_an_unhandled_error_has_its_access_line_too(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """The 500 page is sent outside every middleware (Starlette's last resort), so the
+    access log never saw a response start: it writes the line as the error passes."""
+    log = logging.getLogger("tests.access")
+    caplog.set_level(logging.INFO, logger=log.name)
+    app = FastAPI()
+
+    @app.get("/broken")
+    async def broken() -> None:
+        raise RuntimeError("a bug")
+
+    @app.exception_handler(Exception)
+    async def server_error(request: Request, error: Exception) -> PlainTextResponse:
+        return PlainTextResponse("Something went wrong on the server.", 500)
+
+    app.add_middleware(AccessLogMiddleware, log=log)
+    client = TestClient(app, client=("198.51.100.7", 5000), raise_server_exceptions=False)
+    assert client.get("/broken?token=s3cret").status_code == 500
+    lines = [record.getMessage() for record in caplog.records if record.name == log.name]
+    assert lines == [
+        '198.51.100.7:5000 - "GET /broken?token=[redacted] HTTP/1.1" 500 Internal Server Error'
+    ]
+
+
+def test_the_servers_500_page_is_logged_once_as_it_is_sent(
+    app: FastAPI, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, logger=ACCESS_LOGGER)
+
+    async def broken() -> None:
+        raise RuntimeError("a bug")
+
+    app.add_api_route("/broken", broken)
+    with TestClient(app, raise_server_exceptions=False) as client:
+        answer = client.get("/broken")
+    assert answer.status_code == 500 and "it has been logged" in answer.text
+    lines = [r.getMessage() for r in caplog.records if r.name == ACCESS_LOGGER]
+    assert [line.split(" - ", 1)[1] for line in lines] == [
+        '"GET /broken HTTP/1.1" 500 Internal Server Error'
     ]
 
 

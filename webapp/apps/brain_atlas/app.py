@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import click
 from fastapi import APIRouter, Response
 
 from wall_client.layout import Wall
-from webapp.apps.brain_atlas import commands, pages, routes
+from webapp.apps.brain_atlas import pages, routes
 from webapp.apps.brain_atlas.atlas import Atlases, group_menu
+from webapp.apps.brain_atlas.checks import check_folder
+from webapp.apps.brain_atlas.content import atlas_folder
 from webapp.apps.brain_atlas.pins import TEMPLATE_FILE, VOLUME
 from webapp.apps.brain_atlas.rules import (
     APP,
@@ -19,8 +20,9 @@ from webapp.apps.brain_atlas.rules import (
     quiz_of,
 )
 from webapp.apps.brain_atlas.state import BrainState
-from webapp.apps.hooks import Export, Scan, WallApp
+from webapp.apps.hooks import VOLUME_LAYER, ContentCheck, Export, Scan, WallApp
 from webapp.classes.roll import ClassSession
+from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState
 from webapp.publishing.publication import Block, Publication
 from webapp.tags.registry import TagSpec
@@ -37,7 +39,7 @@ class BrainApp(Atlases, WallApp):
     state = BrainState
     name: str = APP
     default_tag_set: str | None = TAG_SETS["full"]
-    layers: tuple[str, ...] = ("/static/js/volume.js",)
+    layers: tuple[str, ...] = (VOLUME_LAYER,)
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
     modes: tuple[str, ...] = MODES
@@ -173,5 +175,5 @@ class BrainApp(Atlases, WallApp):
     def router(self) -> APIRouter | None:
         return routes.router
 
-    def commands(self) -> list[click.Command]:
-        return [commands.content]
+    def check_content(self, settings: Settings) -> ContentCheck:
+        return check_folder(atlas_folder(settings))

@@ -54,6 +54,21 @@ TILE_PLACEHOLDERS = ("z", "x", "y", "-y", "bbox-epsg-3857")
 TERRAIN_TILE = re.compile(r"^(?:[A-Za-z0-9_-]+/)*[A-Za-z0-9_-][A-Za-z0-9_.-]*$")
 TERRAIN_QUERY = ("v", "extensions")  # what CesiumTerrainProvider adds to a tile's URL
 TERRAIN_ACCEPT = "application/vnd.quantized-mesh,application/octet-stream;q=0.9,*/*;q=0.01"
+TERRAIN_EXTENSIONS = ("octvertexnormals", "vertexnormals", "watermask", "metadata")
+"""The quantized-mesh extensions a tile may ask for, in CesiumTerrainProvider's order."""
+ASKED_EXTENSIONS = re.compile(r"extensions=([A-Za-z-]+)")
+MEDIA_TYPES: dict[Source, tuple[frozenset[str], str]] = {
+    "imagery": (frozenset({"image/png", "image/jpeg", "image/webp", "image/gif"}), "a picture"),
+    "terrain": (
+        frozenset(
+            {"application/vnd.quantized-mesh", "application/octet-stream", "application/json"}
+        ),
+        "terrain",
+    ),
+}
+"""What each server's answers may be (tiles; a tileset's layer.json), and what an answer
+of any other type is not: an HTML page, a script or an SVG relayed from this origin
+would be this server's own page."""
 
 
 def _http_url(value: str) -> str:
@@ -119,6 +134,19 @@ def ground_settings() -> GroundSettings:
         return GroundSettings()
     except ValidationError as error:
         raise ValueError("; ".join(setting_problems(error, GroundSettings))) from None
+
+
+def terrain_accept(accept: str | None) -> str:
+    """The ``Accept`` a terrain file is asked for with: CesiumTerrainProvider's, naming
+    the extensions the tile's own ``Accept`` asks for. They are all of it that changes
+    the site's answer, so the relay keeps one answer per extension set, however a
+    client writes its header."""
+    asked = ASKED_EXTENSIONS.search(accept or "")
+    named = set(asked.group(1).split("-")) if asked else set()
+    extensions = "-".join(e for e in TERRAIN_EXTENSIONS if e in named)
+    if not extensions:
+        return TERRAIN_ACCEPT
+    return TERRAIN_ACCEPT.replace(",", f";extensions={extensions},", 1)
 
 
 def imagery_tile_url(template: str, z: int, x: int, y: int) -> str:
@@ -208,11 +236,13 @@ class GroundRelay:
         kept = urlencode([(k, query[k]) for k in TERRAIN_QUERY if k in query])
         base = self.settings.terrain_url.rstrip("/")
         url = f"{base}/{path}" + (f"?{kept}" if kept else "")
-        return await self._once("terrain", url, (accept or TERRAIN_ACCEPT)[:300])
+        return await self._once("terrain", url, terrain_accept(accept))
 
     # ------------------------------------------------------------------ fetching
 
     async def _once(self, source: Source, url: str, accept: str) -> Fetched:
+        """``url`` asked with ``accept`` (one of a few: :func:`terrain_accept`), fetched
+        once for every tile asking it at a time and kept."""
         key = (url, accept)
         kept = self.kept.get(key)
         if kept is not None:
@@ -238,7 +268,7 @@ class GroundRelay:
             client = httpx.AsyncClient(
                 timeout=self.settings.tile_server_timeout,
                 transport=self._transport,
-                follow_redirects=True,
+                follow_redirects=False,  # not to another origin, which this server may reach
                 limits=httpx.Limits(max_connections=MAX_PARALLEL),
             )
             self._session = (loop, client, asyncio.Semaphore(MAX_PARALLEL))
@@ -284,12 +314,20 @@ class GroundRelay:
             status = response.status_code
             if status in (204, 404):
                 raise GroundUnavailable(404, f"The site's {source} server has no such tile.")
+            if response.is_redirect:
+                raise GroundUnavailable(
+                    502,
+                    f"The site's {source} server answered {status}, a redirect, which the "
+                    "relay does not follow: set the address it leads to.",
+                )
             if status != 200:
                 raise GroundUnavailable(502, f"The site's {source} server answered {status}.")
-            media_type = response.headers.get("content-type", "application/octet-stream")
-            if source == "imagery" and not media_type.startswith("image/"):
+            given = response.headers.get("content-type", "application/octet-stream")
+            media_type = given.split(";")[0].strip().lower()
+            allowed, what = MEDIA_TYPES[source]
+            if media_type not in allowed:
                 raise GroundUnavailable(
-                    502, f"The site's imagery server answered {media_type}, not a picture."
+                    502, f"The site's {source} server answered {media_type}, not {what}."
                 )
             body = bytearray()
             async for chunk in response.aiter_bytes():

@@ -16,6 +16,7 @@ import math
 import re
 import struct
 import tomllib
+import warnings
 import zipfile
 from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
@@ -40,6 +41,7 @@ MISSING_TEXT = frozenset({"", "na", "n/a", "-", "null"})
 INTEGER = re.compile(r"[+-]?\d+")
 PROJECTED = re.compile(r'^\s*PROJ(?:CS|CRS)\s*\[\s*"([^"]*)"', re.IGNORECASE)
 SHAPEFILE_PARTS = (".shp", ".shx", ".dbf", ".prj", ".cpg")
+PART_HEADERS = {".shp": 100, ".shx": 100, ".dbf": 32}  # bytes, up to what declares the size
 GEOJSON_SUFFIXES = (".geojson", ".json")
 NAME_LENGTH = 64  # census_datasets.name
 # The text column taken for the tracts' names when the settings name none (a GeoJSON's
@@ -424,12 +426,18 @@ def _read_shapefile(label: str, parts: Mapping[str, bytes], key: str) -> list[_F
     if ".dbf" not in parts:
         raise CensusImportError(f"{label}: the shapefile's .dbf (its table) is missing")
     _refuse_projected(label, parts.get(".prj"))
+    _refuse_cut_short(label, parts)
     files = {suffix.lstrip("."): io.BytesIO(data) for suffix, data in parts.items()}
     files.pop("prj", None)
     try:
         # Text columns other than the key are left out anyway, so a wrong code page
-        # must not stop an import: undecodable bytes are replaced.
-        with shapefile.Reader(**files, encodingErrors="replace") as reader:
+        # must not stop an import: undecodable bytes are replaced. pyshp's warnings (a
+        # header's size, pad bytes, a .cpg) are its asides, printed with its path in
+        # site-packages: what an import must know is checked here, said in its words.
+        with (
+            warnings.catch_warnings(action="ignore"),
+            shapefile.Reader(**files, encodingErrors="replace") as reader,
+        ):
             # fields[0] is the deletion flag; a field is [name, type, size, decimals]
             columns = [field[0] for field in reader.fields[1:]]
             if key not in columns:
@@ -441,6 +449,34 @@ def _read_shapefile(label: str, parts: Mapping[str, bytes], key: str) -> list[_F
     except (shapefile.ShapefileException, struct.error, ValueError, EOFError) as error:
         raise CensusImportError(f"{label}: not a readable shapefile: {error}") from error
     return features
+
+
+def _declared_size(suffix: str, data: bytes) -> int:
+    """The bytes a shapefile part's whole header says it holds: the file length in
+    16-bit words of a .shp's or .shx's, a .dbf's header and record lengths times its
+    records."""
+    if suffix == ".dbf":
+        records, header, record = struct.unpack_from("<IHH", data, 4)
+        return int(header + records * record)
+    return int(struct.unpack_from(">i", data, 24)[0]) * 2
+
+
+def _refuse_cut_short(label: str, parts: Mapping[str, bytes]) -> None:
+    """A part shorter than its header says is a copy or download cut off: refused
+    before pyshp reads it (which warns, then fails on a struct it cannot unpack)."""
+    for suffix, header in PART_HEADERS.items():
+        data = parts.get(suffix)
+        if data is None:
+            continue
+        if len(data) < header:
+            said = f"{len(data):,} bytes, less than its {header}-byte header"
+        elif len(data) < (declared := _declared_size(suffix, data)):
+            said = f"its header declares {declared:,} bytes, the file holds {len(data):,}"
+        else:
+            continue
+        raise CensusImportError(
+            f"{label}: its {suffix} is cut short: {said} (copy or download it again)"
+        )
 
 
 def _shape_geometry(item: Any) -> Mapping[str, Any] | None:

@@ -9,11 +9,14 @@ from the tiles (the full size; JPEG tiles at Q85, so not the original's bytes).
 A lesson file comes from elsewhere, so everything in it is checked before anything is
 stored, and every problem is said in one line (:func:`inspect`, shared by the import
 and ``tagwall image check``): the ZIP's declared sizes before anything is extracted (a
-ZIP bomb), its paths (a member named ``../x`` is never written anywhere), the JSON, the
-image as the store checks an upload, and each hotspot with the same :func:`check` the
-API uses. An import then stores the image and its hotspots together
-(:meth:`ImageStore.add`'s ``extras``): there is never an image without its hotspots,
-nor a lesson without its image.
+ZIP bomb), its paths (a member named ``../x`` is never written anywhere), its members'
+encryption and compression (only what an export writes: stored or deflated, never
+encrypted), the data against its checksum as it is extracted (never more than a member
+declares: a ZIP bomb lying about its size), the JSON (its depth too), the image as the
+store checks an upload, and each hotspot with the same :func:`check` the API uses. An
+import then stores the image and its hotspots together (:meth:`ImageStore.add`'s
+``extras``): there is never an image without its hotspots, nor a lesson without its
+image.
 """
 
 from __future__ import annotations
@@ -24,6 +27,9 @@ import shutil
 import tempfile
 import uuid
 import zipfile
+import zlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path, PurePosixPath
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
@@ -52,6 +58,11 @@ IMAGE_FILE = "image.tif"  # the name an export gives the image (an import takes 
 SUFFIX = ".tagwall-lesson"
 MAX_JSON_BYTES = 5_000_000  # 200 hotspots of 4 x 5,000 characters fit with room to spare
 MAX_MEMBERS = 16
+METHODS = (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED)  # what an export writes
+OTHER_METHODS = {9: "deflate64", 12: "bzip2", 14: "lzma", 93: "zstandard"}
+"""Compressions met in ZIPs from elsewhere (Windows' Explorer writes deflate64 for large
+files), by name in the line refusing them (APPNOTE 4.4.5)."""
+ENCRYPTED = 0x41  # the general purpose flag's bits 0 and 6, strong encryption (APPNOTE 4.4.4)
 
 
 class LessonRefused(ValueError):
@@ -124,6 +135,44 @@ def _unsafe(name: str) -> bool:
     return path.is_absolute() or ".." in path.parts or ":" in name
 
 
+def _member_problems(name: str, member: zipfile.ZipInfo) -> list[str]:
+    """What makes a member one no lesson file holds, said before anything is read: a
+    path outside the folder, encryption, a compression other than an export's."""
+    problems = []
+    if _unsafe(member.filename):
+        problems.append(f"{name}: unsafe path {member.filename!r}.")
+    if member.flag_bits & ENCRYPTED:
+        problems.append(f"{name}: {member.filename!r} is encrypted; a lesson file is not.")
+    if member.compress_type not in METHODS:
+        method = OTHER_METHODS.get(member.compress_type, f"method {member.compress_type}")
+        problems.append(
+            f"{name}: {member.filename!r} is compressed with {method}; a lesson file uses "
+            "store or deflate."
+        )
+    return problems
+
+
+@contextmanager
+def _unpacking(name: str, member: zipfile.ZipInfo) -> Iterator[None]:
+    """Reading ``member``: data that does not match its checksum, or inflates past its
+    declared size (zipfile stops there, and the checksum of what it read is wrong),
+    is a damaged file, and a feature zipfile does not read one a lesson file does not
+    use, each said in one line."""
+    try:
+        yield
+    except (zipfile.BadZipFile, zlib.error, EOFError):
+        raise LessonRefused(
+            [
+                f"{name}: {member.filename!r} is damaged: its data does not match the "
+                "ZIP's checksum or size."
+            ]
+        ) from None
+    except NotImplementedError as error:  # patched data: no lesson export writes it
+        raise LessonRefused(
+            [f"{name}: {member.filename!r} uses {error}, which a lesson file does not."]
+        ) from None
+
+
 def inspect(
     store: ImageStore, source: Path, scratch: Path, name: str | None = None
 ) -> tuple[Lesson, Path]:
@@ -133,9 +182,17 @@ def inspect(
     name = name or source.name
     if not zipfile.is_zipfile(source):
         raise LessonRefused([f"{name}: not a ZIP file (a lesson file is one)."])
-    with zipfile.ZipFile(source) as archive:
+    try:
+        archive = zipfile.ZipFile(source)
+    except zipfile.BadZipFile:  # an end record, but no directory to go with it
+        raise LessonRefused(
+            [f"{name}: a damaged ZIP file (its directory cannot be read)."]
+        ) from None
+    except NotImplementedError as error:  # a member needing a newer ZIP reader
+        raise LessonRefused([f"{name}: a ZIP of a kind a lesson file is not ({error})."]) from None
+    with archive:
         members = archive.infolist()
-        problems = [f"{name}: unsafe path {m.filename!r}." for m in members if _unsafe(m.filename)]
+        problems = [line for m in members for line in _member_problems(name, m)]
         if len(members) > MAX_MEMBERS:
             problems.append(f"{name}: {len(members)} files, more than the {MAX_MEMBERS} taken.")
         declared = sum(m.file_size for m in members)  # before anything is extracted
@@ -157,7 +214,7 @@ def inspect(
                 [f"{name}: the image is larger than {store.max_upload_bytes / 1e6:g} MB."]
             )
         image = scratch / f"{UPLOADING}{uuid.uuid4().hex}"
-        with archive.open(member) as packed, image.open("wb") as out:
+        with _unpacking(name, member), archive.open(member) as packed, image.open("wb") as out:
             shutil.copyfileobj(packed, out)  # zipfile stops at the declared size
     return lesson, _check_image(store, lesson, image)
 
@@ -169,10 +226,14 @@ def _lesson(name: str, archive: zipfile.ZipFile, member: zipfile.ZipInfo | None)
         raise LessonRefused([f"{name}: no {LESSON_JSON} in it."])
     if member.file_size > MAX_JSON_BYTES:
         raise LessonRefused([f"{LESSON_JSON}: larger than {MAX_JSON_BYTES / 1e6:g} MB."])
+    with _unpacking(name, member):
+        text = archive.read(member)
     try:
-        data = json.loads(archive.read(member))
+        data = json.loads(text)
     except ValueError as error:  # not UTF-8 or not JSON
         raise LessonRefused([f"{LESSON_JSON}: not JSON ({error})."]) from None
+    except RecursionError:  # [[[[...: JSON, but no lesson is more than a few levels deep
+        raise LessonRefused([f"{LESSON_JSON}: nested too deeply to be a lesson."]) from None
     version = data.get("version") if isinstance(data, dict) else None
     if version != VERSION:
         raise LessonRefused(

@@ -45,9 +45,19 @@ MAX_PIXELS = 1_200_000_000
 more is a mistake or a decompression bomb."""
 MAX_UPLOAD_BYTES = 2_000_000_000
 """The largest upload taken (a 30,000 px square scan as a JPEG or compressed TIFF)."""
-LOADERS = {"pngload": "PNG", "jpegload": "JPEG", "tiffload": "TIFF"}
-"""The formats taken, by the libvips loader that reads them (nothing else, SVG or PDF
-included, reaches a decoder of ours)."""
+FORMATS = {
+    b"\x89PNG\r\n\x1a\n": ("pngload", "PNG"),
+    b"\xff\xd8\xff": ("jpegload", "JPEG"),
+    b"II*\x00": ("tiffload", "TIFF"),  # little-endian
+    b"MM\x00*": ("tiffload", "TIFF"),  # big-endian
+    b"II+\x00": ("tiffload", "TIFF"),  # BigTIFF
+    b"MM\x00+": ("tiffload", "TIFF"),
+}
+"""The formats taken, by their first bytes: the libvips loader that reads each, and its
+name. A file is read by the loader its first bytes name, never by the one libvips
+would guess: an SVG, PDF or PostScript file under an image's name reaches no decoder
+(librsvg, poppler, ImageMagick parse whatever they are given)."""
+TRUSTED_LOADERS = ("VipsForeignLoadPng", "VipsForeignLoadJpeg", "VipsForeignLoadTiff")
 TILE_SUFFIX = ".jpg[Q=85,strip]"
 PYRAMID = "pyramid"  # dzsave's base name: pyramid.dzi and pyramid_files/
 MANIFEST = "manifest.json"
@@ -69,11 +79,26 @@ class NoLibvips(RuntimeError):
 
 def _vips() -> ModuleType:
     """pyvips, imported when an image is added: a server without libvips still starts,
-    serves the stored pyramids and says what to install when one is added."""
+    serves the stored pyramids and says what to install when one is added.
+
+    Every libvips loader but the three of :data:`FORMATS` is blocked for the process
+    (and the operations libvips itself calls untrusted): whatever asks libvips to load
+    a file here gets nothing from librsvg, poppler or ImageMagick. A libvips too old to
+    block them adds nothing."""
     try:
-        return importlib.import_module("pyvips")
+        pyvips = importlib.import_module("pyvips")
     except (ImportError, OSError) as error:
         raise NoLibvips(f"libvips is not installed ({error}): apt-get install libvips42") from None
+    if not pyvips.at_least_libvips(8, 13):
+        raise NoLibvips(
+            f"libvips 8.13 or later is needed to block the loaders uploads must not reach "
+            f"(this is {pyvips.version(0)}.{pyvips.version(1)}): apt-get install libvips42"
+        )
+    pyvips.block_untrusted_set(True)
+    pyvips.operation_block_set("VipsForeignLoad", True)
+    for loader in TRUSTED_LOADERS:
+        pyvips.operation_block_set(loader, False)
+    return pyvips
 
 
 class ImageManifest(BaseModel):
@@ -160,19 +185,23 @@ class ImageStore:
         return image.width, image.height, kind
 
     def _open(self, source: Path, name: str) -> tuple[pyvips.Image, str]:
-        """The image's header (nothing decoded yet) and its format, if it is one we take."""
+        """The image's header (nothing decoded yet) and its format, if it is one we take,
+        read by that format's own loader."""
         if source.stat().st_size == 0:
             raise ImageRefused(f"{name} is empty.")
+        with source.open("rb") as file:
+            start = file.read(8)
+        found = next((f for magic, f in FORMATS.items() if start.startswith(magic)), None)
+        if found is None:
+            raise ImageRefused(f"{name} is not a PNG, JPEG or TIFF image.")
+        loader, kind = found
         pyvips = _vips()
         try:
-            image = pyvips.Image.new_from_file(
+            image = getattr(pyvips.Image, loader)(
                 str(source), access="sequential", fail_on="truncated"
             )
         except pyvips.Error:
             raise ImageRefused(f"{name} is not a PNG, JPEG or TIFF image.") from None
-        kind = LOADERS.get(str(image.get("vips-loader")))
-        if kind is None:
-            raise ImageRefused(f"{name} is not a PNG, JPEG or TIFF image.")
         pixels = image.width * image.height
         if pixels == 0:
             raise ImageRefused(f"{name} has no pixels ({image.width} x {image.height}).")

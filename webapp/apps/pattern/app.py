@@ -16,7 +16,7 @@ from typing import Any
 from fastapi import Response
 
 from wall_client.layout import ROLES, Display, Wall
-from webapp.apps.hooks import Scan, WallApp, static_url
+from webapp.apps.hooks import VOLUME_LAYER, Scan, WallApp, static_url
 from webapp.database.models import TagLayoutRecord
 from webapp.engine.wall_state import WallState, read_state
 from webapp.publishing.publication import Block, Publication
@@ -32,7 +32,7 @@ class PatternApp(WallApp):
     name: str = "pattern"
     default_tag_set: str | None = SETUP_SET
     # a volume the dashboard puts up shows instead of the pattern
-    layers: tuple[str, ...] = ("/static/js/volume.js", f"{static_url('pattern')}/scene.js")
+    layers: tuple[str, ...] = (VOLUME_LAYER, f"{static_url('pattern')}/scene.js")
     templates: Path | None = FOLDER / "templates"
     static: Path | None = FOLDER / "static"
 

@@ -15,6 +15,7 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 from starlette.websockets import WebSocketDisconnect
 
 from webapp.apps.fitting import wall_fit
+from webapp.apps.hooks import VOLUME_LAYER
 from webapp.classes.roll import NAME_PROMPTS, running_class
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
@@ -64,6 +65,9 @@ def dashboard_page(
     # Every app's panel is on the page; only the one of the app on the wall shows (the
     # page follows switches), so an app's panel never speaks while another is up.
     panels = [(app.name, panel) for app in apps if (panel := app.dashboard_panel(current))]
+    # The core's volume box belongs to the apps that draw a volume (the brain, the test
+    # pattern): an image class has no empty Volume box.
+    volume_apps = [app.name for app in apps if VOLUME_LAYER in app.layers]
     _, state = read_state(services.db, current.id)
     # What does not fit this wall at its design distances (as `tagwall config check`
     # says): codes left out are otherwise noticed only when someone looks for them.
@@ -76,6 +80,7 @@ def dashboard_page(
         wall=current,
         apps=apps,
         panels=panels,
+        volume_apps=volume_apps,
         shown_app=state.app,
         fit=[problem.message() for problem in fit],
         name_modes=NAME_PROMPTS,

@@ -9,7 +9,7 @@ from fastapi.responses import HTMLResponse, RedirectResponse, Response
 
 from webapp.core.roles import USER_GROUPS
 from webapp.core.threads import run_blocking, run_blocking_within
-from webapp.people.accounts import authenticate
+from webapp.people.accounts import authenticate, campus_issuer
 from webapp.people.audit import audit
 from webapp.people.person import (
     GROUP_LABELS,
@@ -39,14 +39,38 @@ def safe_next(target: str | None, default: str = "/dashboard") -> str:
     return default
 
 
+def _login_page(
+    request: Request,
+    services: Services,
+    target: str,
+    error: str | None = None,
+    status_code: int = status.HTTP_200_OK,
+) -> HTMLResponse:
+    """The sign-in page: a button per campus provider, and the password form unless
+    it is switched off (``TAGWALL_PASSWORD_SIGN_IN``)."""
+    return render(
+        request,
+        "login.html",
+        status_code,
+        next=target,
+        error=error,
+        campus=services.campus.buttons(),
+        password_sign_in=services.settings.password_sign_in,
+    )
+
+
 @router.get("/login")
 async def login_page(
-    request: Request, person: PersonDep, next: Annotated[str | None, Query()] = None
+    request: Request,
+    person: PersonDep,
+    services: ServicesDep,
+    next: Annotated[str | None, Query()] = None,
 ) -> HTMLResponse:
-    return render(request, "login.html", next=safe_next(next), error=None)
+    return _login_page(request, services, safe_next(next))
 
 
-def _too_many(request: Request, template: str, wait: float, **context: object) -> Response:
+def too_many(request: Request, template: str, wait: float, **context: object) -> Response:
+    """The 429 page of a client that failed to sign in too often, with ``Retry-After``."""
     seconds = retry_after_s(wait)
     response = render(
         request,
@@ -77,22 +101,37 @@ async def login(
     next: Annotated[str | None, Form()] = None,
 ) -> Response:
     target = safe_next(next)
+    if not services.settings.password_sign_in:
+        return _login_page(
+            request,
+            services,
+            target,
+            "Password sign-in is switched off here: sign in with your campus account.",
+            status.HTTP_403_FORBIDDEN,
+        )
     name = username.strip().lower()
     device = device_of(services.secret, request.cookies.get(DEVICE_COOKIE), name)
     attempt = await services.login_throttle.reserve(name, address, device)
     if not isinstance(attempt, Attempt):
-        return _too_many(request, "login.html", attempt, next=target)
+        return too_many(
+            request,
+            "login.html",
+            attempt,
+            next=target,
+            campus=services.campus.buttons(),
+            password_sign_in=True,
+        )
     account = await run_blocking_within(
         services.password_checks, authenticate, services.db, username, password
     )
     if account is None:
         await run_blocking(_audit_failure, services, username, address)
-        return render(
+        return _login_page(
             request,
-            "login.html",
+            services,
+            target,
+            "Wrong username or password.",
             status.HTTP_401_UNAUTHORIZED,
-            next=target,
-            error="Wrong username or password.",
         )
     await services.login_throttle.succeeded(attempt)
     signed_in = await run_blocking(
@@ -122,7 +161,7 @@ async def operator_sign_in(
     installation can reach the dashboard and make the first accounts."""
     attempt = await services.login_throttle.reserve("operator", address, None)
     if not isinstance(attempt, Attempt):
-        return _too_many(request, "error.html", attempt)
+        return too_many(request, "error.html", attempt)
     if not token_matches(services.operator_token, token):
         await run_blocking(_audit_failure, services, "operator", address)
         return render(
@@ -144,9 +183,19 @@ async def operator_sign_in(
 async def logout(
     request: Request, person: PersonDep, services: ServicesDep, address: ClientAddressDep
 ) -> Response:
+    """Sign out of tagwall; a campus account is offered its provider's sign-out too
+    (a shared computer stays signed in there otherwise)."""
+    authority = person.authority or ""
+    issuer = None
+    if services.campus.providers and authority.startswith("login:"):
+        issuer = await run_blocking(campus_issuer, services.db, authority.removeprefix("login:"))
     signed_out = await run_blocking(sign_out, services.db, person, services.settings, address)
     remember_person(request, signed_out)
-    return RedirectResponse("/", status.HTTP_303_SEE_OTHER)
+    offer = services.campus.end_session(issuer) if issuer else None
+    if offer is None:
+        return RedirectResponse("/", status.HTTP_303_SEE_OTHER)
+    provider, url = offer
+    return render(request, "signed_out.html", provider=provider, end_session=url)
 
 
 async def _profile(

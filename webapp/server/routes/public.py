@@ -12,12 +12,19 @@ from webapp.apps.hooks import Scan
 from webapp.core.threads import run_blocking
 from webapp.database.connection import RowId
 from webapp.engine.wall_state import PublicPolicy, read_state
-from webapp.people.ratelimit import retry_after_s
 from webapp.publishing.screen import PublishRefused, clear, decide, set_policy, submit, waiting
 from webapp.server.deps import ServicesDep
 from webapp.server.schemas import PublicationInfo, PublicScreenInfo
 from webapp.tags.registry import find, is_live
-from webapp.web.deps import ClientAddressDep, CsrfDep, PersonDep, StaffDep, StaffOnly, WallDep
+from webapp.web.deps import (
+    ClientAddressDep,
+    CsrfDep,
+    PersonDep,
+    StaffDep,
+    StaffOnly,
+    WallDep,
+    limit_action,
+)
 from webapp.web.problems import errors
 from webapp.web.templating import render
 
@@ -40,19 +47,7 @@ async def publish(
     app = services.apps.get(tag.app) if tag else None
     if tag is None or wall is None or app is None or not is_live(tag):
         raise HTTPException(status.HTTP_404_NOT_FOUND, "There is nothing to publish for that code.")
-    wait = await services.action_allowed("publish", person.visitor, address, wall.id)
-    if wait is not None:
-        seconds = retry_after_s(wait)
-        response = render(
-            request,
-            "published.html",
-            status.HTTP_429_TOO_MANY_REQUESTS,
-            wall=wall,
-            outcome="slow",
-            wait=seconds,
-        )
-        response.headers["Retry-After"] = str(seconds)
-        return response
+    await limit_action(services, "publish", person.visitor, address, wall.id)
     scan = Scan(request, services, wall, tag, person.visitor, address, subject or None)
     publication = await app.publication(scan)
     if publication is None:

@@ -15,12 +15,11 @@ from webapp.apps.installed import REGISTRATION
 from webapp.classes.roll import roll_call
 from webapp.core.caching import IMMUTABLE
 from webapp.core.threads import run_blocking
-from webapp.people.ratelimit import retry_after_s
 from webapp.people.visitors import Visitor, visitor_of
 from webapp.server.deps import ServicesDep
 from webapp.tags.registry import find, payload_of
 from webapp.web.cors import AnyOriginRoute
-from webapp.web.deps import ClientAddressDep
+from webapp.web.deps import ClientAddressDep, limit_action
 from webapp.web.templating import render
 
 router = APIRouter(include_in_schema=False)
@@ -49,21 +48,9 @@ async def resolve(
     visitor = visitor_of(request, services.secret)
     normalized = normalize_code(code)
     if normalized is None:
-        response: Response = problem_page(
-            request, 404, "Unknown code", "This is not one of this wall's codes."
-        )
-    elif (wait := await services.action_allowed("scan", visitor, address)) is not None:
-        seconds = retry_after_s(wait)
-        response = problem_page(
-            request,
-            429,
-            "Slow down",
-            f"That was a lot of scans in a short time. Try again in {seconds} seconds.",
-        )
-        response.headers["Retry-After"] = str(seconds)
-    else:
-        response = await _resolve(request, services, normalized, visitor, address)
-    return response
+        return problem_page(request, 404, "Unknown code", "This is not one of this wall's codes.")
+    await limit_action(services, "scan", visitor, address)
+    return await _resolve(request, services, normalized, visitor, address)
 
 
 async def _resolve(

@@ -36,7 +36,7 @@ class HelloState(AppState):
 router = APIRouter()
 
 
-@router.post("/apps/hello/{wall_id}/greeting", dependencies=[StaffOnly])
+@router.post("/api/apps/hello/walls/{wall_id}/greeting", dependencies=[StaffOnly])
 async def set_greeting(
     wall: WallDep, context: ContextDep, greeting: Annotated[str, Body(embed=True, max_length=80)]
 ) -> dict[str, str]:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 import yaml
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 
 from webapp.apps.brain_atlas.content import ATLAS_DIR, check, load_content
 from webapp.apps.brain_atlas.matching import answer_key
@@ -305,13 +305,30 @@ def test_missing_files(tmp_path: Path) -> None:
     assert "regions.yaml: missing" in problems and "references.yaml: missing" in problems
 
 
+def content_root(small: Path) -> Path:
+    """A content folder holding ``small`` as its atlas (and the shipped walls)."""
+    root = small.with_name(f"{small.name}-content")
+    root.mkdir(exist_ok=True)
+    if not (root / "brain_atlas").exists():
+        (root / "brain_atlas").symlink_to(small)
+    return root
+
+
+def check_content(small: Path, **env: str) -> Result:
+    return CliRunner().invoke(
+        main, ["content", "check", "--dir", str(content_root(small))], env=env
+    )
+
+
 def test_the_command_prints_a_summary_or_the_problems(small: Path) -> None:
-    runner = CliRunner()
-    good = runner.invoke(main, ["content", "check", "--dir", str(small)])
+    good = check_content(small)
     assert good.exit_code == 0, good.output
-    assert "ok: 1 quiz regions, 1 K-5 regions, 2 tutor files, 1 references, 5 views" in good.output
+    assert (
+        f"{content_root(small) / 'brain_atlas'}: 1 quiz regions, 1 K-5 regions, 2 tutor files,"
+        " 1 references, 5 views showing every pin"
+    ) in good.output
     edit_regions(small, {"labels": [99]})
-    bad = runner.invoke(main, ["content", "check", "--dir", str(small)])
+    bad = check_content(small)
     assert bad.exit_code == 2
     assert "99 is not an atlas label" in bad.output and "1 problem(s) found" in bad.output
 
@@ -324,14 +341,14 @@ def test_the_command_names_regions_no_view_shows(small: Path) -> None:
         "    view: {yaw: 0, pitch: 90}\n"
         "    layer: {mode: slice, slice: 0.6}\n"
     )
-    result = CliRunner().invoke(main, ["content", "check", "--dir", str(small)])
+    result = check_content(small)
     assert result.exit_code == 2
     assert "views.yaml: no view shows the pin of brainstem" in result.output
 
 
 def test_the_command_explains_a_broken_views_file(small: Path) -> None:
     (small / "views.yaml").write_text("views:\n  - id: x\n    name: X\n    colour: red\n")
-    result = CliRunner().invoke(main, ["content", "check", "--dir", str(small)])
+    result = check_content(small)
     assert result.exit_code == 2 and "views.yaml" in result.output
 
 
@@ -348,10 +365,29 @@ def test_the_command_checks_the_content_folder_in_use(
 
     assert result.exit_code == 2
     lines = result.output.splitlines()
-    assert lines[0] == f"checking {root / 'brain_atlas'}"
+    assert lines[0] == f"checking {root}"
     assert lines[-1] == "1 problem(s) found"
-    [problem] = lines[1:-1]
-    assert problem.startswith("tutor/brainstem.yaml: not valid YAML")
+    [problem] = [line for line in lines if line.startswith("  ")]
+    assert problem.startswith("  tutor/brainstem.yaml: not valid YAML")
+
+
+def test_the_command_checks_the_content_folders_walls_too(
+    small: Path, tmp_path_factory: pytest.TempPathFactory
+) -> None:
+    """Issue 41: it read only the brain's content; a broken wall config of the content
+    folder stopped the server later, at its start."""
+    root = content_root(small)
+    (root / "walls").mkdir()
+    shutil.copy(CONTENT_DIR / "walls" / "demo.toml", root / "walls")
+    (root / "walls" / "broken.toml").write_text('id = "broken"\n[grid]\ncolumns = "three"\n')
+    result = CliRunner().invoke(main, ["content", "check", "--dir", str(root)])
+    assert result.exit_code == 2
+    assert f"{root / 'walls'}: problems" in result.output
+    assert f"  {root / 'walls' / 'broken.toml'}: grid.columns: must be an integer" in result.output
+    assert result.output.endswith("5 problem(s) found\n")
+    (root / "walls" / "broken.toml").unlink()
+    good = CliRunner().invoke(main, ["content", "check", "--dir", str(root)])
+    assert good.exit_code == 0 and f"{root / 'walls'}: 1 walls: demo" in good.output
 
 
 def test_a_content_folder_that_is_not_there_stops_the_command_with_one_line(

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import os
 import socket
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlencode
@@ -11,10 +14,10 @@ import httpx
 import pytest
 from click.testing import CliRunner
 
-from tests.conftest import TEST_SECRET
+from tests.conftest import TEST_SECRET, migrate
 from tests.webapp.apps.census_map.kml_schema import assert_valid_kml
 from tests.webapp.apps.census_map.test_acs import INCOME, TABLES, VALUE, downloaded
-from tests.webapp.apps.census_map.test_importer import three_tracts
+from tests.webapp.apps.census_map.test_importer import three_tracts, write_shapefile
 from webapp.apps.census_map import store
 from webapp.apps.census_map.earth import base_signature
 from webapp.cli.commands import main
@@ -97,6 +100,33 @@ def test_bad_input_exits_1_with_the_message(
     code, out, err = run(env, "census", "import", "--shapes", str(shapes), *args)
     assert code == 1 and err.startswith("error: ") and message in err
     assert "Traceback" not in out + err and "imported" not in out
+
+
+def test_a_truncated_shapefile_prints_only_tagwalls_one_line(
+    env: dict[str, str], tmp_path: Path
+) -> None:
+    """As a shell shows it, in a process of its own (where a library's warning would
+    print, with its path in site-packages): the log's INFO lines, then the one error."""
+    migrate(env["TAGWALL_DATABASE_URL"])  # no migration's lines in the log
+    shapes = write_shapefile(tmp_path / "tracts")
+    shapes.write_bytes(shapes.read_bytes()[:254])
+    tagwall = Path(sys.executable).with_name("tagwall")
+    done = subprocess.run(
+        [str(tagwall), "census", "import", "--shapes", str(shapes), "--key", "GEOID"],
+        env={**os.environ, **env},
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    said = [line for line in done.stderr.splitlines() if not line.startswith("INFO ")]
+    assert (done.returncode, said, done.stdout) == (
+        1,
+        [
+            "error: tracts.shp: its .shp is cut short: its header declares 508 bytes, the "
+            "file holds 254 (copy or download it again)"
+        ],
+        "",
+    )
 
 
 def test_an_acs_table_imports_with_its_labels_and_margins(

@@ -5,7 +5,9 @@ the tiles' Content-Security-Policy to this origin."""
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Callable
+import threading
+from collections.abc import Callable, Iterator
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from importlib.metadata import entry_points
 
 import httpx
@@ -17,6 +19,7 @@ from tests.conftest import services_of
 from tests.webapp.apps.census_map.test_app import show_census
 from webapp.apps.census_map.ground import (
     RETRY_AFTER_FAILURE_S,
+    TERRAIN_ACCEPT,
     GroundRelay,
     GroundSettings,
     GroundUnavailable,
@@ -191,12 +194,173 @@ async def test_terrain_passes_only_its_tileset_files_and_query() -> None:
     assert str(asked.url) == (
         "https://terrain.example.org/sac/9/160/380.terrain?v=1.2.0&extensions=watermask%26x%3D1"
     )
-    assert asked.headers["accept"] == accept
+    assert asked.headers["accept"] == (
+        "application/vnd.quantized-mesh;extensions=watermask,"
+        "application/octet-stream;q=0.9,*/*;q=0.01"
+    )
     for path in ("../secret", "9/../../x", "/etc/passwd", "https://elsewhere.example/x", ""):
         with pytest.raises(GroundUnavailable) as refused:
             await relay.terrain(path, {}, None)
         assert refused.value.status == 404
     assert len(upstream.asked) == 1
+
+
+Answer = tuple[int, dict[str, str], bytes]  # status, headers, body
+
+
+class SiteServer:
+    """A site's own tile server on a local port, over real HTTP: each path answered as
+    ``answers`` says (anything else a PNG), counting what it is asked with which
+    ``Accept``."""
+
+    def __init__(self) -> None:
+        self.answers: dict[str, Answer] = {}
+        self.asked: list[tuple[str, str]] = []
+        server = self
+
+        class Handler(BaseHTTPRequestHandler):
+            def do_GET(self) -> None:
+                server.asked.append((self.path, self.headers.get("Accept", "")))
+                status, headers, body = server.answers.get(
+                    self.path.split("?")[0], (200, {"Content-Type": "image/png"}, PNG)
+                )
+                self.send_response(status)
+                for name, value in {**headers, "Content-Length": str(len(body))}.items():
+                    self.send_header(name, value)
+                self.end_headers()
+                self.wfile.write(body)
+
+            def log_message(self, format: str, *args: object) -> None:
+                pass
+
+        self.http = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.http.server_address[1]}"
+        threading.Thread(target=self.http.serve_forever, daemon=True).start()
+
+    def relay(self) -> GroundRelay:
+        """A relay of this server's imagery and its terrain tileset under /terrain/."""
+        return GroundRelay(
+            GroundSettings(
+                imagery_url=f"{self.url}/{{z}}/{{x}}/{{y}}.png", terrain_url=f"{self.url}/terrain/"
+            )
+        )
+
+    def close(self) -> None:
+        self.http.shutdown()
+        self.http.server_close()
+
+
+@pytest.fixture
+def site() -> Iterator[SiteServer]:
+    server = SiteServer()
+    yield server
+    server.close()
+
+
+@pytest.fixture
+def elsewhere() -> Iterator[SiteServer]:
+    """Another origin than the site's server (another port)."""
+    server = SiteServer()
+    yield server
+    server.close()
+
+
+async def test_a_redirect_is_followed_nowhere(site: SiteServer, elsewhere: SiteServer) -> None:
+    """Not to another origin (the relay would fetch whatever the site's server names,
+    from this server's network), nor within the site's own."""
+    site.answers["/3/1/2.png"] = (302, {"Location": f"{elsewhere.url}/3/1/2.png"}, b"")
+    site.answers["/terrain/layer.json"] = (301, {"Location": "/terrain/moved/layer.json"}, b"")
+    relay = site.relay()
+    with pytest.raises(GroundUnavailable) as refused:
+        await relay.imagery(3, 1, 2)
+    assert refused.value.status == 502
+    assert refused.value.reason == (
+        "The site's imagery server answered 302, a redirect, which the relay does not "
+        "follow: set the address it leads to."
+    )
+    with pytest.raises(GroundUnavailable) as refused:
+        await relay.terrain("layer.json", {}, None)
+    assert refused.value.status == 502 and "answered 301, a redirect" in refused.value.reason
+    assert elsewhere.asked == []
+    assert [path for path, _ in site.asked] == ["/3/1/2.png", "/terrain/layer.json"]
+
+
+def relayed(path: str) -> str:
+    """This server's path of the site server's ``path`` (/3/1/2.png, /terrain/...)."""
+    if path.startswith("/terrain/"):
+        return f"/apps/census/globe{path}"
+    return f"/apps/census/globe/imagery{path.removesuffix('.png')}"
+
+
+@pytest.mark.parametrize(
+    ("source", "path", "media_type", "what"),
+    [
+        ("imagery", "/3/1/2.png", "text/html; charset=utf-8", "a picture"),
+        ("imagery", "/3/1/2.png", "image/svg+xml", "a picture"),
+        ("terrain", "/terrain/layer.json", "text/html", "terrain"),
+        ("terrain", "/terrain/9/160/380.terrain", "application/javascript", "terrain"),
+    ],
+)
+def test_only_pictures_and_terrain_are_relayed_never_a_page(
+    client: TestClient, site: SiteServer, source: str, path: str, media_type: str, what: str
+) -> None:
+    """A sign-in page, a script or an SVG (which runs script) from the site's server
+    would be served as this server's own: a 502 with one line instead."""
+    site.answers[path] = (200, {"Content-Type": media_type}, b"<html><script>steal()</script>")
+    services_of(client).apps["census"].ground = site.relay()  # type: ignore[attr-defined]
+    answer = client.get(relayed(path))
+    assert answer.status_code == 502
+    assert answer.headers["content-type"] == "application/json"
+    kind = media_type.split(";")[0]
+    assert answer.json() == {"detail": f"The site's {source} server answered {kind}, not {what}."}
+
+
+@pytest.mark.parametrize(
+    ("path", "media_type"),
+    [
+        ("/3/1/2.png", "image/png"),
+        ("/3/1/2.png", "image/jpeg"),
+        ("/3/1/2.png", "image/webp"),
+        ("/terrain/layer.json", "application/json"),
+        ("/terrain/9/160/380.terrain", "application/vnd.quantized-mesh;extensions=watermask"),
+        ("/terrain/9/160/380.terrain", "application/octet-stream"),
+    ],
+)
+def test_the_types_imagery_and_terrain_use_are_relayed(
+    client: TestClient, site: SiteServer, path: str, media_type: str
+) -> None:
+    site.answers[path] = (200, {"Content-Type": media_type}, b"tile")
+    services_of(client).apps["census"].ground = site.relay()  # type: ignore[attr-defined]
+    answer = client.get(relayed(path))
+    assert answer.status_code == 200 and answer.content == b"tile"
+    assert answer.headers["content-type"] == media_type.split(";")[0]
+
+
+def test_one_tile_is_fetched_once_however_its_accept_is_written(
+    client: TestClient, site: SiteServer
+) -> None:
+    """The cache keys on the URL and the terrain extensions asked for (what changes the
+    site's answer), not on the client's whole Accept header: 20 ways of writing it
+    cost the site's server one request per extension set."""
+    mesh = "application/vnd.quantized-mesh"
+    site.answers["/terrain/9/160/380.terrain"] = (200, {"Content-Type": mesh}, b"mesh")
+    services_of(client).apps["census"].ground = site.relay()  # type: ignore[attr-defined]
+    tile = "/apps/census/globe/terrain/9/160/380.terrain"
+    for number in range(20):
+        accept = f"{mesh};extensions=octvertexnormals-watermask,*/*;q=0.0{number % 10}{number}"
+        assert client.get(tile, headers={"Accept": accept}).status_code == 200
+    for accept in ("text/html", "*/*", f"{mesh},application/octet-stream;q=0.9", ""):
+        assert client.get(tile, headers={"Accept": accept}).status_code == 200
+    for accept in ("image/webp,*/*", "image/png", "text/html"):
+        assert client.get(relayed("/3/1/2.png"), headers={"Accept": accept}).is_success
+    assert site.asked == [
+        (
+            "/terrain/9/160/380.terrain",
+            f"{mesh};extensions=octvertexnormals-watermask,application/octet-stream;q=0.9,*/*;q=0.01",
+        ),
+        ("/terrain/9/160/380.terrain", TERRAIN_ACCEPT),
+        ("/3/1/2.png", "image/*"),
+    ]
 
 
 def with_ground(client: TestClient, handler: Handler, **settings: object) -> Upstream:

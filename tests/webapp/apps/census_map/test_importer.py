@@ -520,6 +520,52 @@ def test_unreadable_shape_files_are_refused(
         import_files(db, shapes=tmp_path / name, key="GEOID")
 
 
+@pytest.mark.parametrize(
+    ("part", "keep", "line"),
+    [
+        (
+            ".shp",
+            254,
+            r"^s\.shp: its \.shp is cut short: its header declares 508 bytes, the file holds 254 ",
+        ),
+        (".shp", 60, r"^s\.shp: its \.shp is cut short: 60 bytes, less than its 100-byte header "),
+        (
+            ".shx",
+            120,
+            r"^s\.shp: its \.shx is cut short: its header declares 124 bytes, the file holds 120 ",
+        ),
+        (
+            ".dbf",
+            150,
+            r"^s\.shp: its \.dbf is cut short: its header declares 253 bytes, the file holds 150 ",
+        ),
+    ],
+)
+def test_a_truncated_shapefile_is_refused_in_one_line_without_pyshps_warnings(
+    db: Database, tmp_path: Path, recwarn: pytest.WarningsRecorder, part: str, keep: int, line: str
+) -> None:
+    """A copy or download cut off: said in tagwall's words, not as pyshp's warning and
+    a struct error."""
+    shapes = write_shapefile(tmp_path / "s")
+    cut = shapes.with_suffix(part)
+    cut.write_bytes(cut.read_bytes()[:keep])
+    with pytest.raises(CensusImportError, match=line) as refused:
+        import_files(db, shapes=shapes, key="GEOID")
+    assert str(refused.value).endswith("(copy or download it again)")
+    assert [str(w.message) for w in recwarn] == []
+    assert store.list_datasets(db) == []
+
+
+def test_a_shapefile_with_bytes_past_its_end_imports_without_pyshps_warnings(
+    db: Database, tmp_path: Path, recwarn: pytest.WarningsRecorder
+) -> None:
+    shapes = write_shapefile(tmp_path / "s")
+    shapes.write_bytes(shapes.read_bytes() + bytes(10))
+    table = write_csv(tmp_path / "t.csv", TABLE)
+    assert import_files(db, shapes=shapes, key="GEOID", tables=[table]).tracts == len(KEYS)
+    assert [str(w.message) for w in recwarn] == []
+
+
 def test_a_missing_key_column_names_the_columns(db: Database, tmp_path: Path) -> None:
     shapes = write_shapefile(tmp_path / "s")
     with pytest.raises(CensusImportError, match=r"s.shp has no column 'FIPS'; its columns: GEOID"):

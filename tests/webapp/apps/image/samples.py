@@ -57,3 +57,21 @@ def node_answer(script: str) -> Any:
         timeout=30,
     )
     return json.loads(out.stdout)
+
+
+SVG = (
+    b'<?xml version="1.0"?><svg xmlns="http://www.w3.org/2000/svg" width="600" height="400">'
+    b'<rect width="600" height="400" fill="red"/></svg>'
+)
+PDF = (
+    b"%PDF-1.4\n1 0 obj<</Type/Catalog/Pages 2 0 R>>endobj\n"
+    b"2 0 obj<</Type/Pages/Kids[3 0 R]/Count 1>>endobj\n"
+    b"3 0 obj<</Type/Page/Parent 2 0 R/MediaBox[0 0 600 400]>>endobj\n"
+    b"trailer<</Root 1 0 R>>\n%%EOF\n"
+)
+POSTSCRIPT = (
+    b"%!PS-Adobe-3.0\n%%BoundingBox: 0 0 600 400\n"
+    b"newpath 0 0 moveto 600 0 lineto 600 400 lineto closepath fill showpage\n"
+)
+FOREIGN = {"drawing.png": SVG, "slides.png": PDF, "poster.png": POSTSCRIPT}
+"""Files libvips would decode (through librsvg, poppler, ImageMagick) under a PNG's name."""

@@ -10,7 +10,7 @@ from fastapi.testclient import TestClient
 from PIL import Image
 
 from tests.conftest import csrf_of, operator_headers, services_of, sign_in
-from tests.webapp.apps.image.samples import png_declaring, quadrants
+from tests.webapp.apps.image.samples import FOREIGN, png_declaring, quadrants
 from webapp.apps.image.app import ImageApp
 from webapp.apps.image.state import ImageState
 from webapp.engine.wall_state import read_state
@@ -102,6 +102,10 @@ def test_only_instructors_upload_list_and_show(client: TestClient) -> None:
 BAD_UPLOADS = [
     (png_bytes()[:900], "half.png", 422, "half.png is damaged or truncated"),
     (b"hello" * 100, "notes.png", 422, "notes.png is not a PNG, JPEG or TIFF image"),
+    *(
+        (data, name, 422, f"{name} is not a PNG, JPEG or TIFF image")
+        for name, data in FOREIGN.items()
+    ),
     (b"", "empty.png", 422, "empty.png is empty"),
     (None, "bomb.png", 422, "declares 100000 x 100000 px"),
     (None, "zero.png", 422, "zero.png"),

@@ -7,15 +7,17 @@ import time
 from pathlib import Path
 
 import pytest
+import pyvips
 from PIL import Image
 
-from tests.webapp.apps.image.samples import png_declaring, quadrants, save
+from tests.webapp.apps.image.samples import FOREIGN, png_declaring, quadrants, save
 from webapp.apps.image.store import (
     LOCK,
     STALE_S,
     TILE_SIZE,
     ImageRefused,
     ImageStore,
+    NoLibvips,
     deep_zoom_levels,
 )
 
@@ -101,6 +103,71 @@ def test_a_bad_input_is_refused_in_one_line_and_nothing_is_kept(
     assert "\n" not in str(refused.value)
     assert store.images() == []
     assert not store.root.exists() or list(store.root.iterdir()) == []  # no orphan pyramid
+
+
+@pytest.fixture
+def operations(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The libvips operations called from now on, by name (every loader is one)."""
+    called: list[str] = []
+    call = pyvips.Operation.call
+
+    def recorded(name: str, *args: object, **kwargs: object) -> object:
+        called.append(name)
+        return call(name, *args, **kwargs)
+
+    monkeypatch.setattr(pyvips.Operation, "call", staticmethod(recorded))
+    return called
+
+
+@pytest.mark.parametrize("name", sorted(FOREIGN))
+def test_an_svg_pdf_or_postscript_under_an_images_name_reaches_no_decoder(
+    store: ImageStore, tmp_path: Path, name: str, operations: list[str]
+) -> None:
+    """Its first bytes are no PNG's, JPEG's or TIFF's: refused before libvips is asked
+    (librsvg, poppler and ImageMagick parse what they are given, and have had holes)."""
+    source = tmp_path / name
+    source.write_bytes(FOREIGN[name])
+    with pytest.raises(ImageRefused, match=rf"^{name} is not a PNG, JPEG or TIFF image\.$"):
+        store.add(source)
+    assert operations == []
+    assert not store.root.exists() or list(store.root.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "suffix,loader", [(".png", "pngload"), (".jpg", "jpegload"), (".tif", "tiffload")]
+)
+def test_each_format_is_read_by_its_own_loader_only(
+    store: ImageStore, tmp_path: Path, suffix: str, loader: str, operations: list[str]
+) -> None:
+    store.probe(save(tmp_path / f"scan{suffix}", quadrants(40, 30)), f"scan{suffix}")
+    assert [name for name in operations if "load" in name.lower()] == [loader]
+
+
+def test_no_other_libvips_loader_runs_in_a_server_that_adds_images(
+    store: ImageStore, tmp_path: Path
+) -> None:
+    """Whatever asks libvips for a file in the process once the store has, by guessing
+    the loader or naming it, gets nothing from librsvg, poppler or ImageMagick: only
+    the three loaders are left (the PDFs slides come from are rendered elsewhere,
+    never by libvips)."""
+    store.probe(save(tmp_path / "scan.png", quadrants(40, 30)), "scan.png")
+    loaders = {"drawing.png": "svgload", "slides.png": "pdfload", "poster.png": "magickload"}
+    for name, data in FOREIGN.items():
+        path = str(tmp_path / name)
+        (tmp_path / name).write_bytes(data)
+        with pytest.raises(pyvips.Error, match="operation is blocked"):
+            pyvips.Image.new_from_file(path)
+        with pytest.raises(pyvips.Error, match="operation is blocked"):
+            getattr(pyvips.Image, loaders[name])(path)
+
+
+def test_a_libvips_that_cannot_block_its_other_loaders_adds_nothing(
+    store: ImageStore, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(pyvips, "at_least_libvips", lambda major, minor: False)
+    with pytest.raises(NoLibvips, match=r"libvips 8\.13 or later is needed"):
+        store.add(save(tmp_path / "scan.png", quadrants(40, 30)))
+    assert not store.root.exists() or list(store.root.iterdir()) == []
 
 
 def test_what_a_killed_build_left_is_swept_once_stale(store: ImageStore, tmp_path: Path) -> None:

@@ -196,6 +196,21 @@ def test_the_join_page_escapes_and_refuses_what_it_should(client: TestClient) ->
     assert student.get("/classes/99999/join").status_code == 410
 
 
+@pytest.mark.parametrize("class_id", [0, -1, 2**31, 2**63, 10**30])
+def test_a_class_id_no_class_can_have_is_an_unknown_class(
+    client: TestClient, class_id: int
+) -> None:
+    """Larger than the database's integers too (SQLite's 64 bits, PostgreSQL's 32): the
+    page every unknown class gets, never a 500."""
+    start(client, app="brain", mode="quiz", names="nickname")
+    student = phone(client)
+    csrf = csrf_of(student, "/me")
+    for method, form in (("GET", None), ("POST", {"name": "Ann", "csrf": csrf})):
+        answer = student.request(method, f"/classes/{class_id}/join", data=form)
+        assert answer.status_code == 410, (method, answer.text)
+        assert "This class has ended" in answer.text
+
+
 def test_an_anonymous_class_counts_students_without_asking(client: TestClient) -> None:
     start(client, app="brain", mode="quiz", names="anonymous")
     pin = a_pin(client)

@@ -37,6 +37,19 @@ def test_only_the_panel_of_the_app_on_the_wall_shows(client: TestClient) -> None
     hidden = re.findall(r'<div class="app-panel" data-app-panel="(\w+)" hidden>', page)
     assert shown == ["pattern"]  # the first app on the demo wall
     assert {"census", "brain"} <= set(hidden) and "pattern" not in hidden
+    assert '<fieldset id="volume-panel" data-for-apps="brain pattern">' in page
+
+
+def test_the_volume_box_shows_only_while_the_app_on_the_wall_draws_a_volume(
+    client: TestClient,
+) -> None:
+    """Issue 41: an image class had an empty Volume box on its dashboard."""
+    sign_in(client, "instructor")
+    client.post(
+        "/api/walls/demo/state", json={"app": "image"}, headers={"X-CSRF-Token": csrf_of(client)}
+    )
+    page = client.get("/dashboard").text
+    assert '<fieldset id="volume-panel" data-for-apps="brain pattern" hidden>' in page
 
 
 def test_admins_add_and_remove_accounts(client: TestClient) -> None:
@@ -221,3 +234,26 @@ def test_without_walls_the_dashboard_says_so(settings: Settings, tmp_path: Path)
         page = browser.get("/dashboard")
     assert page.status_code == 503
     assert "No walls are configured" in page.text and "TAGWALL_WALL_CONFIGS" in page.text
+
+
+def test_every_link_and_script_of_the_dashboard_leads_somewhere(client: TestClient) -> None:
+    """Every path the dashboard (every app's panel on it) links to, loads or posts to is
+    answered by a route or a static file: the brain panel's CSV link stayed on the old
+    path when the apps' API moved under /api/apps/<name>/."""
+    from starlette.routing import Match
+
+    sign_in(client, "instructor")
+    page = client.get("/dashboard").text
+    paths = {
+        re.sub(r"\{\{[^}]*\}\}", "demo", path).split("?")[0]
+        for path in re.findall(r'(?:href|src|action)="(/[^"]*)"', page)
+    }
+    assert paths
+    app = client.app
+    lost = []
+    for path in sorted(paths):
+        scope = {"type": "http", "path": path, "method": "GET", "root_path": ""}
+        routed = any(route.matches(scope)[0] != Match.NONE for route in app.routes)  # type: ignore[attr-defined]
+        if not routed or (path.startswith("/static/") and client.get(path).status_code == 404):
+            lost.append(path)
+    assert not lost, lost

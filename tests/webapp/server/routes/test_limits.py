@@ -16,6 +16,7 @@ from webapp.apps.census_map.app import CensusApp
 from webapp.apps.census_map.dataset import DataSet
 from webapp.core.settings import Settings
 from webapp.engine.wall_state import WallState, read_state
+from webapp.people.ratelimit import FLIP_BURST
 from webapp.server.app import create_app
 from webapp.tags.registry import get_layout, wall_tags
 
@@ -134,6 +135,17 @@ def census_on_the_wall(client: TestClient) -> DataSet:
     return dataset
 
 
+def audience_switches_at_once(client: TestClient) -> None:
+    """The brain on the demo wall, the audience allowed to switch its pins, no round
+    running (the app's cooldown is the settings' business)."""
+    staff = operator_headers(client)
+    assert client.post("/api/walls/demo/state", json={"app": "brain"}, headers=staff).is_success
+    assert client.post(
+        "/api/apps/brain/walls/demo", json={"audience_switches": True}, headers=staff
+    ).is_success
+    assert client.post("/api/apps/brain/walls/demo/quiz/close", headers=staff).is_success
+
+
 def refused_clearly(answer: Response) -> None:
     """A refused action: 429 with a page that says how long to wait, as Retry-After does."""
     assert answer.status_code == 429
@@ -156,8 +168,9 @@ def took_effect(client: TestClient, method: str, url: str, **request: Any) -> bo
 def test_a_cookie_dropper_cannot_flicker_the_census_groups(
     app_with_defaults: FastAPI, defaults: Settings
 ) -> None:
-    """Scanning a group toggle from a fresh session each time: only the new phones'
-    budget of toggles reaches the wall; the rest leave it as it was."""
+    """Scanning a group toggle from a fresh session each time, fast: new phones of one
+    address are one phone to the burst limit, so two toggles reach the wall; the rest
+    leave it as it was."""
     with TestClient(app_with_defaults, client=("203.0.113.50", 5000)) as spammer:
         changed = spammer.post(
             "/api/walls/demo/state", json={"app": "census"}, headers=operator_headers(spammer)
@@ -168,24 +181,18 @@ def test_a_cookie_dropper_cannot_flicker_the_census_groups(
         for _ in range(20):
             spammer.cookies.clear()
             flipped += took_effect(spammer, "GET", f"/t/{toggle.code}")
-    assert flipped == defaults.new_visitor_actions_per_address_per_minute
+    assert flipped == FLIP_BURST
 
 
 def test_a_cookie_dropper_cannot_keep_switching_the_brains_pins(defaults: Settings) -> None:
-    """Scanning the K-5 and medical menu codes from a fresh session each time, with no
-    cooldown between audience switches: the wall follows only the new phones' budget.
-    The phone still joins its group (the page says the wall waits)."""
+    """Scanning the K-5 and medical menu codes from a fresh session each time, fast,
+    with no cooldown between audience switches: the wall follows the burst new phones
+    of one address share. The phone still joins its group (the page says the wall
+    waits)."""
     eager = defaults.model_copy(update={"brain_group_switch_cooldown": 0})
     migrate(eager.resolved_database_url)
     with TestClient(create_app(eager), client=("203.0.113.50", 5000)) as spammer:
-        staff = operator_headers(spammer)
-        assert spammer.post(
-            "/api/walls/demo/state", json={"app": "brain"}, headers=staff
-        ).is_success
-        assert spammer.post(
-            "/api/apps/brain/walls/demo", json={"audience_switches": True}, headers=staff
-        ).is_success
-        assert spammer.post("/api/apps/brain/walls/demo/quiz/close", headers=staff).is_success
+        audience_switches_at_once(spammer)
         codes = {t.name: t.code for t in wall_tags(services_of(spammer).db, "demo") if t.name}
         switches = 0
         for group in ["k5", "medical"] * 10:
@@ -198,7 +205,54 @@ def test_a_cookie_dropper_cannot_keep_switching_the_brains_pins(defaults: Settin
             wanted = "brain-k5" if group == "k5" else "brain-full"
             if before != wanted and after == before:
                 assert "switched a moment ago" in page.text, "told that the wall waits"
-    assert switches == eager.new_visitor_actions_per_address_per_minute
+    assert switches == FLIP_BURST
+
+
+@pytest.mark.parametrize("settle_s", [10, 0], ids=["new phone", "settled phone"])
+def test_a_phones_six_fast_toggles_change_the_wall_at_most_twice(
+    defaults: Settings, settle_s: int
+) -> None:
+    """Well within its per-minute budgets, one phone tapping a group toggle six times
+    in a row: the wall shows it on and off, never six flickers; the rest are told to
+    wait and leave the wall as it is."""
+    settings = defaults.model_copy(update={"visitor_settle_s": settle_s})
+    migrate(settings.resolved_database_url)
+    with TestClient(create_app(settings), client=NAT) as phone:
+        census_on_the_wall(phone)
+        group = next(
+            str(t.params["group"])
+            for t in wall_tags(services_of(phone).db, "demo")
+            if t.action == "toggle"
+        )
+        csrf = csrf_of(phone)
+        start = wall_now(phone)[0]
+        flipped = [
+            took_effect(
+                phone, "POST", f"/apps/census/demo/groups/{group}/toggle", data={"csrf": csrf}
+            )
+            for _ in range(6)
+        ]
+        assert flipped == [True, True, False, False, False, False]
+        assert wall_now(phone)[0] - start == 2
+
+
+def test_a_phones_six_fast_audience_switches_change_the_wall_at_most_twice(
+    defaults: Settings,
+) -> None:
+    """The brain's menu codes scanned six times in a row by one phone, K-5 and medical
+    by turns, with no cooldown between audience switches: two switches reach the wall,
+    the phone still joins each group and is told the wall waits."""
+    eager = defaults.model_copy(update={"visitor_settle_s": 0, "brain_group_switch_cooldown": 0})
+    migrate(eager.resolved_database_url)
+    with TestClient(create_app(eager), client=NAT) as phone:
+        audience_switches_at_once(phone)
+        codes = {t.name: t.code for t in wall_tags(services_of(phone).db, "demo") if t.name}
+        start = wall_now(phone)[0]
+        pages = [phone.get(f"/t/{codes[f'brain:group:{g}']}") for g in ["k5", "medical"] * 3]
+        assert wall_now(phone)[0] - start == 2
+        assert [page.status_code for page in pages] == [200] * 6
+        for later_k5 in (pages[2], pages[4]):  # the wall shows medical's pins, not K-5's
+            assert "switched a moment ago" in later_k5.text, "told that the wall waits"
 
 
 def test_the_wall_has_one_budget_for_phones_at_every_address(defaults: Settings) -> None:

@@ -141,3 +141,5 @@ def test_server_errors_are_pages_not_tracebacks(client: TestClient) -> None:
     response = client_no_raise.get("/api/walls/demo/status", headers=headers)
     assert response.status_code == 500
     assert "secret internals" not in response.text
+    for name, value in HEADERS.items():  # sent outside the middleware, with its own
+        assert response.headers[name] == value, name

@@ -138,6 +138,28 @@ def test_logout_drops_role_and_rotates(client: TestClient) -> None:
     assert "logout" in audit_actions(client)
 
 
+def test_the_next_person_on_a_shared_phone_inherits_nothing_of_the_last(
+    client: TestClient,
+) -> None:
+    """Sign-out makes the phone a new visitor: the last person's name (and their answers,
+    their group, kept under their visitor) are not the next person's."""
+    saved = client.post(
+        "/me",
+        data={
+            "csrf": csrf_of(client),
+            "user_group": "medical",
+            "info_class": "3",
+            "display_name": "Ann",
+        },
+    )
+    assert saved.status_code == 200 and 'value="Ann"' in client.get("/me").text
+    signed_in_as = client.cookies[SESSION_COOKIE].split(".")[0]
+    client.post("/logout", data={"csrf": csrf_of(client)})
+    after = client.get("/me").text
+    assert 'value="Ann"' not in after and 'value="medical" selected' not in after
+    assert client.cookies[SESSION_COOKIE].split(".")[0] != signed_in_as
+
+
 @pytest.mark.parametrize("csrf", [None, "", "forged-token"])
 def test_forms_without_the_right_csrf_token_are_refused(
     client: TestClient, csrf: str | None

@@ -128,6 +128,14 @@ def matrix(client: TestClient) -> list[Row]:
             form={"username": "x-{role}", "password": "wrong"},
         ),
         Row("GET", "/login/operator", "/login/operator?token=wrong", (403,) * 4),
+        # no campus provider here: tests/webapp/campus/test_oidc.py signs in through one
+        Row("GET", "/login/oidc/{provider}", "/login/oidc/campus", (404,) * 4),
+        Row(
+            "GET",
+            "/login/oidc/{provider}/callback",
+            "/login/oidc/campus/callback?code=c&state=s",
+            (404,) * 4,
+        ),
         Row("GET", "/me", "/me", PUBLIC),
         Row("POST", "/me", "/me", PUBLIC, form={"user_group": "k5", "info_class": "1"}),
         Row("GET", "/api/walls", "/api/walls", PUBLIC),

@@ -66,8 +66,9 @@ async def terrain_file(
     accept: Annotated[str | None, Header()] = None,
 ) -> Response:
     """A file of the site's quantized-mesh terrain tileset (``TAGWALL_CENSUS_TERRAIN_URL``):
-    its ``layer.json`` and tiles, asked as CesiumTerrainProvider asks (its ``Accept``
-    and ``?v=&extensions=`` passed on); 404, 502 and 504 as for imagery."""
+    its ``layer.json`` and tiles, asked as CesiumTerrainProvider asks (the extensions
+    its ``Accept`` names, and ``?v=&extensions=``, passed on); 404, 502 and 504 as for
+    imagery."""
     relay = census_maps(context).ground
     if not relay.settings.terrain_url:
         raise HTTPException(
