@@ -107,6 +107,8 @@ export function createLayer({wall, displays}) {
     const slot = videoOf(state);
     if (!slot || !follower || slot.video !== manifest?.id) return;
     video.muted = own === null || slot.sound !== own || follower.muted;
+    // a rate change keeps the pitch only where it is heard: time-stretching costs CPU
+    video.preservesPitch = !video.muted;
     follower.follow(slot.clock, slot.loop, clock);
     const size = [video.videoWidth || manifest.width, video.videoHeight || manifest.height];
     const [a, e, f] = placement(size, wall.stage, state.view);
