@@ -29,6 +29,7 @@ BENCHMARKS = (
     "memory",
     "image",
     "globe",
+    "video_sync",
 )
 RESULTS = Path(__file__).parent / "results"
 

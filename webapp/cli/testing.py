@@ -169,6 +169,8 @@ CHROMIUM_ARGS = [
     "--disable-background-timer-throttling",
     "--disable-backgrounding-occluded-windows",
     "--disable-renderer-backgrounding",
+    # as the kiosk (wall_client/kiosk.py): the video app's sound plays without a click
+    "--autoplay-policy=no-user-gesture-required",
 ]
 
 # Records, in a tile's page, the true time (performance.timeOrigin is never skewed) at

@@ -53,7 +53,7 @@ def problems_of(only: tuple[str, ...] = ()) -> list[str]:
 
 def test_the_built_in_apps_are_found_as_every_other_app_is() -> None:
     apps = installed_apps()
-    assert {"core", "pattern", "census", "brain", "image"} <= set(apps)
+    assert {"core", "pattern", "census", "brain", "image", "video"} <= set(apps)
     assert all(app.name == name for name, app in apps.items())
 
 
@@ -237,5 +237,5 @@ def test_the_allow_list_loads_only_the_apps_it_names_and_the_registration_codes(
     assert set(installed_apps(("brain", "image"))) == {"brain", "image", "core"}
     assert problems_of(("brain", "poll")) == [
         "TAGWALL_APPS names 'poll', which is not installed (installed: brain, broken,"
-        " census, core, image, pattern)"
+        " census, core, image, pattern, video)"
     ]

@@ -27,10 +27,12 @@ from tests.conftest import (
     sign_in,
 )
 from tests.webapp.apps.image.samples import quadrants, save
+from tests.webapp.apps.video.samples import make
 from webapp.apps.census_map.state import CensusState
 from webapp.apps.image import hotspots, lesson
 from webapp.apps.image.hotspots import HotspotFields
 from webapp.apps.image.library import ImageLibrary
+from webapp.apps.video.library import VideoLibrary
 from webapp.engine.wall_state import VolumeLayer, commit_change, read_state
 from webapp.people.accounts import add_account
 from webapp.people.address_rules import add_rule
@@ -107,6 +109,8 @@ def matrix(client: TestClient) -> list[Row]:
     spots = f"/api/apps/image/images/{image}/hotspots"
     lesson_file = settings.var_dir / "picture.tagwall-lesson"
     lesson.export(store, image, lesson_file)
+    movie = make("silent.mp4", settings.var_dir)
+    video = VideoLibrary().store(settings).add(movie).id
     return [
         Row("GET", "/", "/", PUBLIC),
         Row("GET", "/wall/{wall_id}", "/wall/demo", PUBLIC),
@@ -622,6 +626,74 @@ def matrix(client: TestClient) -> list[Row]:
             "/api/apps/image/walls/{wall_id}/answers.csv",
             "/api/apps/image/walls/demo/answers.csv",
             STAFF_API,
+        ),
+        Row("GET", "/api/apps/video/videos", "/api/apps/video/videos", STAFF_API),
+        Row(
+            "POST",
+            "/api/apps/video/videos",
+            "/api/apps/video/videos",
+            STAFF_API,
+            form={"title": "{role}"},
+            files={"file": ("movie.mp4", movie.read_bytes(), "video/mp4")},
+        ),
+        Row(
+            "DELETE",
+            "/api/apps/video/videos/{video_id}",
+            f"/api/apps/video/videos/{'f' * 12}",
+            (401, 401, 404, 404),
+            json={},
+        ),
+        Row(
+            "GET",
+            "/apps/video/videos/{video_id}/info.json",
+            f"/apps/video/videos/{video}/info.json",
+            PUBLIC,
+        ),
+        Row(
+            "GET",
+            "/apps/video/videos/{video_id}/{file_name}",
+            f"/apps/video/videos/{video}/video.mp4",
+            PUBLIC,
+        ),
+        Row("GET", "/apps/video/{wall_id}/remote", "/apps/video/demo/remote", STAFF_PAGE),
+        Row(
+            "GET",
+            "/api/apps/video/walls/{wall_id}/remote",
+            "/api/apps/video/walls/demo/remote",
+            STAFF_API,
+        ),
+        Row("GET", "/api/apps/video/walls/{wall_id}", "/api/apps/video/walls/demo", STAFF_API),
+        # after the image app's rows: it puts the video app on the demo wall
+        Row(
+            "POST",
+            "/api/apps/video/walls/{wall_id}/show",
+            "/api/apps/video/walls/demo/show",
+            STAFF_API,
+            json={"video": video},
+        ),
+        *(
+            Row(
+                "POST",
+                f"/api/apps/video/walls/{{wall_id}}/{step}",
+                f"/api/apps/video/walls/demo/{step}",
+                STAFF_API,
+                json=body,
+            )
+            for step, body in [("play", {}), ("pause", {}), ("seek", {"to_s": 0.5})]
+        ),
+        Row(
+            "PUT",
+            "/api/apps/video/walls/{wall_id}/loop",
+            "/api/apps/video/walls/demo/loop",
+            STAFF_API,
+            json={"loop": True},
+        ),
+        Row(
+            "PUT",
+            "/api/apps/video/walls/{wall_id}/sound",
+            "/api/apps/video/walls/demo/sound",
+            STAFF_API,
+            json={"display": "r2c2"},
         ),
         Row("POST", "/logout", "/logout", PUBLIC, form={}),  # last: it drops the role
     ]
